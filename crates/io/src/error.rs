@@ -1,0 +1,137 @@
+//! The error type of unfold-io.
+
+use std::fmt;
+use std::path::PathBuf;
+use thiserror::Error;
+use unfold_mesh::MeshError;
+
+/// Where in a file a problem was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Location {
+    /// Somewhere (no better position known).
+    Unknown,
+    /// A 1-based line number of a text file.
+    Line(usize),
+    /// A 0-based byte offset (binary files, or a decompressed stream).
+    Byte(u64),
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Unknown => Ok(()),
+            Location::Line(l) => write!(f, "line {l}: "),
+            Location::Byte(b) => write!(f, "byte {b}: "),
+        }
+    }
+}
+
+/// Displays a path, or `<input>` for data that did not come from a file.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct FilePath(pub PathBuf);
+
+impl fmt::Display for FilePath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.0.as_os_str().is_empty() {
+            write!(f, "<input>")
+        } else {
+            write!(f, "{}", self.0.display())
+        }
+    }
+}
+
+/// Everything that can go wrong reading or writing a file. Every variant
+/// names the file; parse errors also give the line or byte offset.
+///
+/// Format modules parse bytes without knowing the path; they report with an
+/// empty path, and [`IoError::with_path`] fills it in at the file boundary.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum IoError {
+    /// The operating system failed to read or write the file.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: FilePath,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file extension names no format unfold knows.
+    #[error("{path}: unknown file type (known: {known})")]
+    UnknownFormat {
+        /// The file.
+        path: FilePath,
+        /// The extensions unfold knows, for the message.
+        known: &'static str,
+    },
+    /// The file is not valid in its format.
+    #[error("{path}: {location}{message}")]
+    Malformed {
+        /// The file.
+        path: FilePath,
+        /// Where the problem is.
+        location: Location,
+        /// What is wrong, and what was expected.
+        message: String,
+    },
+    /// The file is valid but uses something unfold does not support, or the
+    /// mesh cannot be stored in the requested format.
+    #[error("{path}: {what}")]
+    Unsupported {
+        /// The file.
+        path: FilePath,
+        /// What is not supported.
+        what: String,
+    },
+    /// The file was read, but its mesh or image is inconsistent.
+    #[error("{path}: {source}")]
+    Mesh {
+        /// The file.
+        path: FilePath,
+        /// The mesh problem.
+        source: MeshError,
+    },
+}
+
+impl IoError {
+    /// A parse error at `location` (path filled in later).
+    pub fn malformed(location: Location, message: impl Into<String>) -> Self {
+        IoError::Malformed {
+            path: FilePath::default(),
+            location,
+            message: message.into(),
+        }
+    }
+
+    /// An unsupported feature or an impossible conversion (path filled in later).
+    pub fn unsupported(what: impl Into<String>) -> Self {
+        IoError::Unsupported {
+            path: FilePath::default(),
+            what: what.into(),
+        }
+    }
+
+    /// Sets the file path of the error (only where it is still empty).
+    pub fn with_path(mut self, p: impl Into<PathBuf>) -> Self {
+        let slot = match &mut self {
+            IoError::Io { path, .. }
+            | IoError::UnknownFormat { path, .. }
+            | IoError::Malformed { path, .. }
+            | IoError::Unsupported { path, .. }
+            | IoError::Mesh { path, .. } => path,
+        };
+        if slot.0.as_os_str().is_empty() {
+            slot.0 = p.into();
+        }
+        self
+    }
+}
+
+impl From<MeshError> for IoError {
+    fn from(source: MeshError) -> Self {
+        IoError::Mesh {
+            path: FilePath::default(),
+            source,
+        }
+    }
+}

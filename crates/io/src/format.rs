@@ -1,0 +1,298 @@
+//! Choosing the format by file extension, and file-level read / write.
+
+use crate::{IoError, NiftiImage, WriteOptions};
+use std::io::Write;
+use std::path::Path;
+use unfold_mesh::{CellMesh, TetMesh, TriMesh};
+
+const KNOWN: &str = ".vtk .vtu .vtp .ply .obj .stl .off .mesh .msh .nii .nii.gz";
+
+/// The mesh formats unfold reads, and (all but Gmsh) writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MeshFormat {
+    /// VTK legacy `.vtk` (POLYDATA or UNSTRUCTURED_GRID).
+    Vtk,
+    /// VTK XML unstructured grid `.vtu`.
+    Vtu,
+    /// VTK XML polydata `.vtp`.
+    Vtp,
+    /// Stanford `.ply`.
+    Ply,
+    /// Wavefront `.obj`.
+    Obj,
+    /// `.stl` (triangles only, f32).
+    Stl,
+    /// `.off`.
+    Off,
+    /// Medit / INRIA `.mesh`.
+    Medit,
+    /// Gmsh `.msh` 2.2 and 4.1 (read only).
+    Gmsh,
+}
+
+impl MeshFormat {
+    /// Every mesh format.
+    pub const ALL: [MeshFormat; 9] = [
+        MeshFormat::Vtk,
+        MeshFormat::Vtu,
+        MeshFormat::Vtp,
+        MeshFormat::Ply,
+        MeshFormat::Obj,
+        MeshFormat::Stl,
+        MeshFormat::Off,
+        MeshFormat::Medit,
+        MeshFormat::Gmsh,
+    ];
+
+    /// The usual file extension (without the dot).
+    pub fn extension(self) -> &'static str {
+        match self {
+            MeshFormat::Vtk => "vtk",
+            MeshFormat::Vtu => "vtu",
+            MeshFormat::Vtp => "vtp",
+            MeshFormat::Ply => "ply",
+            MeshFormat::Obj => "obj",
+            MeshFormat::Stl => "stl",
+            MeshFormat::Off => "off",
+            MeshFormat::Medit => "mesh",
+            MeshFormat::Gmsh => "msh",
+        }
+    }
+
+    /// Whether unfold can write this format.
+    pub fn writable(self) -> bool {
+        self != MeshFormat::Gmsh
+    }
+
+    /// Whether the format stores volume cells (tets).
+    pub fn holds_volume_cells(self) -> bool {
+        matches!(
+            self,
+            MeshFormat::Vtk | MeshFormat::Vtu | MeshFormat::Medit | MeshFormat::Gmsh
+        )
+    }
+
+    /// Whether the format stores arbitrary named point and cell arrays.
+    pub fn holds_arrays(self) -> bool {
+        matches!(
+            self,
+            MeshFormat::Vtk | MeshFormat::Vtu | MeshFormat::Vtp | MeshFormat::Ply
+        )
+    }
+
+    /// Whether positions are stored as f32 only (so f64 input is rounded).
+    pub fn single_precision(self) -> bool {
+        self == MeshFormat::Stl
+    }
+
+    /// Parses bytes in this format.
+    pub fn read_bytes(self, bytes: &[u8]) -> Result<CellMesh, IoError> {
+        let mesh = match self {
+            MeshFormat::Vtk => crate::vtk_legacy::read(bytes),
+            MeshFormat::Vtu | MeshFormat::Vtp => crate::vtk_xml::read(bytes),
+            MeshFormat::Ply => crate::ply::read(bytes),
+            MeshFormat::Obj => crate::obj::read(bytes),
+            MeshFormat::Stl => crate::stl::read(bytes),
+            MeshFormat::Off => crate::off::read(bytes),
+            MeshFormat::Medit => crate::medit::read(bytes),
+            MeshFormat::Gmsh => crate::gmsh::read(bytes),
+        }?;
+        mesh.check()?;
+        Ok(mesh)
+    }
+
+    /// Serializes a mesh in this format.
+    pub fn write_bytes(self, mesh: &CellMesh, opts: &WriteOptions) -> Result<Vec<u8>, IoError> {
+        mesh.check()?;
+        match self {
+            MeshFormat::Vtk => crate::vtk_legacy::write(mesh, opts),
+            MeshFormat::Vtu => crate::vtk_xml::write_vtu(mesh, opts),
+            MeshFormat::Vtp => crate::vtk_xml::write_vtp(mesh, opts),
+            MeshFormat::Ply => crate::ply::write(mesh, opts),
+            MeshFormat::Obj => crate::obj::write(mesh, opts),
+            MeshFormat::Stl => crate::stl::write(mesh, opts),
+            MeshFormat::Off => crate::off::write(mesh, opts),
+            MeshFormat::Medit => crate::medit::write(mesh, opts),
+            MeshFormat::Gmsh => Err(IoError::unsupported(
+                "writing Gmsh .msh is not supported; write .vtu or .mesh instead",
+            )),
+        }
+    }
+}
+
+/// What a file holds, judged by its extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FileKind {
+    /// A mesh in the given format.
+    Mesh(MeshFormat),
+    /// A NIfTI image (`gzip` for `.nii.gz`).
+    Nifti {
+        /// Whether the file is gzip-compressed.
+        gzip: bool,
+    },
+}
+
+impl FileKind {
+    /// The kind of `path` from its extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<FileKind, IoError> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        if name.ends_with(".nii.gz") {
+            return Ok(FileKind::Nifti { gzip: true });
+        }
+        let ext = name.rsplit_once('.').map(|(_, e)| e).unwrap_or("");
+        if ext == "nii" {
+            return Ok(FileKind::Nifti { gzip: false });
+        }
+        MeshFormat::ALL
+            .into_iter()
+            .find(|f| f.extension() == ext)
+            .map(FileKind::Mesh)
+            .ok_or_else(|| IoError::UnknownFormat {
+                path: crate::FilePath(path.to_path_buf()),
+                known: KNOWN,
+            })
+    }
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
+    std::fs::read(path).map_err(|source| IoError::Io {
+        path: crate::FilePath(path.to_path_buf()),
+        source,
+    })
+}
+
+fn mesh_format(path: &Path) -> Result<MeshFormat, IoError> {
+    match FileKind::from_path(path)? {
+        FileKind::Mesh(f) => Ok(f),
+        FileKind::Nifti { .. } => {
+            Err(IoError::unsupported("this is an image (NIfTI), not a mesh").with_path(path))
+        }
+    }
+}
+
+/// Reads a mesh file of any supported format (by extension).
+pub fn read_mesh(path: impl AsRef<Path>) -> Result<CellMesh, IoError> {
+    let path = path.as_ref();
+    let format = mesh_format(path)?;
+    let bytes = read_file(path)?;
+    format.read_bytes(&bytes).map_err(|e| e.with_path(path))
+}
+
+/// Reads a surface mesh (triangles; quads and polygons are split).
+pub fn read_tri_mesh(path: impl AsRef<Path>) -> Result<TriMesh, IoError> {
+    let path = path.as_ref();
+    read_mesh(path)?
+        .to_tri_mesh()
+        .map_err(|e| IoError::from(e).with_path(path))
+}
+
+/// Reads a tetrahedral mesh.
+pub fn read_tet_mesh(path: impl AsRef<Path>) -> Result<TetMesh, IoError> {
+    let path = path.as_ref();
+    read_mesh(path)?
+        .to_tet_mesh()
+        .map_err(|e| IoError::from(e).with_path(path))
+}
+
+/// Writes a mesh in the format of `path`'s extension, atomically.
+pub fn write_mesh(
+    path: impl AsRef<Path>,
+    mesh: &CellMesh,
+    opts: &WriteOptions,
+) -> Result<(), IoError> {
+    let path = path.as_ref();
+    let format = mesh_format(path)?;
+    let bytes = format
+        .write_bytes(mesh, opts)
+        .map_err(|e| e.with_path(path))?;
+    atomic_write(path, &bytes)
+}
+
+/// Reads a NIfTI-1 image (`.nii` or `.nii.gz`).
+pub fn read_image(path: impl AsRef<Path>) -> Result<NiftiImage, IoError> {
+    let path = path.as_ref();
+    match FileKind::from_path(path)? {
+        FileKind::Nifti { .. } => {}
+        FileKind::Mesh(_) => {
+            return Err(IoError::unsupported("this is a mesh, not an image").with_path(path));
+        }
+    }
+    let bytes = read_file(path)?;
+    crate::nifti::read(&bytes).map_err(|e| e.with_path(path))
+}
+
+/// Writes a NIfTI-1 image atomically (gzip-compressed for `.nii.gz`).
+pub fn write_image(path: impl AsRef<Path>, image: &NiftiImage) -> Result<(), IoError> {
+    let path = path.as_ref();
+    let gzip = match FileKind::from_path(path)? {
+        FileKind::Nifti { gzip } => gzip,
+        FileKind::Mesh(_) => {
+            return Err(
+                IoError::unsupported("images are written as .nii or .nii.gz").with_path(path),
+            );
+        }
+    };
+    let bytes = crate::nifti::write(image, gzip).map_err(|e| e.with_path(path))?;
+    atomic_write(path, &bytes)
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same
+/// directory is written, flushed to disk, then renamed over `path`.
+pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError> {
+    let path = path.as_ref();
+    let err = |source: std::io::Error| IoError::Io {
+        path: crate::FilePath(path.to_path_buf()),
+        source,
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".unfold-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(err)?;
+    tmp.write_all(bytes).map_err(err)?;
+    tmp.as_file().sync_all().map_err(err)?;
+    tmp.persist(path).map_err(|e| err(e.error))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_by_extension() {
+        assert_eq!(
+            FileKind::from_path(Path::new("a/B.VTU")).unwrap(),
+            FileKind::Mesh(MeshFormat::Vtu)
+        );
+        assert_eq!(
+            FileKind::from_path(Path::new("x.nii.gz")).unwrap(),
+            FileKind::Nifti { gzip: true }
+        );
+        let e = FileKind::from_path(Path::new("x.xyz")).unwrap_err();
+        assert!(e.to_string().contains("x.xyz"), "{e}");
+    }
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temporaries() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.txt");
+        atomic_write(&p, b"one").unwrap();
+        atomic_write(&p, b"two").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn missing_file_error_names_it() {
+        let e = read_mesh("/nonexistent/dir/m.vtu").unwrap_err();
+        assert!(e.to_string().starts_with("/nonexistent/dir/m.vtu: "), "{e}");
+    }
+}

@@ -1,0 +1,32 @@
+//! unfold-io: reading and writing the files unfold works with.
+//!
+//! Meshes: VTK legacy `.vtk` (ASCII / binary, versions up to 4.2 and 5.1),
+//! VTK XML `.vtu` / `.vtp` (ASCII, inline base64, appended raw or base64,
+//! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
+//! NIfTI-1 `.nii` / `.nii.gz`. The format is chosen by file extension.
+//!
+//! Every format module parses bytes and serializes to bytes; the functions
+//! here add the file path to errors and write atomically (temporary file in
+//! the same directory, then rename), so a crash never leaves half a file and
+//! an input is never modified in place.
+
+mod error;
+mod format;
+pub mod gmsh;
+pub mod medit;
+pub mod nifti;
+pub mod obj;
+pub mod off;
+mod options;
+pub mod ply;
+pub mod stl;
+pub mod vtk_legacy;
+pub mod vtk_xml;
+
+pub use error::{FilePath, IoError, Location};
+pub use format::{
+    FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,
+    write_image, write_mesh,
+};
+pub use nifti::NiftiImage;
+pub use options::{LegacyVersion, WriteOptions, XmlEncoding};

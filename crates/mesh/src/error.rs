@@ -1,0 +1,159 @@
+//! The error type of unfold-mesh.
+
+use thiserror::Error;
+
+/// Everything that can be wrong with a mesh, a field or an image handed to
+/// unfold-mesh. Variants carry the element / vertex indices a user needs to
+/// find the problem in their file.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum MeshError {
+    /// The mesh has no vertices or no elements where some are required.
+    #[error("the mesh is empty: {what}")]
+    Empty {
+        /// What was missing ("vertices", "triangles", ...).
+        what: &'static str,
+    },
+    /// An element refers to a vertex index `>=` the number of vertices.
+    #[error("element {element} refers to vertex {index}, but the mesh has {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// Element (triangle, tet or cell) index.
+        element: usize,
+        /// The offending vertex index.
+        index: u32,
+        /// Number of vertices in the mesh.
+        vertex_count: usize,
+    },
+    /// An element uses the same vertex twice.
+    #[error("element {element} uses vertex {index} more than once")]
+    RepeatedVertex {
+        /// Element index.
+        element: usize,
+        /// The repeated vertex index.
+        index: u32,
+    },
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})")]
+    NonFiniteCoordinate {
+        /// Vertex index.
+        vertex: usize,
+        /// x coordinate.
+        x: f64,
+        /// y coordinate.
+        y: f64,
+        /// z coordinate.
+        z: f64,
+    },
+    /// An element's area (triangles) or volume (tets) is below the relative
+    /// threshold `threshold = rel * mean |measure|`.
+    #[error("element {element} is degenerate: |measure| {measure:e} is below {threshold:e}")]
+    DegenerateElement {
+        /// Element index.
+        element: usize,
+        /// Its signed area or volume.
+        measure: f64,
+        /// The absolute threshold it fell below.
+        threshold: f64,
+    },
+    /// A tet has negative signed volume `(b-a)·((c-a)×(d-a))/6 < 0`.
+    #[error("tet {element} is inverted (signed volume {volume:e}); `orient()` fixes this")]
+    InvertedElement {
+        /// Tet index.
+        element: usize,
+        /// Its signed volume.
+        volume: f64,
+    },
+    /// Some vertices are used by no element.
+    #[error("{count} vertices are used by no element (first: vertex {first})")]
+    UnusedVertices {
+        /// How many.
+        count: usize,
+        /// The smallest such index.
+        first: usize,
+    },
+    /// An edge of a triangle mesh is shared by more than two triangles.
+    #[error("edge ({a}, {b}) is shared by {faces} triangles (non-manifold)")]
+    NonManifoldEdge {
+        /// First vertex of the edge.
+        a: u32,
+        /// Second vertex of the edge.
+        b: u32,
+        /// Number of triangles sharing it.
+        faces: usize,
+    },
+    /// A face of a tet mesh is shared by more than two tets.
+    #[error("face ({}, {}, {}) is shared by {tets} tets (non-manifold)", face[0], face[1], face[2])]
+    NonManifoldFace {
+        /// The face's vertices (sorted).
+        face: [u32; 3],
+        /// Number of tets sharing it.
+        tets: usize,
+    },
+    /// Two triangles sharing an edge traverse it in the same direction.
+    #[error(
+        "triangles {triangle1} and {triangle2} are inconsistently oriented across edge ({}, {})",
+        edge[0], edge[1]
+    )]
+    InconsistentOrientation {
+        /// First triangle.
+        triangle1: usize,
+        /// Second triangle.
+        triangle2: usize,
+        /// The shared edge.
+        edge: [u32; 2],
+    },
+    /// The mesh falls apart into several connected components.
+    #[error(
+        "the mesh has {count} connected components; expected one (keep_largest_component() helps)"
+    )]
+    MultipleComponents {
+        /// Number of components.
+        count: usize,
+    },
+    /// A named field has the wrong number of values for what it is attached to.
+    #[error("field '{name}' has {found} tuples, expected {expected}")]
+    FieldLength {
+        /// Field name.
+        name: String,
+        /// Expected number of tuples (vertices or cells).
+        expected: usize,
+        /// Number found.
+        found: usize,
+    },
+    /// A field's value count is not a multiple of its component count.
+    #[error("field '{name}' has {len} values, not a multiple of {components} components")]
+    FieldComponents {
+        /// Field name.
+        name: String,
+        /// Number of values.
+        len: usize,
+        /// Number of components per tuple.
+        components: usize,
+    },
+    /// A mixed cell mesh holds cells that the requested mesh type cannot hold.
+    #[error("cell {cell} is a {found:?}, but a {expected} mesh was required")]
+    WrongCellType {
+        /// Cell index.
+        cell: usize,
+        /// The cell's type.
+        found: crate::CellType,
+        /// What was expected ("triangle", "tetrahedral", ...).
+        expected: &'static str,
+    },
+    /// A cell has the wrong number of vertices for its type.
+    #[error("cell {cell} of type {cell_type:?} has {found} vertices")]
+    CellSize {
+        /// Cell index.
+        cell: usize,
+        /// Its type.
+        cell_type: crate::CellType,
+        /// The number of vertices found.
+        found: usize,
+    },
+    /// A volume's data length or dimensions are inconsistent.
+    #[error("image: {0}")]
+    Image(String),
+    /// Any other invalid argument, with a message.
+    #[error("{0}")]
+    InvalidArgument(String),
+}

@@ -1,0 +1,35 @@
+//! unfold-mesh: the data every unfold pipeline works on.
+//!
+//! - [`TriMesh`], [`TetMesh`]: f64 positions (mm), u32 indices, named fields
+//!   ([`Fields`]) that ride along to the writers; [`CellMesh`]: the mixed-cell
+//!   mesh that files hold.
+//! - [`validate`] and [`repair`]: typed problems ([`MeshError`]), orientation,
+//!   duplicate removal, largest component.
+//! - [`topology`]: adjacency, edges, k-rings, boundaries, loops, components.
+//! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
+//! - [`geodesic`]: Dijkstra along edges.
+//! - [`spatial`]: point location and closest points (BVH).
+//! - [`Volume`]: 3D / 4D images with their voxel-to-world affine.
+//! - [`shapes`]: deterministic synthetic placenta, ventricle and valve.
+
+pub mod cells;
+mod error;
+pub mod field;
+pub mod geodesic;
+pub mod geometry;
+pub mod repair;
+pub mod shapes;
+pub mod spatial;
+pub mod tetmesh;
+pub mod topology;
+pub mod trimesh;
+pub mod validate;
+pub mod volume;
+
+pub use cells::{CellMesh, CellType};
+pub use error::MeshError;
+pub use field::{Field, FieldValues, Fields};
+pub use nalgebra;
+pub use tetmesh::TetMesh;
+pub use trimesh::TriMesh;
+pub use volume::Volume;

@@ -1,0 +1,9 @@
+//! unfold: maps anatomical shapes onto canonical templates.
+//!
+//! This facade re-exports the workspace crates; the `unfold` binary is the
+//! command-line tool built on them.
+
+pub use unfold_io as io;
+pub use unfold_mesh as mesh;
+pub use unfold_organs as organs;
+pub use unfold_param as param;
