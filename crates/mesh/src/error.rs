@@ -104,7 +104,7 @@ pub enum MeshError {
     },
     /// The mesh falls apart into several connected components.
     #[error(
-        "the mesh has {count} connected components; expected one (keep_largest_component() helps)"
+        "the mesh has {count} connected components; expected one (largest_component() keeps the largest)"
     )]
     MultipleComponents {
         /// Number of components.
@@ -156,4 +156,29 @@ pub enum MeshError {
     /// Any other invalid argument, with a message.
     #[error("{0}")]
     InvalidArgument(String),
+}
+
+impl MeshError {
+    /// A stable snake_case name of the problem kind, for reports and JSON.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            MeshError::Empty { .. } => "empty",
+            MeshError::IndexOutOfRange { .. } => "index_out_of_range",
+            MeshError::RepeatedVertex { .. } => "repeated_vertex",
+            MeshError::NonFiniteCoordinate { .. } => "non_finite_coordinate",
+            MeshError::DegenerateElement { .. } => "degenerate_element",
+            MeshError::InvertedElement { .. } => "inverted_element",
+            MeshError::UnusedVertices { .. } => "unused_vertices",
+            MeshError::NonManifoldEdge { .. } => "non_manifold_edge",
+            MeshError::NonManifoldFace { .. } => "non_manifold_face",
+            MeshError::InconsistentOrientation { .. } => "inconsistent_orientation",
+            MeshError::MultipleComponents { .. } => "multiple_components",
+            MeshError::FieldLength { .. } => "field_length",
+            MeshError::FieldComponents { .. } => "field_components",
+            MeshError::WrongCellType { .. } => "wrong_cell_type",
+            MeshError::CellSize { .. } => "cell_size",
+            MeshError::Image(_) => "image",
+            MeshError::InvalidArgument(_) => "invalid_argument",
+        }
+    }
 }

@@ -99,7 +99,7 @@ impl Field {
         values: FieldValues,
     ) -> Result<Self, MeshError> {
         let name = name.into();
-        if components == 0 || values.len() % components != 0 {
+        if components == 0 || !values.len().is_multiple_of(components) {
             return Err(MeshError::FieldComponents {
                 name,
                 len: values.len(),

@@ -1,0 +1,181 @@
+//! `unfold demo [-o DIR]`: the built-in synthetic shapes, written with their
+//! info. Later issues make it run the three pipelines on them.
+
+use super::CliError;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use unfold::io::{NiftiImage, WriteOptions, atomic_write, write_image, write_mesh};
+use unfold::mesh::geometry::bounding_box;
+use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
+use unfold::mesh::shapes::{
+    PlacentaParams, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
+};
+use unfold::mesh::{CellMesh, CellType, Volume};
+
+/// Arguments of `unfold demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Output directory (created if missing).
+    #[arg(short, long, default_value = "unfold-demo")]
+    output: PathBuf,
+}
+
+fn points_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
+    let mut m = CellMesh::from_points(points.to_vec());
+    for i in 0..points.len() as u32 {
+        m.push_cell(CellType::Vertex, &[i]);
+    }
+    m
+}
+
+fn ring_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
+    let mut m = CellMesh::from_points(points.to_vec());
+    let mut ids: Vec<u32> = (0..points.len() as u32).collect();
+    ids.push(0);
+    m.push_cell(CellType::PolyLine, &ids);
+    m
+}
+
+/// Runs `unfold demo`.
+pub fn run(a: &DemoArgs) -> Result<(), CliError> {
+    let dir = a.output.as_path();
+    super::ensure_dir(dir)?;
+    let opts = WriteOptions::default();
+    let mut written: Vec<(PathBuf, String)> = Vec::new();
+    let mut put = |name: &str, mesh: CellMesh, what: &str| -> Result<(), CliError> {
+        let p = dir.join(name);
+        write_mesh(&p, &mesh, &opts)?;
+        written.push((p, what.to_string()));
+        Ok(())
+    };
+
+    let placenta = placenta_slab(&PlacentaParams::default())?;
+    put(
+        "placenta.vtu",
+        CellMesh::from(&placenta.mesh),
+        "placenta-like slab (tets), point array `side`: 0 interior, 1 fetal, 2 maternal, 3 rim",
+    )?;
+
+    let v = ventricle_cup(&VentricleParams::default())?;
+    put(
+        "ventricle_surface.vtp",
+        CellMesh::from(&v.surface),
+        "ventricle-like cup S (disk topology, basal rim)",
+    )?;
+    put(
+        "ventricle_anatomy.vtp",
+        CellMesh::from(&v.anatomy),
+        "anatomy surface inside S",
+    )?;
+    put(
+        "ventricle_points.vtp",
+        points_mesh(&v.anatomy_points),
+        "anatomy points inside S (rings and meridians)",
+    )?;
+    put(
+        "ventricle_landmarks.vtp",
+        points_mesh(&[v.anterior, v.inferior, v.apex]),
+        "landmarks: anterior, inferior, apex",
+    )?;
+
+    let valve = mitral_valve(&ValveParams::default())?;
+    put(
+        "valve_anterior.vtp",
+        CellMesh::from(&valve.anterior),
+        "anterior leaflet",
+    )?;
+    put(
+        "valve_posterior.vtp",
+        CellMesh::from(&valve.posterior),
+        "posterior leaflet",
+    )?;
+    put(
+        "valve_annulus.vtp",
+        ring_mesh(&valve.annulus),
+        "annulus ring (closed polyline, clockwise from the atrium, from the anterolateral commissure)",
+    )?;
+
+    drop(put);
+    let img = synthetic_mri(&placenta.mesh.positions)?;
+    let img_path = dir.join("placenta_mri.nii.gz");
+    write_image(&img_path, &img)?;
+    written.push((
+        img_path,
+        "synthetic MRI around the slab: 2 mm oblique grid, intensity a smooth function of position"
+            .into(),
+    ));
+
+    let mut infos = Vec::new();
+    for (p, what) in &written {
+        let (json, valid) = super::info::info_json(p)?;
+        infos.push(format!("\"{}\": {json}", file_name(p)));
+        println!(
+            "wrote {} ({what}){}",
+            p.display(),
+            if valid {
+                ""
+            } else {
+                " [has validity problems]"
+            }
+        );
+    }
+    let json = format!("{{\n{}\n}}\n", infos.join(",\n"));
+    let info_path = dir.join("info.json");
+    atomic_write(&info_path, json.as_bytes())?;
+    println!("wrote {} (info of every file above)", info_path.display());
+    Ok(())
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// The intensity of the synthetic MRI at world point `p` (mm): smooth, so
+/// that a pull-back through any map can be checked against it.
+pub fn synthetic_intensity(p: &Point3<f64>) -> f64 {
+    100.0 + 40.0 * (p.x / 15.0).sin() + 30.0 * (p.y / 20.0).cos() + 2.0 * p.z
+}
+
+/// A 2 mm image covering `points` with a 10 mm margin, on a grid rotated by
+/// 10 degrees about z (an oblique scanner frame), holding
+/// [`synthetic_intensity`].
+fn synthetic_mri(points: &[Point3<f64>]) -> Result<NiftiImage, CliError> {
+    let spacing = 2.0;
+    let bb = bounding_box(points).ok_or_else(|| CliError::Usage("empty shape".into()))?;
+    let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
+    // Extent of the box in the rotated frame, from its 8 corners.
+    let centre = bb.center();
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for c in 0..8 {
+        let corner = Vector3::new(
+            if c & 1 == 0 { bb.min.x } else { bb.max.x },
+            if c & 2 == 0 { bb.min.y } else { bb.max.y },
+            if c & 4 == 0 { bb.min.z } else { bb.max.z },
+        );
+        let q = rot.inverse() * (corner - centre.coords);
+        lo = lo.inf(&q);
+        hi = hi.sup(&q);
+    }
+    lo -= Vector3::repeat(10.0);
+    hi += Vector3::repeat(10.0);
+    let dims: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / spacing).ceil() as usize + 1);
+    let mut affine = Matrix4::identity();
+    let m = rot.matrix() * spacing;
+    affine.fixed_view_mut::<3, 3>(0, 0).copy_from(&m);
+    let origin = centre.coords + rot * lo;
+    affine.fixed_view_mut::<3, 1>(0, 3).copy_from(&origin);
+    let mut data = Vec::with_capacity(dims.iter().product());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                data.push(synthetic_intensity(&p) as f32);
+            }
+        }
+    }
+    let vol = Volume::new([dims[0], dims[1], dims[2], 1], affine, data)?;
+    Ok(NiftiImage::new(vol))
+}

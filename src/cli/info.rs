@@ -1,0 +1,336 @@
+//! `unfold info FILE [--json]`: what a mesh or image contains, and whether
+//! it is valid.
+
+use super::CliError;
+use clap::Args;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use unfold::io::{FileKind, NiftiImage, read_image, read_mesh};
+use unfold::mesh::geometry::{bounding_box, total_area, total_volume};
+use unfold::mesh::topology::{
+    boundary_loops, connected_components, euler_characteristic, tet_boundary,
+};
+use unfold::mesh::validate::{ValidationOptions, check_tet_mesh, check_tri_mesh};
+use unfold::mesh::{CellMesh, Field};
+
+/// Arguments of `unfold info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// A mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image (.nii .nii.gz).
+    file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Exit with an error when the mesh has validity problems.
+    #[arg(long)]
+    strict: bool,
+}
+
+/// Summary of one data array.
+#[derive(Debug, Serialize)]
+pub struct ArrayInfo {
+    name: String,
+    components: usize,
+    #[serde(rename = "type")]
+    value_type: &'static str,
+    min: Option<f64>,
+    max: Option<f64>,
+}
+
+/// One kind of validity problem.
+#[derive(Debug, Serialize)]
+pub struct ProblemInfo {
+    kind: &'static str,
+    count: usize,
+    first: String,
+}
+
+/// The boundary surface of a tet mesh.
+#[derive(Debug, Serialize)]
+pub struct BoundaryInfo {
+    vertices: usize,
+    triangles: usize,
+    components: usize,
+    euler_characteristic: i64,
+}
+
+/// What `info` reports about a mesh.
+#[derive(Debug, Serialize)]
+pub struct MeshInfo {
+    file: String,
+    kind: &'static str,
+    mesh_type: &'static str,
+    points: usize,
+    cells: usize,
+    cell_types: BTreeMap<String, usize>,
+    bounding_box: Option<[[f64; 3]; 2]>,
+    point_arrays: Vec<ArrayInfo>,
+    cell_arrays: Vec<ArrayInfo>,
+    components: Option<usize>,
+    boundary_loops: Option<Vec<usize>>,
+    boundary_surface: Option<BoundaryInfo>,
+    area_mm2: Option<f64>,
+    volume_mm3: Option<f64>,
+    valid: bool,
+    problems: Vec<ProblemInfo>,
+}
+
+/// What `info` reports about an image.
+#[derive(Debug, Serialize)]
+pub struct ImageInfo {
+    file: String,
+    kind: &'static str,
+    dims: [usize; 4],
+    spacing_mm: [f64; 3],
+    affine: [[f64; 4]; 4],
+    affine_source: String,
+    datatype: String,
+    value_range: Option<[f64; 2]>,
+}
+
+fn array_info(f: &Field) -> ArrayInfo {
+    let v = f.values().to_f64();
+    let finite = v.iter().copied().filter(|x| x.is_finite());
+    let (min, max) = finite.fold((None, None), |(lo, hi): (Option<f64>, Option<f64>), x| {
+        (
+            Some(lo.map_or(x, |l| l.min(x))),
+            Some(hi.map_or(x, |h| h.max(x))),
+        )
+    });
+    ArrayInfo {
+        name: f.name().to_string(),
+        components: f.components(),
+        value_type: f.values().type_name(),
+        min,
+        max,
+    }
+}
+
+/// Builds the report of a mesh already read.
+pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
+    let counts = mesh.cell_type_counts();
+    let dims: Vec<u8> = counts.iter().map(|(t, _)| t.dimension()).collect();
+    let only = |d: u8| !dims.is_empty() && dims.iter().all(|&x| x == d);
+    let mesh_type = if mesh.num_cells() == 0 {
+        "points"
+    } else if counts.len() == 1 && counts[0].0 == unfold::mesh::CellType::Tetra {
+        "tetrahedral"
+    } else if only(2) {
+        "surface"
+    } else if only(1) {
+        "lines"
+    } else if only(0) {
+        "points"
+    } else {
+        "mixed"
+    };
+    let mut info = MeshInfo {
+        file: path.display().to_string(),
+        kind: "mesh",
+        mesh_type,
+        points: mesh.num_points(),
+        cells: mesh.num_cells(),
+        cell_types: counts.iter().map(|(t, n)| (format!("{t:?}"), *n)).collect(),
+        bounding_box: bounding_box(&mesh.positions)
+            .map(|b| [[b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z]]),
+        point_arrays: mesh.point_data.iter().map(array_info).collect(),
+        cell_arrays: mesh.cell_data.iter().map(array_info).collect(),
+        components: None,
+        boundary_loops: None,
+        boundary_surface: None,
+        area_mm2: None,
+        volume_mm3: None,
+        valid: true,
+        problems: Vec::new(),
+    };
+    let opts = ValidationOptions::default();
+    let problems = match mesh_type {
+        "tetrahedral" => match mesh.to_tet_mesh() {
+            Ok(t) => {
+                info.components = Some(connected_components(t.num_vertices(), &t.tets).count);
+                info.volume_mm3 = Some(total_volume(&t));
+                if let Ok(b) = tet_boundary(&t) {
+                    let s = &b.surface;
+                    info.boundary_surface = Some(BoundaryInfo {
+                        vertices: s.num_vertices(),
+                        triangles: s.num_triangles(),
+                        components: connected_components(s.num_vertices(), &s.triangles).count,
+                        euler_characteristic: euler_characteristic(s),
+                    });
+                }
+                check_tet_mesh(&t, &opts)
+            }
+            Err(e) => vec![unfold::mesh::validate::Problem { error: e, count: 1 }],
+        },
+        "surface" => match mesh.to_tri_mesh() {
+            Ok(t) => {
+                info.components = Some(connected_components(t.num_vertices(), &t.triangles).count);
+                info.area_mm2 = Some(total_area(&t));
+                info.boundary_loops = boundary_loops(&t)
+                    .ok()
+                    .map(|ls| ls.iter().map(Vec::len).collect());
+                check_tri_mesh(&t, &opts)
+            }
+            Err(e) => vec![unfold::mesh::validate::Problem { error: e, count: 1 }],
+        },
+        _ => Vec::new(),
+    };
+    info.valid = problems.is_empty();
+    info.problems = problems
+        .into_iter()
+        .map(|p| ProblemInfo {
+            kind: p.error.kind(),
+            count: p.count,
+            first: p.error.to_string(),
+        })
+        .collect();
+    info
+}
+
+/// Builds the report of an image already read.
+pub fn image_info(path: &Path, img: &NiftiImage) -> ImageInfo {
+    let v = &img.volume;
+    let a = v.affine();
+    ImageInfo {
+        file: path.display().to_string(),
+        kind: "image",
+        dims: v.dims(),
+        spacing_mm: v.spacing(),
+        affine: std::array::from_fn(|i| std::array::from_fn(|j| a[(i, j)])),
+        affine_source: format!("{:?}", img.affine_source).to_lowercase(),
+        datatype: format!("{:?}", img.datatype).to_lowercase(),
+        value_range: v.value_range().map(|(lo, hi)| [lo, hi]),
+    }
+}
+
+fn print_mesh(i: &MeshInfo) {
+    println!("{}: {} mesh", i.file, i.mesh_type);
+    println!("  points: {}", i.points);
+    let types: Vec<String> = i
+        .cell_types
+        .iter()
+        .map(|(t, n)| format!("{n} {t}"))
+        .collect();
+    println!("  cells: {} ({})", i.cells, types.join(", "));
+    if let Some([lo, hi]) = i.bounding_box {
+        println!(
+            "  bounding box: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}] (size {:.4} x {:.4} x {:.4})",
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2],
+            hi[0] - lo[0],
+            hi[1] - lo[1],
+            hi[2] - lo[2]
+        );
+    }
+    for (what, arrays) in [("point", &i.point_arrays), ("cell", &i.cell_arrays)] {
+        for a in arrays {
+            let range = match (a.min, a.max) {
+                (Some(lo), Some(hi)) => format!(", range [{lo}, {hi}]"),
+                _ => String::new(),
+            };
+            println!(
+                "  {what} array '{}': {} x {}{range}",
+                a.name, a.components, a.value_type
+            );
+        }
+    }
+    if let Some(c) = i.components {
+        println!("  connected components: {c}");
+    }
+    if let Some(ls) = &i.boundary_loops {
+        println!("  boundary loops: {} {:?}", ls.len(), ls);
+    }
+    if let Some(b) = &i.boundary_surface {
+        println!(
+            "  boundary surface: {} vertices, {} triangles, {} component(s), Euler characteristic {}",
+            b.vertices, b.triangles, b.components, b.euler_characteristic
+        );
+    }
+    if let Some(a) = i.area_mm2 {
+        println!("  area: {a:.6} mm^2");
+    }
+    if let Some(v) = i.volume_mm3 {
+        println!("  volume: {v:.6} mm^3");
+    }
+    if i.valid {
+        println!("  valid: yes");
+    } else {
+        println!("  valid: no");
+        for p in &i.problems {
+            println!("  problem {} (x{}): {}", p.kind, p.count, p.first);
+        }
+    }
+}
+
+fn print_image(i: &ImageInfo) {
+    println!("{}: image", i.file);
+    println!("  dims: {:?}", i.dims);
+    println!(
+        "  spacing: {:.6} x {:.6} x {:.6} mm",
+        i.spacing_mm[0], i.spacing_mm[1], i.spacing_mm[2]
+    );
+    println!("  affine ({}):", i.affine_source);
+    for r in &i.affine {
+        println!(
+            "    [{:12.6} {:12.6} {:12.6} {:12.6}]",
+            r[0], r[1], r[2], r[3]
+        );
+    }
+    println!("  data type: {}", i.datatype);
+    if let Some([lo, hi]) = i.value_range {
+        println!("  value range: [{lo}, {hi}]");
+    }
+}
+
+fn to_json<T: Serialize>(v: &T) -> String {
+    // Serializing plain structs of numbers and strings cannot fail.
+    serde_json::to_string_pretty(v).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+}
+
+/// The report of `path` as JSON (used by `demo` as well).
+pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
+    match FileKind::from_path(path)? {
+        FileKind::Nifti { .. } => Ok((to_json(&image_info(path, &read_image(path)?)), true)),
+        FileKind::Mesh(_) => {
+            let i = mesh_info(path, &read_mesh(path)?);
+            Ok((to_json(&i), i.valid))
+        }
+    }
+}
+
+/// Runs `unfold info`.
+pub fn run(a: &InfoArgs) -> Result<(), CliError> {
+    let path = a.file.as_path();
+    match FileKind::from_path(path)? {
+        FileKind::Nifti { .. } => {
+            let i = image_info(path, &read_image(path)?);
+            if a.json {
+                println!("{}", to_json(&i));
+            } else {
+                print_image(&i);
+            }
+            Ok(())
+        }
+        FileKind::Mesh(_) => {
+            let i = mesh_info(path, &read_mesh(path)?);
+            if a.json {
+                println!("{}", to_json(&i));
+            } else {
+                print_mesh(&i);
+            }
+            match (a.strict, i.problems.first()) {
+                (true, Some(p)) => Err(CliError::Invalid {
+                    path: i.file.clone(),
+                    count: i.problems.len(),
+                    first: p.first.clone(),
+                }),
+                _ => Ok(()),
+            }
+        }
+    }
+}

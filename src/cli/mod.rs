@@ -1,0 +1,84 @@
+//! Subcommands of the `unfold` binary, one module each.
+
+mod convert;
+mod demo;
+mod info;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use thiserror::Error;
+use unfold::io::IoError;
+use unfold::mesh::MeshError;
+
+/// Errors of the command-line tool (one line each when printed).
+#[derive(Debug, Error)]
+pub enum CliError {
+    /// Reading or writing a file failed.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// A mesh was unusable.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// `info --strict` found validity problems.
+    #[error("{path}: {count} validity problem(s), first: {first}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// Number of problem kinds.
+        count: usize,
+        /// The first problem.
+        first: String,
+    },
+    /// Output directory or file handling.
+    #[error("{path}: {source}")]
+    Fs {
+        /// The path.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A usage error not caught by the argument parser.
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// unfold: map anatomical shapes (placenta, ventricle, mitral valve) onto
+/// canonical templates.
+#[derive(Debug, Parser)]
+#[command(name = "unfold", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// What a mesh or image file contains, and whether it is valid.
+    Info(info::InfoArgs),
+    /// Convert a mesh between formats (by file extension).
+    Convert(convert::ConvertArgs),
+    /// Write the built-in synthetic shapes (and their info) to a directory.
+    Demo(demo::DemoArgs),
+}
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Info(a) => info::run(&a),
+        Command::Convert(a) => convert::run(&a),
+        Command::Demo(a) => demo::run(&a),
+    }
+}
+
+/// Creates `dir` (and parents) if needed.
+pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|source| CliError::Fs {
+        path: dir.display().to_string(),
+        source,
+    })
+}
+
+/// Canonical form of a path for comparisons (falls back to the path itself).
+pub(crate) fn canonical(p: &std::path::Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}

@@ -1,0 +1,264 @@
+//! The command line on real files and on bad input: counts, conversions,
+//! one-line errors with a non-zero exit.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const HEART_VTU: &str = "../shared/data/ldrb-ellipsoid/heart.vtu";
+const COBIVECO: &str = "../shared/data/cobiveco-geo2";
+
+fn unfold(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unfold"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the unfold binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn info_json(path: &str) -> serde_json::Value {
+    let o = unfold(&["info", path, "--json"]);
+    assert!(o.status.success(), "info {path}: {}", stderr(&o));
+    serde_json::from_str(&stdout(&o)).expect("info --json prints JSON")
+}
+
+/// Fails with a single stderr line naming `needle`.
+fn assert_one_line_error(o: &Output, needle: &str) {
+    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
+    let err = stderr(o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("unfold: error: "), "{err}");
+    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
+}
+
+#[test]
+fn info_reads_the_ldrb_heart_vtu() {
+    let j = info_json(HEART_VTU);
+    assert_eq!(j["points"], 4237);
+    assert_eq!(j["cells"], 16592);
+    assert_eq!(j["mesh_type"], "tetrahedral");
+    assert_eq!(j["cell_types"]["Tetra"], 16592);
+    assert!(
+        j["cell_arrays"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["name"] == "Material")
+    );
+    let text = stdout(&unfold(&["info", HEART_VTU]));
+    assert!(text.contains("points: 4237"), "{text}");
+    assert!(text.contains("cells: 16592"), "{text}");
+}
+
+#[test]
+fn info_reads_every_cobiveco_ply() {
+    for (name, v, t, loops) in [
+        ("heart_endo_lv.ply", 6309, 12479, 1),
+        ("heart_endo_rv.ply", 5859, 11533, 1),
+        ("heart_epi.ply", 11321, 22388, 1),
+        ("heart_base.ply", 1349, 2125, 3),
+    ] {
+        let p = format!("{COBIVECO}/{name}");
+        let j = info_json(&p);
+        assert_eq!(j["points"], v, "{name}");
+        assert_eq!(j["cells"], t, "{name}");
+        assert_eq!(j["cell_types"]["Triangle"], t, "{name}");
+        assert_eq!(
+            j["boundary_loops"].as_array().map(Vec::len),
+            Some(loops),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn convert_keeps_the_heart_through_every_volume_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    let mut prev = HEART_VTU.to_string();
+    for name in ["a.vtk", "b.mesh", "c.vtu", "d.vtk"] {
+        let out = d(name);
+        let o = unfold(&["convert", &prev, &out]);
+        assert!(o.status.success(), "{prev} -> {out}: {}", stderr(&o));
+        let j = info_json(&out);
+        assert_eq!(j["points"], 4237, "{name}");
+        assert_eq!(j["cells"], 16592, "{name}");
+        prev = out;
+    }
+    // Arrays survive VTU -> VTK -> VTU (Medit keeps only its refs).
+    let o = unfold(&["convert", HEART_VTU, &d("m.vtk"), "--ascii"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = unfold(&["convert", &d("m.vtk"), &d("m.vtu"), "--compress"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = info_json(HEART_VTU);
+    let b = info_json(&d("m.vtu"));
+    assert_eq!(a["bounding_box"], b["bounding_box"]);
+    assert_eq!(a["cell_arrays"], b["cell_arrays"]);
+}
+
+#[test]
+fn convert_refuses_to_overwrite_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("x.vtu");
+    std::fs::copy(HEART_VTU, &p).unwrap();
+    let before = std::fs::read(&p).unwrap();
+    let s = p.display().to_string();
+    assert_one_line_error(&unfold(&["convert", &s, &s]), "refusing to overwrite");
+    assert_eq!(std::fs::read(&p).unwrap(), before);
+}
+
+#[test]
+fn missing_unknown_and_garbage_files_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_one_line_error(&unfold(&["info", "/no/such/file.vtu"]), "/no/such/file.vtu");
+    let odd = dir.path().join("mesh.xyz");
+    std::fs::write(&odd, "1 2 3").unwrap();
+    assert_one_line_error(
+        &unfold(&["info", &odd.display().to_string()]),
+        "unknown file type",
+    );
+    for ext in [
+        "vtk", "vtu", "vtp", "ply", "obj", "stl", "off", "mesh", "msh", "nii", "nii.gz",
+    ] {
+        let p = dir.path().join(format!("garbage.{ext}"));
+        std::fs::write(&p, b"\x00\x01garbage\xff\xfe not a mesh\n 1 2 3\n").unwrap();
+        let s = p.display().to_string();
+        let o = unfold(&["info", &s]);
+        // OBJ/OFF-like text may parse as an empty mesh; everything else must fail cleanly.
+        if !o.status.success() {
+            assert_one_line_error(&o, &s);
+        }
+    }
+}
+
+/// A legacy VTK file with the given points and cells (ASCII 4.2).
+fn vtk(dir: &Path, name: &str, points: &[[f64; 3]], cells: &[&[u32]], tets: bool) -> String {
+    let mut s =
+        String::from("# vtk DataFile Version 4.2\nbad input\nASCII\nDATASET UNSTRUCTURED_GRID\n");
+    s += &format!("POINTS {} double\n", points.len());
+    for p in points {
+        s += &format!("{} {} {}\n", p[0], p[1], p[2]);
+    }
+    let size: usize = cells.iter().map(|c| c.len() + 1).sum();
+    s += &format!("CELLS {} {size}\n", cells.len());
+    for c in cells {
+        let ids: Vec<String> = c.iter().map(u32::to_string).collect();
+        s += &format!("{} {}\n", c.len(), ids.join(" "));
+    }
+    s += &format!("CELL_TYPES {}\n", cells.len());
+    for _ in cells {
+        s += if tets { "10\n" } else { "5\n" };
+    }
+    let p: PathBuf = dir.join(name);
+    std::fs::write(&p, s).unwrap();
+    p.display().to_string()
+}
+
+fn problem_kinds(path: &str) -> Vec<String> {
+    let j = info_json(path);
+    j["problems"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["kind"].as_str().unwrap().to_string())
+        .collect()
+}
+
+const TET: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
+
+#[test]
+fn every_validation_error_through_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let square = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+
+    // Errors that make the file unusable fail at reading.
+    let p = vtk(d, "index.vtk", &TET, &[&[0, 1, 2, 9]], true);
+    assert_one_line_error(&unfold(&["info", &p]), "point 9");
+    let nan = [
+        [0.0, 0.0, 0.0],
+        [1.0, f64::NAN, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let p = vtk(d, "nan.vtk", &nan, &[&[0, 1, 2, 3]], true);
+    assert_one_line_error(&unfold(&["info", &p]), "non-finite");
+
+    // Problems of a readable mesh: reported by `info`, fatal with --strict.
+    let good = vtk(d, "good.vtk", &TET, &[&[0, 1, 2, 3]], true);
+    assert!(problem_kinds(&good).is_empty());
+    assert!(unfold(&["info", &good, "--strict"]).status.success());
+
+    let mut pts = TET.to_vec();
+    pts.push([0.5, 0.5, 0.0]); // coplanar with 0, 1, 2
+    let cases: Vec<(&str, String)> = vec![
+        (
+            "inverted_element",
+            vtk(d, "inv.vtk", &TET, &[&[0, 2, 1, 3]], true),
+        ),
+        (
+            "degenerate_element",
+            vtk(d, "deg.vtk", &pts, &[&[0, 1, 2, 3], &[0, 1, 2, 4]], true),
+        ),
+        (
+            "unused_vertices",
+            vtk(d, "unused.vtk", &pts, &[&[0, 1, 2, 3]], true),
+        ),
+        ("non_manifold_face", {
+            let mut q = TET.to_vec();
+            q.extend([[0.2, 0.2, 0.5], [0.1, 0.3, 0.7]]);
+            vtk(
+                d,
+                "nmface.vtk",
+                &q,
+                &[&[0, 1, 2, 3], &[0, 1, 2, 4], &[0, 1, 2, 5]],
+                true,
+            )
+        }),
+        ("multiple_components", {
+            let mut q = TET.to_vec();
+            q.extend(TET.iter().map(|p| [p[0] + 5.0, p[1], p[2]]));
+            vtk(d, "two.vtk", &q, &[&[0, 1, 2, 3], &[4, 5, 6, 7]], true)
+        }),
+        ("non_manifold_edge", {
+            let mut q = square.to_vec();
+            q.push([0.5, 0.0, 1.0]);
+            vtk(
+                d,
+                "nmedge.vtk",
+                &q,
+                &[&[0, 1, 2], &[1, 0, 3], &[0, 1, 4]],
+                false,
+            )
+        }),
+        (
+            "inconsistent_orientation",
+            vtk(d, "orient.vtk", &square, &[&[0, 1, 2], &[0, 3, 2]], false),
+        ),
+    ];
+    for (kind, path) in &cases {
+        let kinds = problem_kinds(path);
+        assert!(
+            kinds.iter().any(|k| k == kind),
+            "{path}: {kinds:?} lacks {kind}"
+        );
+        assert_one_line_error(&unfold(&["info", path, "--strict"]), "validity problem");
+    }
+}
