@@ -29,14 +29,15 @@ pub struct Compacted<const K: usize> {
 /// original order, renumbers the elements and restricts the point data with
 /// [`Fields::select`].
 ///
-/// # Panics
-/// If an element refers to a vertex `>= positions.len()` or a point-data
-/// field has fewer tuples than there are vertices.
+/// Fails with [`MeshError::IndexOutOfRange`] or [`MeshError::FieldLength`]
+/// when the elements or the point data do not fit the positions.
 pub fn compact_vertices<const K: usize>(
     positions: &[Point3<f64>],
     point_data: &Fields,
     elements: &[[u32; K]],
-) -> Compacted<K> {
+) -> Result<Compacted<K>, MeshError> {
+    crate::geometry::check_indices(positions.len(), elements)?;
+    point_data.check_tuples(positions.len())?;
     let mut new_index = vec![u32::MAX; positions.len()];
     for el in elements {
         for &v in el {
@@ -51,7 +52,7 @@ pub fn compact_vertices<const K: usize>(
         }
     }
     let rows: Vec<usize> = to_old.iter().map(|&v| v as usize).collect();
-    Compacted {
+    Ok(Compacted {
         positions: rows.iter().map(|&v| positions[v]).collect(),
         point_data: point_data.select(&rows),
         elements: elements
@@ -59,7 +60,7 @@ pub fn compact_vertices<const K: usize>(
             .map(|el| el.map(|v| new_index[v as usize]))
             .collect(),
         to_old,
-    }
+    })
 }
 
 impl TetMesh {
@@ -68,9 +69,10 @@ impl TetMesh {
     /// (zero and NaN volumes are left alone). Returns the number of tets
     /// flipped.
     ///
-    /// # Panics
-    /// If a tet refers to a vertex out of range.
-    pub fn orient(&mut self) -> usize {
+    /// Fails with [`MeshError::IndexOutOfRange`] (changing nothing) when a
+    /// tet refers to a vertex that does not exist.
+    pub fn orient(&mut self) -> Result<usize, MeshError> {
+        crate::geometry::check_indices(self.positions.len(), &self.tets)?;
         let mut flipped = 0;
         for t in 0..self.tets.len() {
             let [a, b, c, d] = self.tet_points(t);
@@ -79,7 +81,7 @@ impl TetMesh {
                 flipped += 1;
             }
         }
-        flipped
+        Ok(flipped)
     }
 
     /// The connected component (through shared vertices) with the most
@@ -87,14 +89,15 @@ impl TetMesh {
     /// point data of its vertices are carried over. The returned `Vec` maps
     /// new vertex -> old vertex. An empty mesh gives an empty mesh.
     ///
-    /// # Panics
-    /// If a tet refers to a vertex out of range or a field is shorter than
-    /// what it is attached to.
-    pub fn largest_component(&self) -> (TetMesh, Vec<u32>) {
+    /// Fails when an element refers to a vertex that does not exist or a
+    /// field's length does not fit the mesh.
+    pub fn largest_component(&self) -> Result<(TetMesh, Vec<u32>), MeshError> {
+        crate::geometry::check_indices(self.positions.len(), &self.tets)?;
+        self.cell_data.check_tuples(self.tets.len())?;
         let rows = largest(&self.tets, self.positions.len());
         let tets: Vec<[u32; 4]> = rows.iter().map(|&t| self.tets[t]).collect();
-        let k = compact_vertices(&self.positions, &self.point_data, &tets);
-        (
+        let k = compact_vertices(&self.positions, &self.point_data, &tets)?;
+        Ok((
             TetMesh {
                 positions: k.positions,
                 tets: k.elements,
@@ -102,7 +105,7 @@ impl TetMesh {
                 cell_data: self.cell_data.select(&rows),
             },
             k.to_old,
-        )
+        ))
     }
 }
 
@@ -113,14 +116,15 @@ impl TriMesh {
     /// returned `Vec` maps new vertex -> old vertex. An empty mesh gives an
     /// empty mesh.
     ///
-    /// # Panics
-    /// If a triangle refers to a vertex out of range or a field is shorter
-    /// than what it is attached to.
-    pub fn largest_component(&self) -> (TriMesh, Vec<u32>) {
+    /// Fails when an element refers to a vertex that does not exist or a
+    /// field's length does not fit the mesh.
+    pub fn largest_component(&self) -> Result<(TriMesh, Vec<u32>), MeshError> {
+        crate::geometry::check_indices(self.positions.len(), &self.triangles)?;
+        self.cell_data.check_tuples(self.triangles.len())?;
         let rows = largest(&self.triangles, self.positions.len());
         let tris: Vec<[u32; 3]> = rows.iter().map(|&t| self.triangles[t]).collect();
-        let k = compact_vertices(&self.positions, &self.point_data, &tris);
-        (
+        let k = compact_vertices(&self.positions, &self.point_data, &tris)?;
+        Ok((
             TriMesh {
                 positions: k.positions,
                 triangles: k.elements,
@@ -128,7 +132,7 @@ impl TriMesh {
                 cell_data: self.cell_data.select(&rows),
             },
             k.to_old,
-        )
+        ))
     }
 }
 
@@ -296,7 +300,7 @@ pub fn repair_tri_mesh(mesh: &TriMesh) -> Result<(TriMesh, RepairReport), MeshEr
             flipped += 1;
         }
     }
-    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tris);
+    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tris)?;
     let components = connected_components(k.positions.len(), &k.elements).count;
     let report = RepairReport {
         duplicate_elements: dups,
@@ -427,14 +431,14 @@ pub fn repair_tet_mesh(mesh: &TetMesh) -> Result<(TetMesh, RepairReport), MeshEr
     )?;
     let (rows, repeated, dups) = keep_rows(&mesh.tets);
     let tets: Vec<[u32; 4]> = rows.iter().map(|&t| mesh.tets[t]).collect();
-    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tets);
+    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tets)?;
     let mut out = TetMesh {
         positions: k.positions,
         tets: k.elements,
         point_data: k.point_data,
         cell_data: mesh.cell_data.select(&rows),
     };
-    let flipped = out.orient();
+    let flipped = out.orient()?;
     let components = connected_components(out.positions.len(), &out.tets).count;
     let report = RepairReport {
         duplicate_elements: dups,
@@ -616,7 +620,7 @@ mod tests {
             let mut rng = SplitMix(seed);
             let mut m = tet_grid([nx, ny, 2], five, [0.0; 3]);
             let mut clean = m.clone();
-            clean.orient();
+            clean.orient().unwrap();
             let nt = m.num_tets();
             let n_neg = (0..nt)
                 .filter(|&t| {
@@ -757,8 +761,8 @@ mod tests {
             })
             .count();
         assert!(neg > 0);
-        assert_eq!(m.orient(), neg);
-        assert_eq!(m.orient(), 0);
+        assert_eq!(m.orient().unwrap(), neg);
+        assert_eq!(m.orient().unwrap(), 0);
         for (t, (x, y)) in m.tets.iter().zip(&before.tets).enumerate() {
             let [a, b, c, d] = m.tet_points(t);
             assert!(tet_signed_volume(&a, &b, &c, &d) > 0.0);
@@ -787,7 +791,7 @@ mod tests {
         m.add_point_field(Field::scalars("id", ids)).unwrap();
         let tids: Vec<i32> = (0..m.num_triangles() as i32).collect();
         m.add_cell_field(Field::labels("tid", tids)).unwrap();
-        let (l, to_old) = m.largest_component();
+        let (l, to_old) = m.largest_component().unwrap();
         assert_eq!(l.num_triangles(), big.num_triangles());
         assert_eq!(l.num_vertices(), big.num_vertices());
         assert_eq!(
@@ -808,11 +812,14 @@ mod tests {
             &tet_grid([1, 1, 1], false, [0.0; 3]),
             &tet_grid([2, 1, 1], true, [5.0, 0.0, 0.0]),
         );
-        let (lt, map) = g.largest_component();
+        let (lt, map) = g.largest_component().unwrap();
         assert_eq!(lt.num_tets(), 10);
         assert_eq!(lt.num_vertices(), 12);
         assert_eq!(map[0], 8);
-        assert_eq!(TriMesh::default().largest_component().0, TriMesh::default());
+        assert_eq!(
+            TriMesh::default().largest_component().unwrap().0,
+            TriMesh::default()
+        );
     }
 
     #[test]
@@ -843,7 +850,7 @@ mod tests {
         let positions: Vec<Point3<f64>> = (0..5).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect();
         let mut pd = Fields::new();
         pd.insert(Field::labels("l", vec![10, 11, 12, 13, 14]));
-        let k = compact_vertices(&positions, &pd, &[[4u32, 1], [1, 3]]);
+        let k = compact_vertices(&positions, &pd, &[[4u32, 1], [1, 3]]).unwrap();
         assert_eq!(k.to_old, vec![1, 3, 4]);
         assert_eq!(k.elements, vec![[2, 0], [0, 1]]);
         assert_eq!(k.positions[2].x, 4.0);
@@ -851,5 +858,22 @@ mod tests {
             k.point_data.get("l").unwrap().values(),
             &crate::FieldValues::I32(vec![11, 13, 14])
         );
+    }
+
+    #[test]
+    fn orient_and_largest_component_reject_bad_indices() {
+        let p = vec![Point3::origin(); 3];
+        let mut t = TetMesh::new(p.clone(), vec![[0, 1, 2, 7]]);
+        assert!(matches!(
+            t.orient(),
+            Err(MeshError::IndexOutOfRange { index: 7, .. })
+        ));
+        assert_eq!(t.tets, vec![[0, 1, 2, 7]]);
+        assert!(t.largest_component().is_err());
+        let m = TriMesh::new(p, vec![[0, 1, 5]]);
+        assert!(matches!(
+            m.largest_component(),
+            Err(MeshError::IndexOutOfRange { index: 5, .. })
+        ));
     }
 }

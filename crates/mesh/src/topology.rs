@@ -231,7 +231,7 @@ pub fn tet_boundary(mesh: &TetMesh) -> Result<TetBoundary, MeshError> {
         triangles.push(tri);
         face_tet.push(t);
     }
-    let compact = crate::repair::compact_vertices(&mesh.positions, &mesh.point_data, &triangles);
+    let compact = crate::repair::compact_vertices(&mesh.positions, &mesh.point_data, &triangles)?;
     let rows: Vec<usize> = face_tet.iter().map(|&t| t as usize).collect();
     Ok(TetBoundary {
         surface: TriMesh {
