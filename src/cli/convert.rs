@@ -3,7 +3,7 @@
 use super::CliError;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
-use unfold::io::{LegacyVersion, WriteOptions, XmlEncoding, read_mesh, write_mesh};
+use unfold::io::{FileKind, LegacyVersion, WriteOptions, XmlEncoding, read_mesh, write_mesh};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum Encoding {
@@ -70,6 +70,24 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
         big_endian: a.big_endian,
     };
     write_mesh(&a.output, &mesh, &opts)?;
+    if let FileKind::Mesh(f) = FileKind::from_path(&a.output)?
+        && !f.holds_arrays()
+    {
+        let dropped: Vec<&str> = mesh
+            .point_data
+            .iter()
+            .chain(mesh.cell_data.iter())
+            .map(|f| f.name())
+            .filter(|n| !n.starts_with("medit:"))
+            .collect();
+        if !dropped.is_empty() {
+            eprintln!(
+                "unfold: note: .{} files hold no data arrays; not written: {}",
+                f.extension(),
+                dropped.join(", ")
+            );
+        }
+    }
     println!(
         "{} -> {}: {} points, {} cells, {} point arrays, {} cell arrays",
         a.input.display(),
