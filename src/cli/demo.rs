@@ -95,7 +95,6 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         "annulus ring (closed polyline, clockwise from the atrium, from the anterolateral commissure)",
     )?;
 
-    drop(put);
     let img = synthetic_mri(&placenta.mesh.positions)?;
     let img_path = dir.join("placenta_mri.nii.gz");
     write_image(&img_path, &img)?;

@@ -1,0 +1,242 @@
+//! Small, independent mesh checks for the shape tests (deliberately not using
+//! the crate's topology / validate modules, so the generators are checked
+//! against code written separately).
+
+use nalgebra::{Point3, Vector3};
+use std::collections::{BTreeMap, HashMap};
+
+/// Undirected edge -> number of triangles using it.
+pub fn edge_counts(tris: &[[u32; 3]]) -> BTreeMap<(u32, u32), usize> {
+    let mut m = BTreeMap::new();
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *m.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    m
+}
+
+/// Checks the triangle mesh is an oriented 2-manifold with boundary: every
+/// edge is used by one or two triangles, every directed edge at most once
+/// (consistent orientation), and no triangle repeats a vertex.
+pub fn assert_oriented_manifold(tris: &[[u32; 3]]) {
+    let mut directed: HashMap<(u32, u32), usize> = HashMap::new();
+    for (i, t) in tris.iter().enumerate() {
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "triangle {i} repeats a vertex: {t:?}"
+        );
+        for k in 0..3 {
+            let e = (t[k], t[(k + 1) % 3]);
+            if let Some(j) = directed.insert(e, i) {
+                panic!(
+                    "directed edge {e:?} used by triangles {j} and {i}: inconsistent orientation or non-manifold"
+                );
+            }
+        }
+    }
+    for (e, c) in edge_counts(tris) {
+        assert!(c == 1 || c == 2, "edge {e:?} used by {c} triangles");
+    }
+    // Vertex manifoldness: the triangles around each vertex form one fan.
+    let mut around: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            around
+                .entry(t[k])
+                .or_default()
+                .push((t[(k + 1) % 3], t[(k + 2) % 3]));
+        }
+    }
+    for (v, fan) in around {
+        // Count fan components by following next -> prev links.
+        let next: HashMap<u32, u32> = fan.iter().copied().collect();
+        let prevs: std::collections::HashSet<u32> = fan.iter().map(|&(_, b)| b).collect();
+        // Start at a vertex without predecessor (boundary fan) or anywhere.
+        let start = fan
+            .iter()
+            .map(|&(a, _)| a)
+            .find(|a| !prevs.contains(a))
+            .unwrap_or(fan[0].0);
+        let mut seen = 0;
+        let mut cur = start;
+        while let Some(&n) = next.get(&cur) {
+            seen += 1;
+            cur = n;
+            if cur == start || seen > fan.len() {
+                break;
+            }
+        }
+        assert_eq!(seen, fan.len(), "vertex {v} is not manifold (several fans)");
+    }
+}
+
+/// Boundary loops (vertex sequences following the boundary half-edges).
+pub fn boundary_loops(tris: &[[u32; 3]]) -> Vec<Vec<u32>> {
+    let counts = edge_counts(tris);
+    let mut next: BTreeMap<u32, u32> = BTreeMap::new();
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if counts[&(a.min(b), a.max(b))] == 1 {
+                assert!(
+                    next.insert(a, b).is_none(),
+                    "boundary vertex {a} visited twice"
+                );
+            }
+        }
+    }
+    let mut loops = Vec::new();
+    while let Some((&start, _)) = next.iter().next() {
+        let mut lp = vec![start];
+        let mut cur = next.remove(&start).unwrap();
+        while cur != start {
+            lp.push(cur);
+            cur = next.remove(&cur).expect("open boundary chain");
+        }
+        loops.push(lp);
+    }
+    loops
+}
+
+/// Euler characteristic V - E + F of a triangle mesh (V = used vertices).
+pub fn euler_tri(tris: &[[u32; 3]]) -> i64 {
+    let mut vs: Vec<u32> = tris.iter().flatten().copied().collect();
+    vs.sort_unstable();
+    vs.dedup();
+    vs.len() as i64 - edge_counts(tris).len() as i64 + tris.len() as i64
+}
+
+/// Outward boundary faces of a positively oriented tet mesh (faces used by
+/// exactly one tet, oriented with the normal pointing out of that tet);
+/// asserts that every face is used by one or two tets.
+pub fn tet_boundary(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut faces: HashMap<[u32; 3], (usize, [u32; 3])> = HashMap::new();
+    for t in tets {
+        // Outward faces of a positive tet [a, b, c, d].
+        for f in [
+            [t[1], t[2], t[3]],
+            [t[0], t[3], t[2]],
+            [t[0], t[1], t[3]],
+            [t[0], t[2], t[1]],
+        ] {
+            let mut key = f;
+            key.sort_unstable();
+            let e = faces.entry(key).or_insert((0, f));
+            e.0 += 1;
+        }
+    }
+    let mut out = Vec::new();
+    for (k, (c, f)) in faces {
+        assert!(c == 1 || c == 2, "face {k:?} used by {c} tets");
+        if c == 1 {
+            out.push(f);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Winding number of the closed oriented triangle surface around `p`
+/// (sum of signed solid angles / 4 pi; Van Oosterom & Strackee).
+pub fn winding_number(p: &Point3<f64>, pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
+    let mut total = 0.0;
+    for t in tris {
+        let a = pos[t[0] as usize] - p;
+        let b = pos[t[1] as usize] - p;
+        let c = pos[t[2] as usize] - p;
+        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+        let num = a.dot(&b.cross(&c));
+        let den = la * lb * lc + a.dot(&b) * lc + b.dot(&c) * la + c.dot(&a) * lb;
+        total += 2.0 * num.atan2(den);
+    }
+    total / (4.0 * std::f64::consts::PI)
+}
+
+/// Sum of the triangles' area vectors `(b-a)x(c-a)/2`.
+pub fn area_vector_sum(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> Vector3<f64> {
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            (b - a).cross(&(c - a)) * 0.5
+        })
+        .sum()
+}
+
+/// Signed volume enclosed by a closed oriented triangle surface.
+pub fn enclosed_volume(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| pos[i as usize].coords);
+            a.dot(&b.cross(&c)) / 6.0
+        })
+        .sum()
+}
+
+/// Smallest triangle area divided by the mean area.
+pub fn min_area_ratio(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
+    let areas: Vec<f64> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            (b - a).cross(&(c - a)).norm() * 0.5
+        })
+        .collect();
+    let mean = areas.iter().sum::<f64>() / areas.len() as f64;
+    areas.iter().copied().fold(f64::INFINITY, f64::min) / mean
+}
+
+/// Smallest interior angle (degrees) over all triangles.
+pub fn min_angle_deg(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
+    let mut m = 180.0f64;
+    for t in tris {
+        let p = t.map(|i| pos[i as usize]);
+        for k in 0..3 {
+            let u = p[(k + 1) % 3] - p[k];
+            let v = p[(k + 2) % 3] - p[k];
+            m = m.min(u.angle(&v).to_degrees());
+        }
+    }
+    m
+}
+
+/// Whether segment `p q` crosses triangle `a b c` (proper crossing, with a
+/// tiny tolerance so touching at shared corners does not count).
+fn segment_hits_triangle(
+    p: &Point3<f64>,
+    q: &Point3<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    c: &Point3<f64>,
+) -> bool {
+    // Moeller-Trumbore on the segment.
+    let d = q - p;
+    let e1 = b - a;
+    let e2 = c - a;
+    let h = d.cross(&e2);
+    let det = e1.dot(&h);
+    if det.abs() < 1e-14 {
+        return false;
+    }
+    let f = 1.0 / det;
+    let s = p - a;
+    let u = f * s.dot(&h);
+    let qv = s.cross(&e1);
+    let v = f * d.dot(&qv);
+    let t = f * e2.dot(&qv);
+    let eps = 1e-9;
+    u > eps && v > eps && u + v < 1.0 - eps && t > eps && t < 1.0 - eps
+}
+
+/// Whether two triangles intersect (one's edge crosses the other).
+pub fn triangles_intersect(t1: [Point3<f64>; 3], t2: [Point3<f64>; 3]) -> bool {
+    for k in 0..3 {
+        if segment_hits_triangle(&t1[k], &t1[(k + 1) % 3], &t2[0], &t2[1], &t2[2])
+            || segment_hits_triangle(&t2[k], &t2[(k + 1) % 3], &t1[0], &t1[1], &t1[2])
+        {
+            return true;
+        }
+    }
+    false
+}
