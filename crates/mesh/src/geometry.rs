@@ -896,25 +896,7 @@ mod tests {
     use proptest::prelude::*;
     use std::collections::HashMap;
 
-    /// splitmix64: a tiny deterministic generator for test clouds.
-    struct Rng(u64);
-    impl Rng {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        fn uniform(&mut self) -> f64 {
-            (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn gaussian(&mut self) -> f64 {
-            let u1 = self.uniform().max(1e-300);
-            let u2 = self.uniform();
-            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-        }
-    }
+    use crate::topology::test_meshes::SplitMix as Rng;
 
     /// Flips triangles of a convex, origin-containing surface to face outward.
     fn orient_outward(positions: &[Point3<f64>], tris: &mut [[u32; 3]], center: Point3<f64>) {
@@ -1378,7 +1360,7 @@ mod tests {
         for _ in 0..500 {
             let d = Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()).normalize();
             pts.push(Point3::from(
-                d * 2.9 * rng.uniform() + Vector3::new(1.0, -2.0, 0.5),
+                d * 2.9 * rng.f64() + Vector3::new(1.0, -2.0, 0.5),
             ));
         }
         let on = convex_hull_vertices(&pts);

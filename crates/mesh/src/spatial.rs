@@ -718,20 +718,7 @@ mod tests {
     use nalgebra::Vector3;
     use proptest::prelude::*;
 
-    /// splitmix64 for deterministic jitter.
-    struct Rng(u64);
-    impl Rng {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn sym(&mut self) -> f64 {
-            2.0 * self.uniform() - 1.0
-        }
-    }
+    use crate::topology::test_meshes::SplitMix as Rng;
 
     /// `n[0] x n[1] x n[2]` cubes of side `h`, 6 Kuhn tets each (a conforming
     /// triangulation), every vertex moved by up to `jitter * h` per axis.
@@ -743,7 +730,7 @@ mod tests {
             for j in 0..=n[1] {
                 for i in 0..=n[0] {
                     let base = Vector3::new(i as f64, j as f64, k as f64) * h;
-                    let d = Vector3::new(rng.sym(), rng.sym(), rng.sym()) * (jitter * h);
+                    let d = Vector3::new(rng.sym(1.0), rng.sym(1.0), rng.sym(1.0)) * (jitter * h);
                     positions.push(Point3::from(base + d));
                 }
             }
@@ -807,7 +794,10 @@ mod tests {
         let mut pts = Vec::new();
         for j in 0..=ny {
             for i in 0..=nx {
-                pts.push([i as f64 + jitter * rng.sym(), j as f64 + jitter * rng.sym()]);
+                pts.push([
+                    i as f64 + jitter * rng.sym(1.0),
+                    j as f64 + jitter * rng.sym(1.0),
+                ]);
             }
         }
         let id = |i: usize, j: usize| (i + (nx + 1) * j) as u32;
@@ -1037,8 +1027,9 @@ mod tests {
         let mut positions = Vec::new();
         let mut tris = Vec::new();
         for t in 0..n {
-            let c = Vector3::new(rng.sym(), rng.sym(), rng.sym()) * 5.0;
-            let mut corner = || Point3::from(c + Vector3::new(rng.sym(), rng.sym(), rng.sym()));
+            let c = Vector3::new(rng.sym(1.0), rng.sym(1.0), rng.sym(1.0)) * 5.0;
+            let mut corner =
+                || Point3::from(c + Vector3::new(rng.sym(1.0), rng.sym(1.0), rng.sym(1.0)));
             let (a, b, mut cc) = (corner(), corner(), corner());
             if degenerate && t % 7 == 0 {
                 cc = a + (b - a) * 0.3; // collinear
@@ -1162,11 +1153,7 @@ mod tests {
         let loc = TetLocator::new(&mesh);
         let mut rng = Rng(9);
         for _ in 0..20 {
-            let p = Point3::new(
-                20.0 * rng.uniform(),
-                20.0 * rng.uniform(),
-                10.0 * rng.uniform(),
-            );
+            let p = Point3::new(20.0 * rng.f64(), 20.0 * rng.f64(), 10.0 * rng.f64());
             let brute = brute_tet(&mesh, &p).unwrap();
             let got = loc.locate(&p);
             if brute.1 > 1e-7 {

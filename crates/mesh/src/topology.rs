@@ -464,6 +464,12 @@ pub(crate) mod test_meshes {
         pub fn coin(&mut self, p: f64) -> bool {
             self.f64() < p
         }
+        /// Standard normal (Box–Muller).
+        pub fn gaussian(&mut self) -> f64 {
+            let u1 = self.f64().max(1e-300);
+            let u2 = self.f64();
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        }
     }
 
     /// An `nx × ny × nz` grid of unit cubes at `origin`, each split into 6

@@ -1,6 +1,6 @@
-//! Small, independent mesh checks for the shape tests (deliberately not using
-//! the crate's topology / validate modules, so the generators are checked
-//! against code written separately).
+//! Mesh checks for the shape tests: the crate's own topology and geometry
+//! where it has them, plus checks it does not offer (vertex-fan
+//! manifoldness, winding numbers, triangle intersections, quality).
 
 use nalgebra::{Point3, Vector3};
 use std::collections::{BTreeMap, HashMap};
@@ -72,40 +72,27 @@ pub fn assert_oriented_manifold(tris: &[[u32; 3]]) {
     }
 }
 
-/// Boundary loops (vertex sequences following the boundary half-edges).
+/// Boundary loops (vertex sequences following the boundary half-edges),
+/// via [`crate::topology::boundary_loops`]; panics on a non-manifold rim.
 pub fn boundary_loops(tris: &[[u32; 3]]) -> Vec<Vec<u32>> {
-    let counts = edge_counts(tris);
-    let mut next: BTreeMap<u32, u32> = BTreeMap::new();
-    for t in tris {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            if counts[&(a.min(b), a.max(b))] == 1 {
-                assert!(
-                    next.insert(a, b).is_none(),
-                    "boundary vertex {a} visited twice"
-                );
-            }
-        }
-    }
-    let mut loops = Vec::new();
-    while let Some((&start, _)) = next.iter().next() {
-        let mut lp = vec![start];
-        let mut cur = next.remove(&start).unwrap();
-        while cur != start {
-            lp.push(cur);
-            cur = next.remove(&cur).expect("open boundary chain");
-        }
-        loops.push(lp);
-    }
-    loops
+    crate::topology::boundary_loops(&index_only(tris)).expect("manifold boundary")
 }
 
 /// Euler characteristic V - E + F of a triangle mesh (V = used vertices).
 pub fn euler_tri(tris: &[[u32; 3]]) -> i64 {
-    let mut vs: Vec<u32> = tris.iter().flatten().copied().collect();
-    vs.sort_unstable();
-    vs.dedup();
-    vs.len() as i64 - edge_counts(tris).len() as i64 + tris.len() as i64
+    crate::topology::euler_characteristic(&index_only(tris))
+}
+
+/// A mesh with the given triangles and placeholder positions, for the
+/// purely combinatorial queries.
+fn index_only(tris: &[[u32; 3]]) -> crate::TriMesh {
+    let n = tris
+        .iter()
+        .flatten()
+        .map(|&v| v as usize + 1)
+        .max()
+        .unwrap_or(0);
+    crate::TriMesh::new(vec![Point3::origin(); n], tris.to_vec())
 }
 
 /// Outward boundary faces of a positively oriented tet mesh (faces used by
@@ -166,12 +153,7 @@ pub fn area_vector_sum(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> Vector3<f64> {
 
 /// Signed volume enclosed by a closed oriented triangle surface.
 pub fn enclosed_volume(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
-    tris.iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| pos[i as usize].coords);
-            a.dot(&b.cross(&c)) / 6.0
-        })
-        .sum()
+    crate::geometry::enclosed_volume(&crate::TriMesh::new(pos.to_vec(), tris.to_vec()))
 }
 
 /// Smallest triangle area divided by the mean area.
