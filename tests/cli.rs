@@ -262,3 +262,70 @@ fn every_validation_error_through_the_cli() {
         assert_one_line_error(&unfold(&["info", path, "--strict"]), "validity problem");
     }
 }
+
+#[test]
+fn demo_writes_valid_shapes_an_image_and_their_info() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let o = unfold(&["demo", "-o", &out.display().to_string()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let info: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("info.json")).unwrap()).unwrap();
+    let files = info.as_object().unwrap();
+    assert!(files.len() >= 9, "{:?}", files.keys());
+    for (name, i) in files {
+        assert!(out.join(name).is_file(), "{name} listed but missing");
+        if i["kind"] == "mesh" {
+            assert_eq!(i["valid"], true, "{name}: {}", i["problems"]);
+        }
+    }
+    let slab = &files["placenta.vtu"];
+    assert_eq!(slab["mesh_type"], "tetrahedral");
+    assert_eq!(slab["components"], 1);
+    assert_eq!(slab["boundary_surface"]["euler_characteristic"], 2);
+    assert!(
+        slab["point_arrays"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["name"] == "side")
+    );
+    for leaflet in [
+        "valve_anterior.vtp",
+        "valve_posterior.vtp",
+        "ventricle_surface.vtp",
+    ] {
+        assert_eq!(
+            files[leaflet]["boundary_loops"].as_array().unwrap().len(),
+            1,
+            "{leaflet}"
+        );
+    }
+    let img = info_json(&out.join("placenta_mri.nii.gz").display().to_string());
+    assert_eq!(img["kind"], "image");
+    assert_eq!(img["datatype"], "float32");
+    assert_eq!(img["affine_source"], "sform");
+    let spacing: Vec<f64> = img["spacing_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        spacing.iter().all(|s| (s - 2.0).abs() < 1e-6),
+        "{spacing:?}"
+    );
+}
+
+#[test]
+fn converting_tets_to_a_surface_format_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["stl", "ply", "obj", "off", "vtp"] {
+        let out = dir.path().join(format!("heart.{ext}"));
+        let s = out.display().to_string();
+        assert_one_line_error(&unfold(&["convert", HEART_VTU, &s]), &s);
+        assert!(!out.exists(), "{ext}: a failed conversion left a file");
+    }
+    let out = dir.path().join("heart.msh").display().to_string();
+    assert_one_line_error(&unfold(&["convert", HEART_VTU, &out]), "Gmsh");
+}
