@@ -5,46 +5,12 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use unfold::io::{MeshFormat, WriteOptions, read_mesh, write_mesh};
-use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::{CellMesh, Field, TetMesh};
 
-/// A structured grid of `n[0] x n[1] x n[2]` cubes, each split into the 6
-/// Kuhn tets around its main diagonal: `6 n0 n1 n2` tets.
+/// A structured grid of `n[0] x n[1] x n[2]` boxes, 6 Kuhn tets each, with a
+/// cell label and a point scalar.
 fn kuhn_grid(n: [usize; 3]) -> TetMesh {
-    let id = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
-    let mut positions = Vec::new();
-    for k in 0..=n[2] {
-        for j in 0..=n[1] {
-            for i in 0..=n[0] {
-                positions.push(Point3::new(i as f64, j as f64, k as f64 * 1.5));
-            }
-        }
-    }
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    let mut tets = Vec::with_capacity(6 * n[0] * n[1] * n[2]);
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                for p in perms {
-                    let mut c = [i, j, k];
-                    let mut t = [id(i, j, k); 4];
-                    for (s, &axis) in p.iter().enumerate() {
-                        c[axis] += 1;
-                        t[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
-    let mut m = TetMesh::new(positions, tets);
+    let mut m = unfold::mesh::shapes::kuhn_grid(n, [1.0, 1.0, 1.5]);
     let labels = (0..m.num_tets() as i32).map(|t| t % 5).collect();
     m.add_cell_field(Field::labels("Material", labels)).unwrap();
     let x: Vec<f64> = m.positions.iter().map(|p| p.x.sin()).collect();

@@ -5,76 +5,19 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::time::Duration;
 use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{kuhn_grid, uv_sphere};
 use unfold::mesh::spatial::{ClosestPointQuery, TetLocator};
 use unfold::mesh::{TetMesh, TriMesh};
 
 /// `n^3` unit cubes, 6 Kuhn tets each (`6 n^3` tets).
 fn tet_grid(n: usize) -> TetMesh {
-    let id = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
-    let mut positions = Vec::with_capacity((n + 1).pow(3));
-    for k in 0..=n {
-        for j in 0..=n {
-            for i in 0..=n {
-                positions.push(Point3::new(i as f64, j as f64, k as f64));
-            }
-        }
-    }
-    let mut tets = Vec::with_capacity(6 * n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                for perm in [
-                    [0, 1, 2],
-                    [0, 2, 1],
-                    [1, 0, 2],
-                    [1, 2, 0],
-                    [2, 0, 1],
-                    [2, 1, 0],
-                ] {
-                    let mut c = [i, j, k];
-                    let mut tet = [id(i, j, k); 4];
-                    for (s, &axis) in perm.iter().enumerate() {
-                        c[axis] += 1;
-                        tet[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    tets.push(tet);
-                }
-            }
-        }
-    }
-    TetMesh::new(positions, tets)
+    kuhn_grid([n; 3], [1.0; 3])
 }
 
 /// Latitude-longitude unit sphere: `nu` segments around, `nv` rings
 /// (`2 nu (nv - 1)` triangles).
-fn uv_sphere(nu: usize, nv: usize) -> TriMesh {
-    let mut positions = vec![Point3::new(0.0, 0.0, 1.0)];
-    for r in 1..nv {
-        let th = std::f64::consts::PI * r as f64 / nv as f64;
-        for s in 0..nu {
-            let ph = std::f64::consts::TAU * s as f64 / nu as f64;
-            positions.push(Point3::new(
-                th.sin() * ph.cos(),
-                th.sin() * ph.sin(),
-                th.cos(),
-            ));
-        }
-    }
-    positions.push(Point3::new(0.0, 0.0, -1.0));
-    let ring = |r: usize, s: usize| (1 + (r - 1) * nu + s % nu) as u32;
-    let south = positions.len() as u32 - 1;
-    let mut tris = Vec::new();
-    for s in 0..nu {
-        tris.push([0, ring(1, s), ring(1, s + 1)]);
-        tris.push([south, ring(nv - 1, s + 1), ring(nv - 1, s)]);
-    }
-    for r in 1..nv - 1 {
-        for s in 0..nu {
-            tris.push([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
-            tris.push([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
-        }
-    }
-    TriMesh::new(positions, tris)
+fn sphere(nu: usize, nv: usize) -> TriMesh {
+    uv_sphere(nv, nu, 1.0)
 }
 
 /// Deterministic pseudo-random points in `[lo, hi]^3`.
@@ -99,7 +42,7 @@ fn spatial(c: &mut Criterion) {
 
     let grid = tet_grid(26);
     assert_eq!(grid.tets.len(), 105_456);
-    let sphere = uv_sphere(100, 101);
+    let sphere = sphere(100, 101);
     assert_eq!(sphere.triangles.len(), 20_000);
     g.bench_function("tet_locator_build_105k_tets", |b| {
         b.iter(|| TetLocator::new(black_box(&grid)))

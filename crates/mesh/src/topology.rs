@@ -543,62 +543,7 @@ pub(crate) mod test_meshes {
         m
     }
 
-    /// A UV sphere of radius `r` with `n_lat` latitude bands and `n_lon`
-    /// longitudes: `(n_lat - 1) n_lon + 2` vertices, outward ccw triangles.
-    pub fn uv_sphere(n_lat: usize, n_lon: usize, r: f64) -> TriMesh {
-        let mut positions = vec![Point3::new(0.0, 0.0, r)];
-        for i in 1..n_lat {
-            let th = std::f64::consts::PI * i as f64 / n_lat as f64;
-            for j in 0..n_lon {
-                let ph = 2.0 * std::f64::consts::PI * j as f64 / n_lon as f64;
-                positions.push(Point3::new(
-                    r * th.sin() * ph.cos(),
-                    r * th.sin() * ph.sin(),
-                    r * th.cos(),
-                ));
-            }
-        }
-        let south = positions.len() as u32;
-        positions.push(Point3::new(0.0, 0.0, -r));
-        let ring = |i: usize, j: usize| (1 + (i - 1) * n_lon + j % n_lon) as u32;
-        let mut tris = Vec::new();
-        for j in 0..n_lon {
-            tris.push([0, ring(1, j), ring(1, j + 1)]);
-        }
-        for i in 1..n_lat - 1 {
-            for j in 0..n_lon {
-                let (a, b) = (ring(i, j), ring(i, j + 1));
-                let (c, d) = (ring(i + 1, j + 1), ring(i + 1, j));
-                tris.push([a, d, c]);
-                tris.push([a, c, b]);
-            }
-        }
-        for j in 0..n_lon {
-            tris.push([south, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)]);
-        }
-        TriMesh::new(positions, tris)
-    }
-
-    /// A planar `nx × ny` grid of squares in z = 0, each split in two,
-    /// counter-clockwise seen from +z (a disk).
-    pub fn grid_disk(nx: usize, ny: usize) -> TriMesh {
-        let id = |x: usize, y: usize| (x + (nx + 1) * y) as u32;
-        let mut positions = Vec::new();
-        for y in 0..=ny {
-            for x in 0..=nx {
-                positions.push(Point3::new(x as f64, y as f64, 0.0));
-            }
-        }
-        let mut tris = Vec::new();
-        for y in 0..ny {
-            for x in 0..nx {
-                let (a, b, c, d) = (id(x, y), id(x + 1, y), id(x + 1, y + 1), id(x, y + 1));
-                tris.push([a, b, c]);
-                tris.push([a, c, d]);
-            }
-        }
-        TriMesh::new(positions, tris)
-    }
+    pub use crate::shapes::primitives::{grid_disk, uv_sphere};
 
     /// A planar annulus with `rings` bands of `around` quads (split in two),
     /// counter-clockwise seen from +z.

@@ -17,6 +17,7 @@
 //!   leaflets that coapt without intersecting ([`ValveShape`]).
 
 mod placenta;
+pub mod primitives;
 mod valve;
 mod ventricle;
 
@@ -27,6 +28,7 @@ pub use placenta::{
     PlacentaParams, PlacentaShape, SIDE_FETAL, SIDE_INTERIOR, SIDE_MATERNAL, SIDE_RIM,
     placenta_slab,
 };
+pub use primitives::{grid_disk, kuhn_grid, uv_sphere};
 pub use valve::{ValveParams, ValveShape, mitral_valve};
 pub use ventricle::{VentricleParams, VentricleShape, ventricle_cup};
 
