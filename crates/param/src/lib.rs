@@ -1,8 +1,33 @@
-//! unfold-param: the parameterization framework (energies, templates,
-//! initializers, injective line searches, solvers, metrics).
+//! unfold-param: the parameterization framework.
 //!
-//! The framework itself arrives with its own issue; for now the crate only
-//! re-exports the mesh types it builds on, so the dependency direction of the
-//! workspace (`param -> mesh`) is in place.
+//! The problem is always (DESIGN.md, ALGORITHMS 1-2)
+//!
+//! ```text
+//! minimize  sum_m w_m T(x_m, theta)  +  lambda sum_k V_k D(J_k)
+//! subject to every element staying positively oriented, fixed vertices fixed
+//! ```
+//!
+//! and its pieces are traits, so a method developer adds one without
+//! touching the rest: [`DistortionEnergy`] (a function of the singular values
+//! of `J`), [`Template`] (the boundary penalty), [`Initializer`] (a valid
+//! starting map), [`LineSearch`] (bounded by the first flip) and the solvers
+//! (gradient descent, the placenta paper's baseline; projected Newton, the
+//! default) reporting every iteration to [`Observer`]s.
 
+pub mod energy;
+mod error;
+pub mod initializer;
+pub mod linesearch;
+pub mod metrics;
+pub mod operators;
+pub mod rest;
+pub mod sparse;
+pub mod template;
+
+pub use energy::DistortionEnergy;
+pub use error::ParamError;
+pub use initializer::Initializer;
+pub use linesearch::{LineSearch, LineSearchResult};
+pub use rest::{ParamMesh, RestElements};
+pub use template::Template;
 pub use unfold_mesh as mesh;

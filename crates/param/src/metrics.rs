@@ -1,0 +1,1 @@
+//! Distortion metrics (in progress).

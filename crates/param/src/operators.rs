@@ -1,0 +1,1 @@
+//! Operators used across organs (in progress).
