@@ -19,15 +19,22 @@ mod error;
 pub mod initializer;
 pub mod linesearch;
 pub mod metrics;
+pub mod objective;
 pub mod operators;
 pub mod rest;
+pub mod solver;
 pub mod sparse;
 pub mod template;
 
 pub use energy::DistortionEnergy;
 pub use error::ParamError;
 pub use initializer::Initializer;
-pub use linesearch::{LineSearch, LineSearchResult};
+pub use linesearch::{Backtracking, LineSearch, LineSearchResult};
+pub use objective::{Objective, TemplateTerm};
 pub use rest::{ParamMesh, RestElements};
+pub use solver::{
+    GradientDescent, History, Iteration, Observer, ProjectedNewton, SolveReport, Solver,
+    StopReason, Stopping,
+};
 pub use template::Template;
 pub use unfold_mesh as mesh;

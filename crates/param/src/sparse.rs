@@ -93,6 +93,23 @@ impl SpdPattern {
         &self.diagonal
     }
 
+    /// `y = A x` for the symmetric matrix with these (upper triangle) values.
+    pub fn multiply(&self, values: &[f64], x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.n];
+        let col_ptr = self.symbolic.col_ptr();
+        let row_idx = self.symbolic.row_idx();
+        for c in 0..self.n {
+            for s in col_ptr[c]..col_ptr[c + 1] {
+                let (r, v) = (row_idx[s], values[s]);
+                y[r] += v * x[c];
+                if r != c {
+                    y[c] += v * x[r];
+                }
+            }
+        }
+        y
+    }
+
     /// Numeric Cholesky factorization of the matrix with these (upper
     /// triangle) values. When it fails (not positive definite), retries with
     /// the diagonal shifted by `shift * max|diag|`, multiplying the shift by
@@ -245,6 +262,8 @@ mod tests {
         }
         let (f, shift) = p.factorize(&v, 1e-8, 8).unwrap();
         assert_eq!(shift, 0.0);
+        let ones = vec![1.0; n];
+        assert_eq!(p.multiply(&v, &ones), multiply(n, &t, &ones));
         let mut b = vec![1.0; n];
         f.solve_in_place(&mut b).unwrap();
         assert!((multiply(n, &t, &b)[2] - 1.0).abs() < 1e-12);

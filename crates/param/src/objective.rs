@@ -1,0 +1,717 @@
+//! The objective `phi(X, theta) = sum_m w_m T(x_m, theta) + lambda sum_k V_k
+//! D(J_k)` over a [`ParamMesh`], with fixed vertices; value, gradient and
+//! PSD-projected Hessian assembled in parallel into a fixed sparsity pattern
+//! (ALGORITHMS 1.1, 1.2, 2.1).
+
+use crate::energy::{HessianMode, density2, density3, eval2, eval3};
+use crate::sparse::SpdPattern;
+use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
+use nalgebra::{Matrix2, Matrix3};
+use rayon::prelude::*;
+
+/// The template part of the objective: `sum_m weights[m] T(m, labels[m],
+/// x_m, theta)`; vertices with weight 0 carry no term.
+#[derive(Debug, Clone, Copy)]
+pub struct TemplateTerm<'a> {
+    /// The template.
+    pub template: &'a dyn Template,
+    /// Per-vertex labels (template-specific meaning).
+    pub labels: &'a [u8],
+    /// Per-vertex weights (e.g. normalized boundary vertex areas).
+    pub weights: &'a [f64],
+}
+
+/// The template parameters' part of the joint Newton system
+/// `[A B; B^T C] [dx; dtheta] = -[g_x; g_theta]` (ALGORITHMS 1.5: theta
+/// optimized jointly with X). `A` is the sparse Hessian in x.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThetaBlock {
+    /// Number of parameters `p`.
+    pub p: usize,
+    /// `B = d2phi/(dx dtheta)`, dense, column-major (`p` columns of
+    /// `len()`), zero on fixed vertices.
+    pub b: Vec<f64>,
+    /// `C = d2phi/dtheta2`, row-major `p x p`.
+    pub c: Vec<f64>,
+    /// `g_theta = dphi/dtheta`.
+    pub g: Vec<f64>,
+}
+
+/// Slot marking "not stored" in the element slot maps.
+const NONE: u32 = u32::MAX;
+
+/// The objective of a parameterization problem. Construction precomputes
+/// the Hessian sparsity pattern (with its symbolic Cholesky analysis) and the
+/// element -> value-slot maps, so every Newton iteration only evaluates and
+/// scatters.
+#[derive(Debug)]
+pub struct Objective<'a> {
+    mesh: &'a ParamMesh,
+    energy: &'a dyn DistortionEnergy,
+    lambda: f64,
+    template: Option<TemplateTerm<'a>>,
+    fixed: Vec<bool>,
+    pattern: Option<SpdPattern>,
+    /// Per element, `(dim * nv)^2` slots (row-major local DOF pairs; only
+    /// pairs with global row <= column and both DOFs free are stored).
+    element_slots: Vec<u32>,
+    /// Per template vertex (weight > 0), `dim^2` slots.
+    vertex_slots: Vec<(u32, Vec<u32>)>,
+}
+
+impl<'a> Objective<'a> {
+    /// An objective over `mesh` with distortion `energy` weighted by
+    /// `lambda`, an optional template term, and `fixed[v]` vertices kept at
+    /// their starting positions (empty = none fixed).
+    pub fn new(
+        mesh: &'a ParamMesh,
+        energy: &'a dyn DistortionEnergy,
+        lambda: f64,
+        template: Option<TemplateTerm<'a>>,
+        fixed: &[bool],
+    ) -> Result<Self, ParamError> {
+        let n = mesh.num_vertices();
+        if !(lambda.is_finite() && lambda >= 0.0) {
+            return Err(ParamError::InvalidArgument(format!(
+                "lambda must be finite and >= 0, got {lambda}"
+            )));
+        }
+        if let Some(t) = &template {
+            for (what, len) in [
+                ("template labels", t.labels.len()),
+                ("template weights", t.weights.len()),
+            ] {
+                if len != n {
+                    return Err(ParamError::Length {
+                        what,
+                        expected: n,
+                        found: len,
+                    });
+                }
+            }
+            if t.weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
+                return Err(ParamError::InvalidArgument(
+                    "template weights must be finite and >= 0".into(),
+                ));
+            }
+        }
+        let fixed = if fixed.is_empty() {
+            vec![false; n]
+        } else {
+            fixed.to_vec()
+        };
+        if fixed.len() != n {
+            return Err(ParamError::Length {
+                what: "fixed flags",
+                expected: n,
+                found: fixed.len(),
+            });
+        }
+        Ok(Objective {
+            mesh,
+            energy,
+            lambda,
+            template,
+            fixed,
+            pattern: None,
+            element_slots: Vec::new(),
+            vertex_slots: Vec::new(),
+        })
+    }
+
+    /// The rest mesh.
+    pub fn mesh(&self) -> &ParamMesh {
+        self.mesh
+    }
+
+    /// Mapped dimension (2 or 3).
+    pub fn dim(&self) -> usize {
+        self.mesh.dim()
+    }
+
+    /// Number of unknowns (`dim * vertices`, fixed ones included).
+    pub fn len(&self) -> usize {
+        self.dim() * self.mesh.num_vertices()
+    }
+
+    /// Whether the problem has no unknowns.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Per-vertex fixed flags.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+
+    /// Whether the template parameters are unknowns of the Newton system
+    /// (a template with parameters that wants them optimized).
+    pub fn joint_theta(&self, theta: &[f64]) -> bool {
+        matches!(&self.template, Some(t) if !theta.is_empty() && theta.len() <= 5 && t.template.optimize_theta())
+    }
+
+    /// The template term, if any.
+    pub fn template(&self) -> Option<&TemplateTerm<'a>> {
+        self.template.as_ref()
+    }
+
+    /// The distortion energy.
+    pub fn energy(&self) -> &dyn DistortionEnergy {
+        self.energy
+    }
+
+    /// Checks the length of a position vector.
+    pub fn check_len(&self, x: &[f64]) -> Result<(), ParamError> {
+        if x.len() != self.len() {
+            return Err(ParamError::Length {
+                what: "positions",
+                expected: self.len(),
+                found: x.len(),
+            });
+        }
+        Ok(())
+    }
+
+    /// `sum_k V_k D(J_k)` (without lambda): the distortion part; INFINITY
+    /// when a barrier energy meets an inverted element.
+    pub fn distortion(&self, x: &[f64]) -> f64 {
+        let m = self.mesh;
+        match &m.elements {
+            RestElements::Tets { tets, dm_inv } => (0..tets.len())
+                .into_par_iter()
+                .map(|k| m.weight[k] * density3(self.energy, &jacobian3(x, &tets[k], &dm_inv[k])))
+                .sum(),
+            RestElements::Tris { tris, dm_inv } => (0..tris.len())
+                .into_par_iter()
+                .map(|k| m.weight[k] * density2(self.energy, &jacobian2(x, &tris[k], &dm_inv[k])))
+                .sum(),
+        }
+    }
+
+    /// The template part `sum_m w_m T(x_m, theta)` (0 without a template).
+    pub fn template_value(&self, x: &[f64], theta: &[f64]) -> f64 {
+        let Some(t) = &self.template else { return 0.0 };
+        let d = self.dim();
+        (0..self.mesh.num_vertices())
+            .filter(|&v| t.weights[v] > 0.0)
+            .map(|v| {
+                t.weights[v]
+                    * t.template
+                        .value(v, t.labels[v], &x[d * v..d * v + d], theta)
+            })
+            .sum()
+    }
+
+    /// `phi(x, theta)`.
+    pub fn value(&self, x: &[f64], theta: &[f64]) -> f64 {
+        let dist = self.distortion(x);
+        if !dist.is_finite() {
+            return f64::INFINITY;
+        }
+        self.lambda * dist + self.template_value(x, theta)
+    }
+
+    /// `phi` and its gradient in `x` (zero on fixed vertices).
+    pub fn value_gradient(&self, x: &[f64], theta: &[f64], grad: &mut [f64]) -> f64 {
+        let d = self.dim();
+        grad.iter_mut().for_each(|g| *g = 0.0);
+        let m = self.mesh;
+        let lambda = self.lambda;
+        // Element gradients in parallel, then a serial scatter.
+        let value = match &m.elements {
+            RestElements::Tets { tets, dm_inv } => {
+                let parts: Vec<(f64, [f64; 12])> = (0..tets.len())
+                    .into_par_iter()
+                    .map(|k| {
+                        let f = jacobian3(x, &tets[k], &dm_inv[k]);
+                        match eval3(self.energy, &f, HessianMode::None) {
+                            Some(e) => {
+                                let w = lambda * m.weight[k];
+                                (w * e.value, vertex_gradient3(&(e.grad * w), &dm_inv[k]))
+                            }
+                            None => (f64::INFINITY, [0.0; 12]),
+                        }
+                    })
+                    .collect();
+                let mut v = 0.0;
+                for (k, (val, g)) in parts.iter().enumerate() {
+                    v += val;
+                    for (a, &vi) in tets[k].iter().enumerate() {
+                        for i in 0..3 {
+                            grad[3 * vi as usize + i] += g[3 * a + i];
+                        }
+                    }
+                }
+                v
+            }
+            RestElements::Tris { tris, dm_inv } => {
+                let parts: Vec<(f64, [f64; 6])> = (0..tris.len())
+                    .into_par_iter()
+                    .map(|k| {
+                        let f = jacobian2(x, &tris[k], &dm_inv[k]);
+                        match eval2(self.energy, &f, HessianMode::None) {
+                            Some(e) => {
+                                let w = lambda * m.weight[k];
+                                (w * e.value, vertex_gradient2(&(e.grad * w), &dm_inv[k]))
+                            }
+                            None => (f64::INFINITY, [0.0; 6]),
+                        }
+                    })
+                    .collect();
+                let mut v = 0.0;
+                for (k, (val, g)) in parts.iter().enumerate() {
+                    v += val;
+                    for (a, &vi) in tris[k].iter().enumerate() {
+                        for i in 0..2 {
+                            grad[2 * vi as usize + i] += g[2 * a + i];
+                        }
+                    }
+                }
+                v
+            }
+        };
+        let mut value = value;
+        if let Some(t) = &self.template {
+            let mut g = [0.0; 3];
+            for v in 0..m.num_vertices() {
+                let w = t.weights[v];
+                if w > 0.0 {
+                    let xv = &x[d * v..d * v + d];
+                    value += w * t.template.value(v, t.labels[v], xv, theta);
+                    t.template.gradient(v, t.labels[v], xv, theta, &mut g[..d]);
+                    for i in 0..d {
+                        grad[d * v + i] += w * g[i];
+                    }
+                }
+            }
+        }
+        for (v, &f) in self.fixed.iter().enumerate() {
+            if f {
+                grad[d * v..d * v + d].iter_mut().for_each(|g| *g = 0.0);
+            }
+        }
+        value
+    }
+
+    /// The Hessian's sparsity pattern (built and analysed on first use).
+    pub fn pattern(&mut self) -> Result<&SpdPattern, ParamError> {
+        if self.pattern.is_none() {
+            self.build_pattern()?;
+        }
+        self.pattern
+            .as_ref()
+            .ok_or_else(|| ParamError::Factorization("no pattern".into()))
+    }
+
+    fn build_pattern(&mut self) -> Result<(), ParamError> {
+        let d = self.dim();
+        let n = self.len();
+        let free = |v: u32| !self.fixed[v as usize];
+        let mut entries: Vec<(u32, u32)> = Vec::new();
+        for e in 0..self.mesh.num_elements() {
+            let vs = self.mesh.element(e);
+            for &a in vs {
+                for &b in vs {
+                    if free(a) && free(b) {
+                        for i in 0..d {
+                            for j in 0..d {
+                                let (p, q) =
+                                    ((d * a as usize + i) as u32, (d * b as usize + j) as u32);
+                                if p <= q {
+                                    entries.push((p, q));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        entries.sort_unstable();
+        entries.dedup();
+        let pattern = SpdPattern::new(n, entries)?;
+        // Element slot maps.
+        let nv = d + 1;
+        let ld = d * nv;
+        let mut slots = Vec::with_capacity(self.mesh.num_elements() * ld * ld);
+        for e in 0..self.mesh.num_elements() {
+            let vs = self.mesh.element(e);
+            for r in 0..ld {
+                for c in 0..ld {
+                    let (va, vb) = (vs[r / d], vs[c / d]);
+                    let p = (d * va as usize + r % d) as u32;
+                    let q = (d * vb as usize + c % d) as u32;
+                    let s = if p <= q && free(va) && free(vb) {
+                        pattern.slot(p, q).map_or(NONE, |s| s as u32)
+                    } else {
+                        NONE
+                    };
+                    slots.push(s);
+                }
+            }
+        }
+        let mut vertex_slots = Vec::new();
+        if let Some(t) = &self.template {
+            for v in 0..self.mesh.num_vertices() as u32 {
+                if t.weights[v as usize] > 0.0 && free(v) {
+                    let mut s = Vec::with_capacity(d * d);
+                    for i in 0..d {
+                        for j in 0..d {
+                            let (p, q) = ((d * v as usize + i) as u32, (d * v as usize + j) as u32);
+                            s.push(if p <= q {
+                                pattern.slot(p, q).map_or(NONE, |s| s as u32)
+                            } else {
+                                NONE
+                            });
+                        }
+                    }
+                    vertex_slots.push((v, s));
+                }
+            }
+        }
+        self.element_slots = slots;
+        self.vertex_slots = vertex_slots;
+        self.pattern = Some(pattern);
+        Ok(())
+    }
+
+    /// The PSD-projected Hessian of `phi` in `x` as values in
+    /// [`Objective::pattern`]'s slots; rows and columns of fixed vertices
+    /// are the identity. When the template parameters are unknowns too
+    /// ([`Objective::joint_theta`]), each template vertex's joint
+    /// `(x, theta)` block is projected as a whole and the parameter part of
+    /// the system is returned.
+    pub fn hessian(
+        &mut self,
+        x: &[f64],
+        theta: &[f64],
+        values: &mut Vec<f64>,
+    ) -> Result<Option<ThetaBlock>, ParamError> {
+        self.pattern()?;
+        let pattern = self
+            .pattern
+            .as_ref()
+            .ok_or_else(|| ParamError::Factorization("no pattern".into()))?;
+        values.clear();
+        values.resize(pattern.nnz(), 0.0);
+        let d = self.dim();
+        let m = self.mesh;
+        let lambda = self.lambda;
+        match &m.elements {
+            RestElements::Tets { tets, dm_inv } => {
+                let local: Vec<[f64; 144]> = (0..tets.len())
+                    .into_par_iter()
+                    .map(|k| {
+                        let f = jacobian3(x, &tets[k], &dm_inv[k]);
+                        let mut h = [0.0; 144];
+                        if let Some(e) = eval3(self.energy, &f, HessianMode::Projected)
+                            && let Some(hf) = e.hess
+                        {
+                            vertex_hessian3(&hf, &dm_inv[k], lambda * m.weight[k], &mut h);
+                        }
+                        h
+                    })
+                    .collect();
+                for (k, h) in local.iter().enumerate() {
+                    let s = &self.element_slots[k * 144..(k + 1) * 144];
+                    for (slot, v) in s.iter().zip(h) {
+                        if *slot != NONE {
+                            values[*slot as usize] += v;
+                        }
+                    }
+                }
+            }
+            RestElements::Tris { tris, dm_inv } => {
+                let local: Vec<[f64; 36]> = (0..tris.len())
+                    .into_par_iter()
+                    .map(|k| {
+                        let f = jacobian2(x, &tris[k], &dm_inv[k]);
+                        let mut h = [0.0; 36];
+                        if let Some(e) = eval2(self.energy, &f, HessianMode::Projected)
+                            && let Some(hf) = e.hess
+                        {
+                            vertex_hessian2(&hf, &dm_inv[k], lambda * m.weight[k], &mut h);
+                        }
+                        h
+                    })
+                    .collect();
+                for (k, h) in local.iter().enumerate() {
+                    let s = &self.element_slots[k * 36..(k + 1) * 36];
+                    for (slot, v) in s.iter().zip(h) {
+                        if *slot != NONE {
+                            values[*slot as usize] += v;
+                        }
+                    }
+                }
+            }
+        }
+        let joint = self.joint_theta(theta);
+        let mut block = None;
+        if let Some(t) = &self.template {
+            let p = theta.len();
+            let mut tb = ThetaBlock {
+                p,
+                b: vec![0.0; p * self.len()],
+                c: vec![0.0; p * p],
+                g: vec![0.0; p],
+            };
+            let mut h = [0.0; 9];
+            let mut slot_of = vec![None; self.mesh.num_vertices()];
+            for (i, (v, _)) in self.vertex_slots.iter().enumerate() {
+                slot_of[*v as usize] = Some(i);
+            }
+            let mut gt = [0.0; 8];
+            for v in 0..self.mesh.num_vertices() {
+                let w = t.weights[v];
+                if w <= 0.0 {
+                    continue;
+                }
+                let xv = &x[d * v..d * v + d];
+                if joint {
+                    t.template
+                        .theta_gradient(v, t.labels[v], xv, theta, &mut gt[..p]);
+                    for (gj, gtj) in tb.g.iter_mut().zip(&gt[..p]) {
+                        *gj += w * gtj;
+                    }
+                }
+                if self.fixed[v] {
+                    if joint {
+                        let mut c = [0.0; 64];
+                        t.template
+                            .theta_hessian(v, t.labels[v], xv, theta, &mut c[..p * p]);
+                        for (k, cv) in c[..p * p].iter().enumerate() {
+                            tb.c[k] += w * cv;
+                        }
+                    }
+                    continue;
+                }
+                let Some(si) = slot_of[v] else { continue };
+                if joint {
+                    let j = joint_block(t.template, v, t.labels[v], xv, theta);
+                    let m = d + p;
+                    for r in 0..d {
+                        for c in 0..d {
+                            h[r * d + c] = j[r * m + c];
+                        }
+                        for c in 0..p {
+                            tb.b[c * self.len() + d * v + r] += w * j[r * m + d + c];
+                        }
+                    }
+                    for r in 0..p {
+                        for c in 0..p {
+                            tb.c[r * p + c] += w * j[(d + r) * m + d + c];
+                        }
+                    }
+                } else {
+                    t.template
+                        .hessian(v, t.labels[v], xv, theta, &mut h[..d * d]);
+                }
+                for (slot, hv) in self.vertex_slots[si].1.iter().zip(&h[..d * d]) {
+                    if *slot != NONE {
+                        values[*slot as usize] += w * hv;
+                    }
+                }
+            }
+            if joint {
+                block = Some(tb);
+            }
+        }
+        for (v, &f) in self.fixed.iter().enumerate() {
+            if f {
+                for i in 0..d {
+                    let p = (d * v + i) as u32;
+                    if let Some(s) = pattern.slot(p, p) {
+                        values[s] = 1.0;
+                    }
+                }
+            }
+        }
+        Ok(block)
+    }
+
+    /// Lets the template improve its parameters for fixed `x`
+    /// ([`Template::update_theta`]); false when it has no such update.
+    pub fn update_theta(&self, x: &[f64], theta: &mut [f64]) -> bool {
+        match &self.template {
+            Some(t) if !theta.is_empty() => {
+                t.template
+                    .update_theta(t.labels, x, self.dim(), t.weights, theta)
+            }
+            _ => false,
+        }
+    }
+
+    /// The largest step along `dir` before an element flips.
+    pub fn max_step(&self, x: &[f64], dir: &[f64]) -> f64 {
+        match &self.mesh.elements {
+            RestElements::Tets { tets, .. } => crate::linesearch::max_step_tets(tets, x, dir),
+            RestElements::Tris { tris, .. } => crate::linesearch::max_step_tris(tris, x, dir),
+        }
+    }
+}
+
+/// `J = Ds Dm^-1` of tet `t` at positions `x` (3 per vertex).
+#[inline]
+pub fn jacobian3(x: &[f64], t: &[u32; 4], dm_inv: &Matrix3<f64>) -> Matrix3<f64> {
+    let p = |v: u32| {
+        let i = 3 * v as usize;
+        nalgebra::Vector3::new(x[i], x[i + 1], x[i + 2])
+    };
+    let a = p(t[0]);
+    Matrix3::from_columns(&[p(t[1]) - a, p(t[2]) - a, p(t[3]) - a]) * dm_inv
+}
+
+/// `J = Ds Dm^-1` of triangle `t` at planar positions `x` (2 per vertex).
+#[inline]
+pub fn jacobian2(x: &[f64], t: &[u32; 3], dm_inv: &Matrix2<f64>) -> Matrix2<f64> {
+    let p = |v: u32| {
+        let i = 2 * v as usize;
+        nalgebra::Vector2::new(x[i], x[i + 1])
+    };
+    let a = p(t[0]);
+    Matrix2::from_columns(&[p(t[1]) - a, p(t[2]) - a]) * dm_inv
+}
+
+/// `P[v][j] = dF_ij / dx_{v,i}` for the 4 corners: `P[0] = -sum_k Dm^-1[k]`,
+/// `P[v] = Dm^-1[v-1]` (rows of `Dm^-1`).
+#[inline]
+fn corner_map3(dm_inv: &Matrix3<f64>) -> [[f64; 3]; 4] {
+    let mut p = [[0.0; 3]; 4];
+    for j in 0..3 {
+        for k in 0..3 {
+            p[k + 1][j] = dm_inv[(k, j)];
+            p[0][j] -= dm_inv[(k, j)];
+        }
+    }
+    p
+}
+
+#[inline]
+fn corner_map2(dm_inv: &Matrix2<f64>) -> [[f64; 2]; 3] {
+    let mut p = [[0.0; 2]; 3];
+    for j in 0..2 {
+        for k in 0..2 {
+            p[k + 1][j] = dm_inv[(k, j)];
+            p[0][j] -= dm_inv[(k, j)];
+        }
+    }
+    p
+}
+
+/// Vertex gradient of a tet from `G = dE/dF`: `dE/dx_{v,i} = sum_j G_ij P[v][j]`.
+#[inline]
+fn vertex_gradient3(g: &Matrix3<f64>, dm_inv: &Matrix3<f64>) -> [f64; 12] {
+    let p = corner_map3(dm_inv);
+    let mut out = [0.0; 12];
+    for v in 0..4 {
+        for i in 0..3 {
+            out[3 * v + i] = (0..3).map(|j| g[(i, j)] * p[v][j]).sum();
+        }
+    }
+    out
+}
+
+#[inline]
+fn vertex_gradient2(g: &Matrix2<f64>, dm_inv: &Matrix2<f64>) -> [f64; 6] {
+    let p = corner_map2(dm_inv);
+    let mut out = [0.0; 6];
+    for v in 0..3 {
+        for i in 0..2 {
+            out[2 * v + i] = (0..2).map(|j| g[(i, j)] * p[v][j]).sum();
+        }
+    }
+    out
+}
+
+/// `H_x[(v,i),(w,k)] = w sum_{j,l} P[v][j] P[w][l] H_F[i+3j, k+3l]` (12x12,
+/// row-major local DOF `3 v + i`).
+#[inline]
+fn vertex_hessian3(
+    hf: &nalgebra::SMatrix<f64, 9, 9>,
+    dm_inv: &Matrix3<f64>,
+    w: f64,
+    out: &mut [f64; 144],
+) {
+    let p = corner_map3(dm_inv);
+    for v in 0..4 {
+        for i in 0..3 {
+            let r = 3 * v + i;
+            for u in 0..4 {
+                for k in 0..3 {
+                    let c = 3 * u + k;
+                    let mut s = 0.0;
+                    for j in 0..3 {
+                        for l in 0..3 {
+                            s += p[v][j] * p[u][l] * hf[(i + 3 * j, k + 3 * l)];
+                        }
+                    }
+                    out[12 * r + c] = w * s;
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn vertex_hessian2(
+    hf: &nalgebra::Matrix4<f64>,
+    dm_inv: &Matrix2<f64>,
+    w: f64,
+    out: &mut [f64; 36],
+) {
+    let p = corner_map2(dm_inv);
+    for v in 0..3 {
+        for i in 0..2 {
+            let r = 2 * v + i;
+            for u in 0..3 {
+                for k in 0..2 {
+                    let c = 2 * u + k;
+                    let mut s = 0.0;
+                    for j in 0..2 {
+                        for l in 0..2 {
+                            s += p[v][j] * p[u][l] * hf[(i + 2 * j, k + 2 * l)];
+                        }
+                    }
+                    out[6 * r + c] = w * s;
+                }
+            }
+        }
+    }
+}
+
+/// The joint `(x, theta)` Hessian block of one template vertex (row-major
+/// `(d + p)^2`), projected to positive semidefinite by clamping its
+/// eigenvalues at 0.
+fn joint_block(t: &dyn Template, v: usize, label: u8, x: &[f64], theta: &[f64]) -> Vec<f64> {
+    let (d, p) = (x.len(), theta.len());
+    let m = d + p;
+    let mut hx = [0.0; 9];
+    let mut mixed = [0.0; 24];
+    let mut c = [0.0; 64];
+    t.hessian(v, label, x, theta, &mut hx[..d * d]);
+    t.mixed_hessian(v, label, x, theta, &mut mixed[..d * p]);
+    t.theta_hessian(v, label, x, theta, &mut c[..p * p]);
+    let mut full = nalgebra::DMatrix::<f64>::zeros(m, m);
+    for r in 0..d {
+        for k in 0..d {
+            full[(r, k)] = hx[r * d + k];
+        }
+        for j in 0..p {
+            full[(r, d + j)] = mixed[r * p + j];
+            full[(d + j, r)] = mixed[r * p + j];
+        }
+    }
+    for i in 0..p {
+        for j in 0..p {
+            full[(d + i, d + j)] = c[i * p + j];
+        }
+    }
+    let eig = nalgebra::SymmetricEigen::new(full.clone());
+    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return full.transpose().as_slice().to_vec();
+    }
+    let clamped = nalgebra::DVector::from_iterator(m, eig.eigenvalues.iter().map(|&l| l.max(0.0)));
+    let proj = &eig.eigenvectors
+        * nalgebra::DMatrix::from_diagonal(&clamped)
+        * eig.eigenvectors.transpose();
+    proj.transpose().as_slice().to_vec()
+}
