@@ -1,6 +1,7 @@
 //! Subcommands of the `unfold` binary, one module each.
 
 mod convert;
+mod deform;
 mod demo;
 mod info;
 
@@ -59,6 +60,8 @@ enum Command {
     Convert(convert::ConvertArgs),
     /// Write the built-in synthetic shapes (and their info) to a directory.
     Demo(demo::DemoArgs),
+    /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
+    Deform(deform::DeformArgs),
 }
 
 /// Runs a parsed command line.
@@ -67,6 +70,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Info(a) => info::run(&a),
         Command::Convert(a) => convert::run(&a),
         Command::Demo(a) => demo::run(&a),
+        Command::Deform(a) => deform::run(&a),
     }
 }
 

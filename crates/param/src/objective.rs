@@ -386,6 +386,18 @@ impl<'a> Objective<'a> {
         theta: &[f64],
         values: &mut Vec<f64>,
     ) -> Result<Option<ThetaBlock>, ParamError> {
+        self.hessian_with(x, theta, values, HessianMode::Projected)
+    }
+
+    /// As [`Objective::hessian`], with the element Hessians evaluated in
+    /// `mode` ([`HessianMode::Exact`]: unprojected, possibly indefinite).
+    pub fn hessian_with(
+        &mut self,
+        x: &[f64],
+        theta: &[f64],
+        values: &mut Vec<f64>,
+        mode: HessianMode,
+    ) -> Result<Option<ThetaBlock>, ParamError> {
         self.pattern()?;
         let pattern = self
             .pattern
@@ -403,7 +415,7 @@ impl<'a> Objective<'a> {
                     .map(|k| {
                         let f = jacobian3(x, &tets[k], &dm_inv[k]);
                         let mut h = [0.0; 144];
-                        if let Some(e) = eval3(self.energy, &f, HessianMode::Projected)
+                        if let Some(e) = eval3(self.energy, &f, mode)
                             && let Some(hf) = e.hess
                         {
                             vertex_hessian3(&hf, &dm_inv[k], lambda * m.weight[k], &mut h);
@@ -426,7 +438,7 @@ impl<'a> Objective<'a> {
                     .map(|k| {
                         let f = jacobian2(x, &tris[k], &dm_inv[k]);
                         let mut h = [0.0; 36];
-                        if let Some(e) = eval2(self.energy, &f, HessianMode::Projected)
+                        if let Some(e) = eval2(self.energy, &f, mode)
                             && let Some(hf) = e.hess
                         {
                             vertex_hessian2(&hf, &dm_inv[k], lambda * m.weight[k], &mut h);

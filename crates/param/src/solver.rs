@@ -3,6 +3,7 @@
 //! line search, reporting every iteration to an [`Observer`]
 //! (ALGORITHMS 1.4, 1.5).
 
+use crate::energy::HessianMode;
 use crate::linesearch::Backtracking;
 use crate::objective::Objective;
 use crate::{LineSearch, ParamError};
@@ -345,7 +346,12 @@ impl Solver for GradientDescent {
 /// PSD-projected element Hessians and the template Hessian (sparse
 /// Cholesky; the symbolic analysis is done once, a diagonal shift is added
 /// when a factorization fails), then the injective line search with
-/// `a_init = 1` (ALGORITHMS 1.5).
+/// `a_init = 1` (ALGORITHMS 1.5). With `exact_first`, once the previous
+/// step was a full Newton step (`a = 1`), an iteration first tries the
+/// unprojected Hessian and keeps it when it factorizes without shift
+/// (positive definite) and gives a descent direction: near the optimum this
+/// restores Newton's quadratic convergence, which clamping the element
+/// eigenvalues loses.
 #[derive(Debug, Clone, Copy)]
 pub struct ProjectedNewton {
     /// Stopping rules.
@@ -354,6 +360,8 @@ pub struct ProjectedNewton {
     pub line_search: Backtracking,
     /// Relative diagonal shift tried first when a factorization fails.
     pub shift: f64,
+    /// Try the exact (unprojected) Hessian before the projected one.
+    pub exact_first: bool,
 }
 
 impl Default for ProjectedNewton {
@@ -362,6 +370,7 @@ impl Default for ProjectedNewton {
             stopping: Stopping::default(),
             line_search: Backtracking::default(),
             shift: 1e-10,
+            exact_first: true,
         }
     }
 }
@@ -424,20 +433,47 @@ impl Solver for ProjectedNewton {
             if seconds >= self.stopping.max_seconds {
                 return done(StopReason::TimeLimit);
             }
-            let block = objective.hessian(x, theta, &mut values)?;
-            let (factor, used) = objective.pattern()?.factorize(&values, self.shift, 16)?;
-            shift = used;
-            for (di, gi) in d.iter_mut().zip(&g) {
-                *di = -gi;
-            }
-            factor.solve_in_place(&mut d)?;
+            // The exact Hessian first (quadratic convergence near the
+            // optimum, where the total Hessian is positive definite although
+            // element Hessians may not be); the projected one when it is not
+            // positive definite or gives no descent direction.
+            let modes: &[HessianMode] = if self.exact_first && it > 0 && step == 1.0 {
+                &[HessianMode::Exact, HessianMode::Projected]
+            } else {
+                &[HessianMode::Projected]
+            };
             let mut dtheta = Vec::new();
             let mut theta_slope = 0.0;
-            if let Some(tb) = &block {
-                dtheta = eliminate_theta(&factor, tb, &mut d)?;
-                theta_slope = tb.g.iter().zip(&dtheta).map(|(a, b)| a * b).sum();
+            let mut slope = f64::NAN;
+            for &mode in modes {
+                let projected = mode == HessianMode::Projected;
+                let block = objective.hessian_with(x, theta, &mut values, mode)?;
+                let factored = objective.pattern()?.factorize(
+                    &values,
+                    self.shift,
+                    if projected { 16 } else { 0 },
+                );
+                let (factor, used) = match factored {
+                    Ok(f) => f,
+                    Err(e) if projected => return Err(e),
+                    Err(_) => continue,
+                };
+                shift = used;
+                for (di, gi) in d.iter_mut().zip(&g) {
+                    *di = -gi;
+                }
+                factor.solve_in_place(&mut d)?;
+                dtheta.clear();
+                theta_slope = 0.0;
+                if let Some(tb) = &block {
+                    dtheta = eliminate_theta(&factor, tb, &mut d)?;
+                    theta_slope = tb.g.iter().zip(&dtheta).map(|(a, b)| a * b).sum();
+                }
+                slope = g.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>() + theta_slope;
+                if slope < 0.0 {
+                    break;
+                }
             }
-            let slope: f64 = g.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>() + theta_slope;
             if !slope.is_finite() {
                 return Err(ParamError::NotFinite("Newton direction".into()));
             }

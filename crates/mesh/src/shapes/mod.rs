@@ -18,6 +18,7 @@
 
 mod placenta;
 pub mod primitives;
+mod shell;
 mod valve;
 mod ventricle;
 
@@ -29,6 +30,7 @@ pub use placenta::{
     placenta_slab,
 };
 pub use primitives::{grid_disk, kuhn_grid, uv_sphere};
+pub use shell::{ShellParams, ShellShape, bowl_shell};
 pub use valve::{ValveParams, ValveShape, mitral_valve};
 pub use ventricle::{VentricleParams, VentricleShape, ventricle_cup};
 

@@ -1,0 +1,516 @@
+//! `unfold deform MESH --targets FILE -o OUT`: deforms a tet mesh towards
+//! soft positional targets with the least distortion, flip-free.
+//!
+//! The problem is
+//!
+//! ```text
+//! minimize  sum_k V_k D(J_k)  +  W sum_b |x_b - t_b|^2
+//! ```
+//!
+//! over the vertex positions `x`, with `V_k` the rest volumes normalized to
+//! sum 1, `D` the distortion energy (symmetric Dirichlet or ARAP) of the
+//! Jacobian `J_k` of tet `k` against its rest shape (the input), and `t_b`
+//! the targets of the vertices listed in FILE. It starts from the identity
+//! (the input positions) and every iterate keeps every tet positively
+//! oriented. This is the general tool for method developers, and how unfold
+//! is compared with other injective solvers on the same problem.
+//!
+//! Targets file: CSV, one `vertex,x,y,z` per line (0-based vertex index,
+//! coordinates in the mesh's units). Blank lines and lines starting with `#`
+//! are ignored; the first remaining line may be the header `vertex,x,y,z`
+//! (exactly those names, any case; any other non-numeric line is an error,
+//! so a typo in the first data line is never mistaken for a header). Fields
+//! may be surrounded by spaces. Every problem is reported with the file and
+//! line: a wrong field count, a bad vertex index or coordinate (coordinates
+//! must be finite), a vertex out of range, a vertex listed twice, no targets.
+//!
+//! Output: OUT is the input mesh (its cells, point and cell arrays) with the
+//! positions replaced; `OUT.report.json` beside it holds the result
+//! (`objective`, `distortion`, `iterations`, `seconds`, `converged`,
+//! `inverted_tets`, ...). Not converging within the iteration limit is not
+//! an error: both files are written, `converged` is false and the summary
+//! line says why it stopped.
+//!
+//! Vertices used by no tet and without a target carry no term at all; they
+//! are kept where they are.
+
+use super::CliError;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use unfold::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
+use unfold::mesh::MeshError;
+use unfold::mesh::nalgebra::Point3;
+use unfold::param::energy::energy_by_name;
+use unfold::param::metrics::{inverted_count, min_det_j};
+use unfold::param::solver::NoObserver;
+use unfold::param::template::PointTargets;
+use unfold::param::{
+    GradientDescent, Objective, ParamError, ParamMesh, ProjectedNewton, SolveReport, Solver,
+    StopReason, Stopping, TemplateTerm,
+};
+
+/// Distortion energies `D` of `unfold deform`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Energy {
+    /// `|J|_F^2 + |J^-1|_F^2` (a barrier: infinite at flips; minimum 6).
+    SymmetricDirichlet,
+    /// As-rigid-as-possible `|J - R|_F^2` (minimum 0).
+    Arap,
+}
+
+impl Energy {
+    fn name(self) -> &'static str {
+        match self {
+            Energy::SymmetricDirichlet => "symmetric-dirichlet",
+            Energy::Arap => "arap",
+        }
+    }
+}
+
+/// Solvers of `unfold deform`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SolverKind {
+    /// Projected Newton (sparse Cholesky of the PSD-projected Hessian).
+    Newton,
+    /// Gradient descent (the placenta paper's baseline; slow).
+    Gd,
+}
+
+/// Iteration limit of Newton unless `--max-iterations` is given.
+const NEWTON_MAX_ITERATIONS: usize = 200;
+/// Iteration limit of gradient descent unless `--max-iterations` is given.
+const GD_MAX_ITERATIONS: usize = 100_000;
+
+/// Arguments of `unfold deform`.
+#[derive(Debug, Args)]
+pub struct DeformArgs {
+    /// Tet mesh (.vtu .vtk .mesh .msh); its shape is the rest state and the
+    /// starting point, so every tet must be positively oriented.
+    mesh: PathBuf,
+    /// Targets: CSV lines `vertex,x,y,z` (0-based vertex index); blank lines,
+    /// `#` comments and a `vertex,x,y,z` header line are allowed.
+    #[arg(long, value_name = "FILE")]
+    targets: PathBuf,
+    /// Output mesh (.vtu .vtk .mesh): the input with the positions replaced.
+    /// The report is written beside it as OUT.report.json.
+    #[arg(short, long, value_name = "OUT")]
+    output: PathBuf,
+    /// Weight W of the target term `W sum_b |x_b - t_b|^2` (the distortion
+    /// term is volume-weighted with weights summing to 1).
+    #[arg(long, value_name = "W", default_value_t = 1.0)]
+    weight: f64,
+    /// Distortion energy D.
+    #[arg(long, value_enum, default_value = "symmetric-dirichlet")]
+    energy: Energy,
+    /// Solver.
+    #[arg(long, value_enum, default_value = "newton")]
+    solver: SolverKind,
+    /// Stop when the gradient norm |grad|_F falls below this.
+    #[arg(long, value_name = "TOL", default_value_t = 1e-4)]
+    tol: f64,
+    /// Iteration limit [default: 200 for newton, 100000 for gd].
+    #[arg(long, value_name = "N")]
+    max_iterations: Option<usize>,
+}
+
+/// What `OUT.report.json` holds.
+#[derive(Debug, Serialize)]
+struct Report {
+    /// The input mesh.
+    mesh: String,
+    /// The targets file.
+    targets_file: String,
+    /// The output mesh.
+    output: String,
+    /// `distortion + target_term` at the result.
+    objective: f64,
+    /// `sum_k V_k D(J_k)` (volume weights summing to 1).
+    distortion: f64,
+    /// `W sum_b |x_b - t_b|^2`.
+    target_term: f64,
+    /// Iterations taken.
+    iterations: usize,
+    /// Wall-clock seconds of the optimization: rest data, objective set-up
+    /// and the solve (not reading or writing files).
+    seconds: f64,
+    /// Whether the solver met its convergence test.
+    converged: bool,
+    /// Tets with `det J <= 0` at the result (0 for a valid map).
+    inverted_tets: usize,
+    /// `newton` or `gd`.
+    solver: &'static str,
+    /// The distortion energy's name.
+    energy: &'static str,
+    /// W.
+    weight: f64,
+    /// Number of target vertices.
+    targets: usize,
+    /// The gradient tolerance.
+    tol: f64,
+    /// The iteration limit.
+    max_iterations: usize,
+    /// Why the solver stopped.
+    stop_reason: StopReason,
+    /// `|grad|_F` at the result.
+    grad_norm: f64,
+    /// Smallest `det J` at the result.
+    min_det_j: f64,
+    /// Largest distance of a target vertex from its target.
+    target_error_max: f64,
+    /// Root mean square distance of the target vertices from their targets.
+    target_error_rms: f64,
+}
+
+/// A usage error naming `path`.
+fn at(path: &Path, msg: impl std::fmt::Display) -> CliError {
+    CliError::Usage(format!("{}: {msg}", path.display()))
+}
+
+/// `path` with `.report.json` appended to its file name.
+fn report_path(out: &Path) -> PathBuf {
+    let mut s = out.as_os_str().to_owned();
+    s.push(".report.json");
+    PathBuf::from(s)
+}
+
+/// Parses the targets CSV `text` (from `file`, for messages) for a mesh of
+/// `num_vertices` vertices: `(vertex, target)` pairs in file order.
+fn parse_targets(
+    text: &str,
+    file: &Path,
+    num_vertices: usize,
+) -> Result<Vec<(usize, [f64; 3])>, CliError> {
+    let err = |line: usize, msg: String| at(file, format!("line {line}: {msg}"));
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    // Line (1-based) of each vertex's target; 0 = none yet.
+    let mut line_of = vec![0usize; num_vertices];
+    let mut pairs = Vec::new();
+    let mut first = true;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let header = first
+            && fields.len() == 4
+            && fields
+                .iter()
+                .zip(["vertex", "x", "y", "z"])
+                .all(|(f, h)| f.eq_ignore_ascii_case(h));
+        first = false;
+        if header {
+            continue;
+        }
+        if fields.len() != 4 {
+            return Err(err(
+                line_no,
+                format!(
+                    "expected 4 comma-separated fields `vertex,x,y,z`, found {}",
+                    fields.len()
+                ),
+            ));
+        }
+        let v: usize = fields[0].parse().map_err(|_| {
+            err(
+                line_no,
+                format!(
+                    "bad vertex index `{}` (expected a non-negative integer)",
+                    fields[0]
+                ),
+            )
+        })?;
+        if v >= num_vertices {
+            return Err(err(
+                line_no,
+                format!(
+                    "vertex {v} is out of range (the mesh has {num_vertices} vertices, numbered from 0)"
+                ),
+            ));
+        }
+        let mut t = [0.0; 3];
+        for (c, name) in ["x", "y", "z"].iter().enumerate() {
+            let s = fields[c + 1];
+            t[c] = s
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    err(
+                        line_no,
+                        format!("bad {name} coordinate `{s}` (expected a finite number)"),
+                    )
+                })?;
+        }
+        if line_of[v] != 0 {
+            return Err(err(
+                line_no,
+                format!("vertex {v} is listed twice (first on line {})", line_of[v]),
+            ));
+        }
+        line_of[v] = line_no;
+        pairs.push((v, t));
+    }
+    if pairs.is_empty() {
+        return Err(at(file, "no targets (expected lines `vertex,x,y,z`)"));
+    }
+    Ok(pairs)
+}
+
+/// A parameterization error about the mesh at `path`, worded for this
+/// command.
+fn mesh_problem(path: &Path, e: ParamError) -> CliError {
+    match e {
+        ParamError::Mesh(MeshError::InvertedElement { element, volume }) => at(
+            path,
+            format!(
+                "tet {element} is inverted (signed volume {volume:e}); the input shape is the \
+                 rest state and the starting point, so every tet must be positively oriented"
+            ),
+        ),
+        e => at(path, e),
+    }
+}
+
+/// Runs `unfold deform`.
+pub fn run(a: &DeformArgs) -> Result<(), CliError> {
+    if !(a.weight.is_finite() && a.weight > 0.0) {
+        return Err(CliError::Usage(format!(
+            "--weight must be a finite positive number, got {}",
+            a.weight
+        )));
+    }
+    if !(a.tol.is_finite() && a.tol > 0.0) {
+        return Err(CliError::Usage(format!(
+            "--tol must be a finite positive number, got {}",
+            a.tol
+        )));
+    }
+    let report_file = report_path(&a.output);
+    let (out, rep) = (super::canonical(&a.output), super::canonical(&report_file));
+    for input in [&a.mesh, &a.targets] {
+        let c = super::canonical(input);
+        if c == out || c == rep {
+            return Err(at(
+                if c == out { &a.output } else { &report_file },
+                "refusing to overwrite an input; choose another output path",
+            ));
+        }
+    }
+    match FileKind::from_path(&a.output)? {
+        FileKind::Mesh(f) if f.writable() && f.holds_volume_cells() => {}
+        _ => {
+            return Err(at(
+                &a.output,
+                "cannot hold a tet mesh; write .vtu, .vtk or .mesh",
+            ));
+        }
+    }
+
+    let cells = read_mesh(&a.mesh)?;
+    let tet_mesh = cells.to_tet_mesh().map_err(|e| match e {
+        MeshError::WrongCellType { cell, found, .. } => at(
+            &a.mesh,
+            format!(
+                "not a tetrahedral mesh (cell {cell} is a {found:?}); unfold deform needs a tet mesh"
+            ),
+        ),
+        e => at(&a.mesh, e),
+    })?;
+    let n = tet_mesh.num_vertices();
+    let text = std::fs::read_to_string(&a.targets).map_err(|source| CliError::Fs {
+        path: a.targets.display().to_string(),
+        source,
+    })?;
+    let pairs = parse_targets(&text, &a.targets, n)?;
+
+    let t0 = Instant::now();
+    let rest = ParamMesh::from_tets(&tet_mesh).map_err(|e| mesh_problem(&a.mesh, e))?;
+    let targets = PointTargets::from_pairs(n, 3, &pairs).map_err(|e| at(&a.targets, e))?;
+    let labels = vec![0u8; n];
+    let mut weights = vec![0.0; n];
+    for &(v, _) in &pairs {
+        weights[v] = a.weight;
+    }
+    // Vertices in no tet and without a target have no term: keep them.
+    let mut used = vec![false; n];
+    for t in &tet_mesh.tets {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    let fixed: Vec<bool> = (0..n).map(|v| !used[v] && weights[v] == 0.0).collect();
+    let fixed: &[bool] = if fixed.iter().any(|&f| f) {
+        &fixed
+    } else {
+        &[]
+    };
+    let energy = energy_by_name(a.energy.name())
+        .ok_or_else(|| CliError::Usage(format!("unknown energy {}", a.energy.name())))?;
+    let term = TemplateTerm {
+        template: &targets,
+        labels: &labels,
+        weights: &weights,
+    };
+    let mut objective = Objective::new(&rest, energy.as_ref(), 1.0, Some(term), fixed)
+        .map_err(|e| at(&a.mesh, e))?;
+    let max_iterations = a.max_iterations.unwrap_or(match a.solver {
+        SolverKind::Newton => NEWTON_MAX_ITERATIONS,
+        SolverKind::Gd => GD_MAX_ITERATIONS,
+    });
+    let stopping = Stopping {
+        grad_tol: a.tol,
+        max_iterations,
+        ..Stopping::default()
+    };
+    let solver: Box<dyn Solver> = match a.solver {
+        SolverKind::Newton => Box::new(ProjectedNewton {
+            stopping,
+            ..ProjectedNewton::default()
+        }),
+        SolverKind::Gd => Box::new(GradientDescent {
+            stopping,
+            ..GradientDescent::default()
+        }),
+    };
+    let mut x = rest.rest_flat();
+    let solved: SolveReport = solver
+        .solve(&mut objective, &mut x, &mut [], &mut NoObserver)
+        .map_err(|e| at(&a.mesh, format!("the {} solver failed: {e}", solver.name())))?;
+    let seconds = t0.elapsed().as_secs_f64();
+
+    let distortion = objective.distortion(&x);
+    let target_term = objective.template_value(&x, &[]);
+    let (mut err_max, mut err_sq) = (0.0f64, 0.0);
+    for (v, t) in &pairs {
+        let d2: f64 = (0..3).map(|c| (x[3 * v + c] - t[c]).powi(2)).sum();
+        err_max = err_max.max(d2.sqrt());
+        err_sq += d2;
+    }
+    let report = Report {
+        mesh: a.mesh.display().to_string(),
+        targets_file: a.targets.display().to_string(),
+        output: a.output.display().to_string(),
+        objective: distortion + target_term,
+        distortion,
+        target_term,
+        iterations: solved.iterations,
+        seconds,
+        converged: solved.converged,
+        inverted_tets: inverted_count(&rest, &x),
+        solver: solver.name(),
+        energy: a.energy.name(),
+        weight: a.weight,
+        targets: pairs.len(),
+        tol: a.tol,
+        max_iterations,
+        stop_reason: solved.reason,
+        grad_norm: solved.grad_norm,
+        min_det_j: min_det_j(&rest, &x),
+        target_error_max: err_max,
+        target_error_rms: (err_sq / pairs.len() as f64).sqrt(),
+    };
+
+    let mut deformed = cells;
+    deformed.positions = x
+        .chunks_exact(3)
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+    write_mesh(&a.output, &deformed, &WriteOptions::default())?;
+    let json = serde_json::to_string_pretty(&report)
+        .map_err(|e| at(&report_file, format!("cannot serialize the report: {e}")))?;
+    atomic_write(&report_file, format!("{json}\n").as_bytes())?;
+
+    let status = if report.converged {
+        "converged".to_string()
+    } else {
+        format!("NOT converged ({})", stop_name(report.stop_reason))
+    };
+    println!(
+        "{} -> {}: {} tets, {} targets, {} {}: {status} in {} iterations, {:.3} s; \
+         objective {:.10e} (distortion {:.6e}), {} inverted tets",
+        a.mesh.display(),
+        a.output.display(),
+        tet_mesh.num_tets(),
+        report.targets,
+        report.solver,
+        report.energy,
+        report.iterations,
+        report.seconds,
+        report.objective,
+        report.distortion,
+        report.inverted_tets
+    );
+    Ok(())
+}
+
+/// The report's name of a stop reason.
+fn stop_name(r: StopReason) -> String {
+    serde_json::to_value(r)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_else(|| format!("{r:?}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str, n: usize) -> Result<Vec<(usize, [f64; 3])>, String> {
+        parse_targets(text, Path::new("t.csv"), n).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn targets_csv_header_comments_and_blanks() {
+        let text = "\u{feff}# targets\n\n Vertex , X,y,Z \r\n0,1,2,3\n  # more\n2, -1.5 ,1e-3,4\n";
+        assert_eq!(
+            parse(text, 3).unwrap(),
+            vec![(0, [1.0, 2.0, 3.0]), (2, [-1.5, 1e-3, 4.0])]
+        );
+        assert_eq!(parse("1,0,0,0", 2).unwrap(), vec![(1, [0.0; 3])]);
+    }
+
+    #[test]
+    fn targets_csv_errors_name_the_line() {
+        for (text, needle) in [
+            ("0,1,2,3\nx,1,2,3\n", "t.csv: line 2: bad vertex index `x`"),
+            ("vertex,x,y,z\nvertex,x,y,z\n", "line 2: bad vertex index"),
+            ("vertex,x,y\n", "line 1: expected 4 comma-separated fields"),
+            (
+                "0,1,2\n",
+                "line 1: expected 4 comma-separated fields `vertex,x,y,z`, found 3",
+            ),
+            ("0,1,2,3,4\n", "found 5"),
+            ("-1,1,2,3\n", "line 1: bad vertex index `-1`"),
+            ("1.5,1,2,3\n", "bad vertex index `1.5`"),
+            ("0,1,abc,3\n", "line 1: bad y coordinate `abc`"),
+            ("0,1,2,nan\n", "bad z coordinate `nan`"),
+            ("0,1e999,2,3\n", "bad x coordinate `1e999`"),
+            ("0,,2,3\n", "bad x coordinate ``"),
+            (
+                "#\n5,1,2,3\n",
+                "line 2: vertex 5 is out of range (the mesh has 5 vertices",
+            ),
+            (
+                "1,0,0,0\n\n1,1,1,1\n",
+                "line 3: vertex 1 is listed twice (first on line 1)",
+            ),
+            ("", "t.csv: no targets"),
+            ("# nothing\n\nvertex,x,y,z\n", "t.csv: no targets"),
+        ] {
+            let e = parse(text, 5).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e:?} lacks {needle:?}");
+        }
+    }
+
+    #[test]
+    fn report_path_appends_to_the_file_name() {
+        assert_eq!(
+            report_path(Path::new("a/b.vtu")),
+            PathBuf::from("a/b.vtu.report.json")
+        );
+    }
+}

@@ -1,0 +1,452 @@
+//! `unfold deform` through the binary: flattening a bowl-shaped shell onto
+//! an 8 mm slab reaches the true minimum without inverting a tet; bad
+//! targets files, surface meshes, inverted input and overwriting the input
+//! are one-line errors.
+//!
+//! The acceptance problem ("top surface pulled to z = +4 mm, bottom to
+//! -4 mm, rim free") is read as: every vertex of the top (inner, concave)
+//! surface gets the target `(x, y, +4)` and every vertex of the bottom
+//! (outer, convex) surface the target `(x, y, -4)`, `(x, y)` being the
+//! vertex's own rest coordinates; rim vertices have no target. The bowl's
+//! poles are at z = +4 (top) and z = -4 (bottom), so this flattens the 8 mm
+//! thick bowl into an 8 mm slab by pressing it straight down.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use unfold::io::{WriteOptions, read_mesh, write_mesh};
+use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
+use unfold::mesh::{CellMesh, Field, TetMesh};
+use unfold::param::energy::SymmetricDirichlet;
+use unfold::param::metrics::inverted_count;
+use unfold::param::solver::NoObserver;
+use unfold::param::template::PointTargets;
+use unfold::param::{Objective, ParamMesh, ProjectedNewton, Solver, Stopping, TemplateTerm};
+
+fn unfold(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unfold"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the unfold binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Fails with a single stderr line naming `needle`.
+fn assert_one_line_error(o: &Output, needle: &str) {
+    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
+    let err = stderr(o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("unfold: error: "), "{err}");
+    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
+}
+
+/// The flattening targets of the shell: top -> `(x, y, +4)`, bottom ->
+/// `(x, y, -4)`.
+fn flat_targets(shape: &ShellShape) -> Vec<(usize, [f64; 3])> {
+    let p = &shape.mesh.positions;
+    let side = |vs: &[u32], z: f64| -> Vec<(usize, [f64; 3])> {
+        vs.iter()
+            .map(|&v| (v as usize, [p[v as usize].x, p[v as usize].y, z]))
+            .collect()
+    };
+    let mut t = side(&shape.top, 4.0);
+    t.extend(side(&shape.bottom, -4.0));
+    t
+}
+
+fn csv(targets: &[(usize, [f64; 3])]) -> String {
+    let mut s = String::from("# flatten the bowl\nvertex,x,y,z\n");
+    for (v, t) in targets {
+        s += &format!("{v},{},{},{}\n", t[0], t[1], t[2]);
+    }
+    s
+}
+
+/// Writes `mesh` (with an extra cell array `region`) as `name` and the
+/// targets as `targets.csv` in `dir`; returns both paths.
+fn write_problem(
+    dir: &Path,
+    name: &str,
+    mesh: &TetMesh,
+    targets: &[(usize, [f64; 3])],
+) -> (String, String) {
+    let mut cells = CellMesh::from(mesh);
+    cells
+        .add_cell_field(Field::labels(
+            "region",
+            (0..mesh.num_tets()).map(|t| (t % 3) as i32).collect(),
+        ))
+        .unwrap();
+    let m = dir.join(name);
+    write_mesh(&m, &cells, &WriteOptions::default()).unwrap();
+    let t = dir.join("targets.csv");
+    std::fs::write(&t, csv(targets)).unwrap();
+    (m.display().to_string(), t.display().to_string())
+}
+
+fn report(out: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(format!("{out}.report.json")).expect("report written");
+    serde_json::from_str(&text).expect("report is JSON")
+}
+
+fn small_shell() -> ShellShape {
+    bowl_shell(&ShellParams {
+        cells_radial: 4,
+        cells_through: 1,
+        ..ShellParams::default()
+    })
+    .unwrap()
+}
+
+#[test]
+fn deform_flattens_the_7k_bowl_to_the_true_minimum() {
+    let shape = bowl_shell(&ShellParams::default()).unwrap();
+    assert_eq!(shape.mesh.num_tets(), 7056);
+    let targets = flat_targets(&shape);
+    let dir = tempfile::tempdir().unwrap();
+    let (mesh, tfile) = write_problem(dir.path(), "bowl.vtu", &shape.mesh, &targets);
+    let out = dir.path().join("flat.vtu").display().to_string();
+    // `--tol` is the gradient-norm tolerance. At the default 1e-4 Newton
+    // stops about 4e-8 (relative) above the minimum on this mesh (the
+    // volume-normalized objective has small gradients); 1e-6 reaches it to
+    // about 1e-11.
+    let o = unfold(&[
+        "deform",
+        &mesh,
+        "--targets",
+        &tfile,
+        "-o",
+        &out,
+        "--weight",
+        "1000",
+        "--tol",
+        "1e-6",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let line = stdout(&o);
+    assert_eq!(line.trim_end().lines().count(), 1, "{line}");
+    assert!(
+        line.contains("converged") && line.contains("0 inverted tets"),
+        "{line}"
+    );
+
+    let r = report(&out);
+    assert_eq!(r["converged"], true, "{r}");
+    assert_eq!(r["inverted_tets"], 0, "{r}");
+    assert_eq!(r["solver"], "newton");
+    assert_eq!(r["energy"], "symmetric-dirichlet");
+    assert_eq!(r["weight"], 1000.0);
+    assert_eq!(r["targets"], targets.len());
+    assert!(r["min_det_j"].as_f64().unwrap() > 0.0, "{r}");
+    assert_eq!(r["tol"], 1e-6);
+    assert!(r["grad_norm"].as_f64().unwrap() < 1e-6, "{r}");
+    let iterations = r["iterations"].as_u64().unwrap();
+    assert!((1..200).contains(&iterations), "{r}");
+    for key in ["seconds", "distortion", "objective", "target_term"] {
+        assert!(r[key].as_f64().is_some_and(f64::is_finite), "{key}: {r}");
+    }
+    let objective = r["objective"].as_f64().unwrap();
+    let distortion = r["distortion"].as_f64().unwrap();
+    assert!(distortion > 6.0, "{r}");
+    // Pressed flat: every target met to well under a millimetre.
+    assert!(r["target_error_max"].as_f64().unwrap() < 0.1, "{r}");
+
+    // The true minimum: the same problem from the same start, solved with
+    // the library to a much tighter tolerance.
+    let rest = ParamMesh::from_tets(&shape.mesh).unwrap();
+    let n = rest.num_vertices();
+    let pt = PointTargets::from_pairs(n, 3, &targets).unwrap();
+    let labels = vec![0u8; n];
+    let mut weights = vec![0.0; n];
+    for (v, _) in &targets {
+        weights[*v] = 1000.0;
+    }
+    let term = TemplateTerm {
+        template: &pt,
+        labels: &labels,
+        weights: &weights,
+    };
+    let mut obj = Objective::new(&rest, &SymmetricDirichlet, 1.0, Some(term), &[]).unwrap();
+    let tight = ProjectedNewton {
+        stopping: Stopping {
+            grad_tol: 1e-12,
+            decrement_tol: 0.0,
+            max_iterations: 500,
+            ..Stopping::default()
+        },
+        ..ProjectedNewton::default()
+    };
+    let mut x = rest.rest_flat();
+    let best = tight
+        .solve(&mut obj, &mut x, &mut [], &mut NoObserver)
+        .unwrap();
+    assert_eq!(inverted_count(&rest, &x), 0);
+    let f_min = obj.value(&x, &[]).min(best.value);
+    let rel = (objective - f_min) / f_min.abs();
+    assert!(
+        rel.abs() < 1e-8,
+        "objective {objective:.15e} vs true minimum {f_min:.15e}: relative {rel:e}"
+    );
+
+    // OUT: the input's cells and arrays, the deformed positions (the
+    // report's objective is theirs).
+    let input = read_mesh(&mesh).unwrap();
+    let output = read_mesh(&out).unwrap();
+    assert_eq!(output.num_points(), input.num_points());
+    assert_eq!(output.num_cells(), input.num_cells());
+    assert_eq!(output.point_data, input.point_data);
+    assert_eq!(output.cell_data, input.cell_data);
+    assert!(output.point_data.get("side").is_some());
+    assert!(output.cell_data.get("region").is_some());
+    let xo: Vec<f64> = output
+        .positions
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z])
+        .collect();
+    assert_eq!(inverted_count(&rest, &xo), 0);
+    let f_out = obj.value(&xo, &[]);
+    assert!(
+        (f_out - objective).abs() <= 1e-12 * objective,
+        "{f_out} vs {objective}"
+    );
+    // Flat: every vertex off the (free) rim lies within the slab, up to the
+    // soft penalty's slack; the rim may bulge.
+    let side = output.point_data.get("side").unwrap();
+    let zs = (0..output.num_points())
+        .filter(|&v| side.get(v, 0) != Some(f64::from(ShellShape::RIM)))
+        .map(|v| output.positions[v].z);
+    let (lo, hi) = zs.fold((f64::MAX, f64::MIN), |(a, b), z| (a.min(z), b.max(z)));
+    assert!(lo > -4.001 && hi < 4.001, "z range [{lo}, {hi}]");
+}
+
+#[test]
+fn deform_arap_and_gradient_descent_on_a_small_bowl() {
+    let shape = small_shell();
+    let targets = flat_targets(&shape);
+    let dir = tempfile::tempdir().unwrap();
+    let (mesh, tfile) = write_problem(dir.path(), "bowl.vtk", &shape.mesh, &targets);
+    let rest = ParamMesh::from_tets(&shape.mesh).unwrap();
+
+    let out = dir.path().join("arap.mesh").display().to_string();
+    let o = unfold(&[
+        "deform",
+        &mesh,
+        "--targets",
+        &tfile,
+        "-o",
+        &out,
+        "--energy",
+        "arap",
+        "--tol",
+        "1e-6",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    assert_eq!(r["energy"], "arap");
+    assert_eq!(r["weight"], 1.0);
+    assert_eq!(r["converged"], true, "{r}");
+    assert_eq!(r["inverted_tets"], 0, "{r}");
+    assert!(r["grad_norm"].as_f64().unwrap() < 1e-6, "{r}");
+    let arap = read_mesh(&out).unwrap();
+    assert_eq!(arap.num_cells(), shape.mesh.num_tets());
+
+    // Gradient descent with an iteration limit: stops there, not converged,
+    // still flip-free and better than the start; both files written.
+    let out = dir.path().join("gd.vtu").display().to_string();
+    let o = unfold(&[
+        "deform",
+        &mesh,
+        "--targets",
+        &tfile,
+        "-o",
+        &out,
+        "--solver",
+        "gd",
+        "--max-iterations",
+        "30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("NOT converged (max_iterations)"),
+        "{}",
+        stdout(&o)
+    );
+    let r = report(&out);
+    assert_eq!(r["solver"], "gd");
+    assert_eq!(r["iterations"], 30);
+    assert_eq!(r["converged"], false);
+    assert_eq!(r["stop_reason"], "max_iterations");
+    assert_eq!(r["inverted_tets"], 0, "{r}");
+    let start: f64 = 6.0
+        + targets
+            .iter()
+            .map(|(v, t)| (rest.rest[*v].z - t[2]).powi(2))
+            .sum::<f64>();
+    assert!(
+        r["objective"].as_f64().unwrap() < start,
+        "{r} vs start {start}"
+    );
+    let xo: Vec<f64> = read_mesh(&out)
+        .unwrap()
+        .positions
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z])
+        .collect();
+    assert_eq!(inverted_count(&rest, &xo), 0);
+}
+
+#[test]
+fn deform_targets_file_errors_name_the_file_and_line() {
+    let shape = small_shell();
+    let n = shape.mesh.num_vertices();
+    let dir = tempfile::tempdir().unwrap();
+    let (mesh, _) = write_problem(dir.path(), "bowl.vtu", &shape.mesh, &flat_targets(&shape));
+    let out = dir.path().join("out.vtu");
+    let bad = dir.path().join("bad.csv");
+    let b = bad.display().to_string();
+    for (text, needle) in [
+        (
+            "vertex,x,y,z\n0,1,2,3\n1,1,two,3\n".to_string(),
+            format!("{b}: line 3: bad y coordinate `two`"),
+        ),
+        (
+            "0,1,2,3\nv7,1,2,3\n".to_string(),
+            format!("{b}: line 2: bad vertex index `v7`"),
+        ),
+        (
+            format!("# comment\n\n0,0,0,0\n{n},0,0,0\n"),
+            format!("{b}: line 4: vertex {n} is out of range (the mesh has {n} vertices"),
+        ),
+        (
+            "5,0,0,0\n6,0,0,0\n5,1,1,1\n".to_string(),
+            format!("{b}: line 3: vertex 5 is listed twice (first on line 1)"),
+        ),
+        (
+            "0,0,0,0\n1;0;0;0\n".to_string(),
+            format!("{b}: line 2: expected 4 comma-separated fields `vertex,x,y,z`, found 1"),
+        ),
+        (
+            "0,0,0,0,0\n".to_string(),
+            format!("{b}: line 1: expected 4 comma-separated fields `vertex,x,y,z`, found 5"),
+        ),
+        (
+            "# header only\nvertex,x,y,z\n\n".to_string(),
+            format!("{b}: no targets"),
+        ),
+    ] {
+        std::fs::write(&bad, &text).unwrap();
+        let o = unfold(&[
+            "deform",
+            &mesh,
+            "--targets",
+            &b,
+            "-o",
+            &out.display().to_string(),
+        ]);
+        assert_one_line_error(&o, &needle);
+        assert!(!out.exists(), "{text:?} wrote an output");
+    }
+    let missing = dir.path().join("missing.csv").display().to_string();
+    let o = unfold(&[
+        "deform",
+        &mesh,
+        "--targets",
+        &missing,
+        "-o",
+        &out.display().to_string(),
+    ]);
+    assert_one_line_error(&o, &missing);
+}
+
+#[test]
+fn deform_needs_a_positive_tet_mesh() {
+    let shape = small_shell();
+    let targets = flat_targets(&shape);
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    let (_, tfile) = write_problem(dir.path(), "bowl.vtu", &shape.mesh, &targets);
+
+    // A surface mesh: the shell's boundary triangles.
+    let surface = unfold::mesh::topology::tet_boundary(&shape.mesh)
+        .unwrap()
+        .surface;
+    let surf = d("surface.vtk");
+    write_mesh(&surf, &CellMesh::from(&surface), &WriteOptions::default()).unwrap();
+    assert_one_line_error(
+        &unfold(&["deform", &surf, "--targets", &tfile, "-o", &d("o.vtu")]),
+        &format!("{surf}: not a tetrahedral mesh (cell 0 is a Triangle)"),
+    );
+
+    // A negatively oriented tet.
+    let mut inverted = shape.mesh.clone();
+    inverted.tets[7].swap(0, 1);
+    let inv = d("inverted.vtu");
+    write_mesh(&inv, &CellMesh::from(&inverted), &WriteOptions::default()).unwrap();
+    assert_one_line_error(
+        &unfold(&["deform", &inv, "--targets", &tfile, "-o", &d("o.vtu")]),
+        &format!("{inv}: tet 7 is inverted"),
+    );
+    assert!(!dir.path().join("o.vtu").exists());
+}
+
+#[test]
+fn deform_refuses_to_overwrite_its_inputs_and_bad_options() {
+    let shape = small_shell();
+    let dir = tempfile::tempdir().unwrap();
+    let (mesh, tfile) = write_problem(dir.path(), "bowl.vtu", &shape.mesh, &flat_targets(&shape));
+    let before = std::fs::read(&mesh).unwrap();
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["deform", &mesh, "--targets", &tfile, "-o", out];
+        args.extend_from_slice(extra);
+        unfold(&args)
+    };
+    assert_one_line_error(&run(&mesh, &[]), "refusing to overwrite");
+    assert_eq!(std::fs::read(&mesh).unwrap(), before);
+    // The same file through another spelling of its path.
+    let other = format!("{}/./bowl.vtu", dir.path().display());
+    assert_one_line_error(&run(&other, &[]), "refusing to overwrite");
+    assert_eq!(std::fs::read(&mesh).unwrap(), before);
+
+    let out = dir.path().join("o.vtu").display().to_string();
+    assert_one_line_error(&run(&out, &["--weight", "0"]), "--weight");
+    assert_one_line_error(&run(&out, &["--weight", "nan"]), "--weight");
+    assert_one_line_error(&run(&out, &["--tol=-1"]), "--tol");
+    let vtp = dir.path().join("o.vtp").display().to_string();
+    assert_one_line_error(&run(&vtp, &[]), "cannot hold a tet mesh");
+    let o = run(&out, &["--energy", "mips"]);
+    assert!(!o.status.success());
+    assert!(!PathBuf::from(&out).exists());
+}
+
+#[test]
+fn deform_moves_a_targeted_loose_vertex_and_keeps_an_untargeted_one() {
+    let shape = small_shell();
+    let n = shape.mesh.num_vertices();
+    let mut mesh = shape.mesh.clone();
+    mesh.point_data = Default::default();
+    mesh.positions
+        .push(unfold::mesh::nalgebra::Point3::new(100.0, 0.0, 0.0));
+    mesh.positions
+        .push(unfold::mesh::nalgebra::Point3::new(0.0, 100.0, 0.0));
+    let mut targets = flat_targets(&shape);
+    targets.push((n, [110.0, 1.0, 2.0]));
+    let dir = tempfile::tempdir().unwrap();
+    let (m, tfile) = write_problem(dir.path(), "loose.vtu", &mesh, &targets);
+    let out = dir.path().join("out.vtu").display().to_string();
+    let o = unfold(&["deform", &m, "--targets", &tfile, "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out);
+    assert_eq!(r["converged"], true, "{r}");
+    assert_eq!(r["inverted_tets"], 0, "{r}");
+    let p = read_mesh(&out).unwrap().positions;
+    assert_eq!(p.len(), n + 2);
+    assert!((p[n] - unfold::mesh::nalgebra::Point3::new(110.0, 1.0, 2.0)).norm() < 1e-6);
+    assert_eq!(p[n + 1], mesh.positions[n + 1]);
+}
