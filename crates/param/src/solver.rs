@@ -351,7 +351,7 @@ impl Solver for GradientDescent {
 /// unprojected Hessian and keeps it when it factorizes without shift
 /// (positive definite) and gives a descent direction: near the optimum this
 /// restores Newton's quadratic convergence, which clamping the element
-/// eigenvalues loses.
+/// eigenvalues loses. After the first failed attempt a solve stops trying.
 #[derive(Debug, Clone, Copy)]
 pub struct ProjectedNewton {
     /// Stopping rules.
@@ -395,6 +395,7 @@ impl Solver for ProjectedNewton {
         let mut buf = Vec::with_capacity(n);
         let mut values = Vec::new();
         let (mut step, mut a_max, mut shift) = (0.0, f64::INFINITY, 0.0);
+        let mut try_exact = self.exact_first;
         let mut it = 0;
         loop {
             let f = objective.value_gradient(x, theta, &mut g);
@@ -437,7 +438,7 @@ impl Solver for ProjectedNewton {
             // optimum, where the total Hessian is positive definite although
             // element Hessians may not be); the projected one when it is not
             // positive definite or gives no descent direction.
-            let modes: &[HessianMode] = if self.exact_first && it > 0 && step == 1.0 {
+            let modes: &[HessianMode] = if try_exact && it > 0 && step == 1.0 {
                 &[HessianMode::Exact, HessianMode::Projected]
             } else {
                 &[HessianMode::Projected]
@@ -456,7 +457,12 @@ impl Solver for ProjectedNewton {
                 let (factor, used) = match factored {
                     Ok(f) => f,
                     Err(e) if projected => return Err(e),
-                    Err(_) => continue,
+                    Err(_) => {
+                        // Not positive definite here: do not pay for the
+                        // attempt again in this solve.
+                        try_exact = false;
+                        continue;
+                    }
                 };
                 shift = used;
                 for (di, gi) in d.iter_mut().zip(&g) {
