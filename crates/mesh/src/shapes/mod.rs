@@ -16,6 +16,7 @@
 //! - [`mitral_valve`]: a saddle-shaped D annulus with two longitude-structured
 //!   leaflets that coapt without intersecting ([`ValveShape`]).
 
+mod layered;
 mod placenta;
 pub mod primitives;
 mod shell;

@@ -1,6 +1,7 @@
 //! A bowl-shaped shell: a spherical cap of tets with a given thickness, the
 //! benchmark problem of `unfold deform` (flatten the bowl into a slab).
 
+use super::layered::{prism_tets, ring_start};
 use super::{Pose, check_count, check_positive, check_range, invalid};
 use crate::{Field, MeshError, TetMesh};
 use nalgebra::Point3;
@@ -140,38 +141,6 @@ impl ShellShape {
     pub const RIM: u8 = 3;
 }
 
-/// First vertex index of ring `k` of a hexagonal-ring disk.
-#[inline]
-fn ring_start(k: usize) -> usize {
-    if k == 0 { 0 } else { 1 + 3 * k * (k - 1) }
-}
-
-/// Triangles of a hexagonal-ring disk with `n` rings (ring `k` has `6k`
-/// vertices, `1` for `k = 0`), `6 n^2` of them, counter-clockwise for the
-/// equal-angle placement `angle = 2 pi j / (6 k)`.
-fn hex_disk_triangles(n: usize) -> Vec<[usize; 3]> {
-    let mut tris = Vec::with_capacity(6 * n * n);
-    for k in 1..=n {
-        let outer = |s: usize, t: usize| ring_start(k) + (s * k + t) % (6 * k);
-        let inner = |s: usize, t: usize| {
-            if k == 1 {
-                0
-            } else {
-                ring_start(k - 1) + (s * (k - 1) + t) % (6 * (k - 1))
-            }
-        };
-        for s in 0..6 {
-            for t in 0..k {
-                tris.push([outer(s, t), outer(s, t + 1), inner(s, t)]);
-                if t + 1 < k {
-                    tris.push([inner(s, t), outer(s, t + 1), inner(s, t + 1)]);
-                }
-            }
-        }
-    }
-    tris
-}
-
 /// Builds the bowl-shaped shell described by `p`.
 ///
 /// Construction: every layer of vertices is the same hexagonal-ring
@@ -229,29 +198,7 @@ pub fn bowl_shell(p: &ShellParams) -> Result<ShellShape, MeshError> {
         }
     }
 
-    // Prisms -> 3 tets each (as in the placenta slab).
-    let tris = hex_disk_triangles(n);
-    let mut tets = Vec::with_capacity(3 * tris.len() * m);
-    for tri in &tris {
-        let mut s = *tri;
-        s.sort_unstable();
-        // Sorting keeps the counter-clockwise order iff it is a rotation.
-        let ccw = [
-            [tri[0], tri[1], tri[2]],
-            [tri[1], tri[2], tri[0]],
-            [tri[2], tri[0], tri[1]],
-        ]
-        .contains(&s);
-        for l in 0..m {
-            let lo = |v: usize| (l * per_layer + v) as u32;
-            let hi = |v: usize| ((l + 1) * per_layer + v) as u32;
-            let [a0, b0, c0] = [lo(s[0]), lo(s[1]), lo(s[2])];
-            let [a1, b1, c1] = [hi(s[0]), hi(s[1]), hi(s[2])];
-            for t in [[a0, b0, c0, c1], [a0, b0, c1, b1], [a0, a1, b1, c1]] {
-                tets.push(if ccw { t } else { [t[0], t[1], t[3], t[2]] });
-            }
-        }
-    }
+    let tets = prism_tets(n, m);
 
     p.pose.apply_all(&mut positions);
     let mut mesh = TetMesh::try_new(positions, tets)?;
