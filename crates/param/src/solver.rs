@@ -146,6 +146,76 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// The state after evaluating an iterate: its value, gradient norm and
+/// time, reported to the observer, and the stopping rule it meets, if any.
+struct Checkpoint {
+    value: f64,
+    grad_norm: f64,
+    seconds: f64,
+    stop: Option<StopReason>,
+}
+
+impl Checkpoint {
+    /// Evaluates `phi` and its gradient at `x` (into `g`), reports the
+    /// iteration and applies the gradient, iteration and time limits.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        objective: &Objective<'_>,
+        x: &[f64],
+        theta: &[f64],
+        g: &mut [f64],
+        stopping: &Stopping,
+        t0: Instant,
+        (it, step, max_step, shift): (usize, f64, f64, f64),
+        observer: &mut dyn Observer,
+    ) -> Result<Self, ParamError> {
+        let value = objective.value_gradient(x, theta, g);
+        if !value.is_finite() {
+            return Err(ParamError::NotFinite(format!(
+                "objective at iteration {it}"
+            )));
+        }
+        let grad_norm = norm(g);
+        let seconds = t0.elapsed().as_secs_f64();
+        observer.observe(&Iteration {
+            iteration: it,
+            value,
+            grad_norm,
+            step,
+            max_step,
+            shift,
+            seconds,
+        });
+        let stop = if grad_norm < stopping.grad_tol {
+            Some(StopReason::GradientTolerance)
+        } else if it >= stopping.max_iterations {
+            Some(StopReason::MaxIterations)
+        } else if seconds >= stopping.max_seconds {
+            Some(StopReason::TimeLimit)
+        } else {
+            None
+        };
+        Ok(Checkpoint {
+            value,
+            grad_norm,
+            seconds,
+            stop,
+        })
+    }
+
+    /// The report of a solve that ends here after `iterations`.
+    fn report(&self, iterations: usize, reason: StopReason) -> SolveReport {
+        SolveReport {
+            iterations,
+            reason,
+            converged: reason.converged(),
+            value: self.value,
+            grad_norm: self.grad_norm,
+            seconds: self.seconds,
+        }
+    }
+}
+
 fn start(objective: &Objective<'_>, x: &[f64], theta: &mut [f64]) -> Result<(), ParamError> {
     objective.check_len(x)?;
     crate::initializer::check_no_flips(objective.mesh(), x)?;
@@ -273,42 +343,20 @@ impl Solver for GradientDescent {
         let (mut step, mut a_max) = (0.0, f64::INFINITY);
         let mut it = 0;
         loop {
-            let f = objective.value_gradient(x, theta, &mut g);
-            if !f.is_finite() {
-                return Err(ParamError::NotFinite(format!(
-                    "objective at iteration {it}"
-                )));
+            let c = Checkpoint::new(
+                objective,
+                x,
+                theta,
+                &mut g,
+                &self.stopping,
+                t0,
+                (it, step, a_max, 0.0),
+                observer,
+            )?;
+            if let Some(reason) = c.stop {
+                return Ok(c.report(it, reason));
             }
-            let gn = norm(&g);
-            let seconds = t0.elapsed().as_secs_f64();
-            observer.observe(&Iteration {
-                iteration: it,
-                value: f,
-                grad_norm: gn,
-                step,
-                max_step: a_max,
-                shift: 0.0,
-                seconds,
-            });
-            let stop = if gn < self.stopping.grad_tol {
-                Some(StopReason::GradientTolerance)
-            } else if it >= self.stopping.max_iterations {
-                Some(StopReason::MaxIterations)
-            } else if seconds >= self.stopping.max_seconds {
-                Some(StopReason::TimeLimit)
-            } else {
-                None
-            };
-            if let Some(reason) = stop {
-                return Ok(SolveReport {
-                    iterations: it,
-                    reason,
-                    converged: reason.converged(),
-                    value: f,
-                    grad_norm: gn,
-                    seconds,
-                });
-            }
+            let (f, gn) = (c.value, c.grad_norm);
             for (di, gi) in d.iter_mut().zip(&g) {
                 *di = -gi / gn;
             }
@@ -323,14 +371,7 @@ impl Solver for GradientDescent {
                 a_init,
             );
             if !r.success {
-                return Ok(SolveReport {
-                    iterations: it,
-                    reason: StopReason::LineSearchFailed,
-                    converged: false,
-                    value: f,
-                    grad_norm: gn,
-                    seconds,
-                });
+                return Ok(c.report(it, StopReason::LineSearchFailed));
             }
             step = r.step;
             for (xi, di) in x.iter_mut().zip(&d) {
@@ -398,42 +439,21 @@ impl Solver for ProjectedNewton {
         let mut try_exact = self.exact_first;
         let mut it = 0;
         loop {
-            let f = objective.value_gradient(x, theta, &mut g);
-            if !f.is_finite() {
-                return Err(ParamError::NotFinite(format!(
-                    "objective at iteration {it}"
-                )));
+            let c = Checkpoint::new(
+                objective,
+                x,
+                theta,
+                &mut g,
+                &self.stopping,
+                t0,
+                (it, step, a_max, shift),
+                observer,
+            )?;
+            let done = |reason: StopReason| Ok(c.report(it, reason));
+            if let Some(reason) = c.stop {
+                return done(reason);
             }
-            let gn = norm(&g);
-            let seconds = t0.elapsed().as_secs_f64();
-            observer.observe(&Iteration {
-                iteration: it,
-                value: f,
-                grad_norm: gn,
-                step,
-                max_step: a_max,
-                shift,
-                seconds,
-            });
-            let done = |reason: StopReason| {
-                Ok(SolveReport {
-                    iterations: it,
-                    reason,
-                    converged: reason.converged(),
-                    value: f,
-                    grad_norm: gn,
-                    seconds,
-                })
-            };
-            if gn < self.stopping.grad_tol {
-                return done(StopReason::GradientTolerance);
-            }
-            if it >= self.stopping.max_iterations {
-                return done(StopReason::MaxIterations);
-            }
-            if seconds >= self.stopping.max_seconds {
-                return done(StopReason::TimeLimit);
-            }
+            let f = c.value;
             // The exact Hessian first (quadratic convergence near the
             // optimum, where the total Hessian is positive definite although
             // element Hessians may not be); the projected one when it is not

@@ -3,6 +3,32 @@
 //! triangulation of a disk, and the prisms between consecutive layers are
 //! split into tets.
 
+use super::{check_count, invalid};
+use crate::MeshError;
+
+/// Largest number of vertices a layered generator agrees to build.
+pub(super) const MAX_VERTICES: usize = 1_000_000;
+
+/// Checks the resolution of a layered generator named `what`: `cells_radial`
+/// in `[2, 400]`, `cells_through` in `[1, 100]`, and the resulting
+/// `vertices` at most [`MAX_VERTICES`].
+pub(super) fn check_layers(
+    what: &str,
+    cells_radial: usize,
+    cells_through: usize,
+    vertices: usize,
+) -> Result<(), MeshError> {
+    check_count(what, "cells_radial", cells_radial, 2, 400)?;
+    check_count(what, "cells_through", cells_through, 1, 100)?;
+    if vertices > MAX_VERTICES {
+        return Err(invalid(format!(
+            "{what}: cells_radial = {cells_radial} and cells_through = {cells_through} would give \
+             {vertices} vertices (more than {MAX_VERTICES}); lower the resolution"
+        )));
+    }
+    Ok(())
+}
+
 /// First vertex index of ring `k` of a hexagonal-ring disk.
 #[inline]
 pub(super) fn ring_start(k: usize) -> usize {

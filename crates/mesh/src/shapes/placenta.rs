@@ -1,7 +1,7 @@
 //! A synthetic placenta: a curved, tapered, elliptical slab of tets.
 
-use super::layered::{prism_tets, ring_start};
-use super::{Pose, check_count, check_positive, check_range, invalid};
+use super::layered::{check_layers, prism_tets, ring_start};
+use super::{Pose, check_positive, check_range, invalid};
 use crate::{Field, MeshError, TetMesh};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -16,9 +16,6 @@ pub const SIDE_MATERNAL: u8 = 2;
 /// `side` label of a vertex on the lateral rim (including the rim's edges
 /// with the fetal and maternal faces).
 pub const SIDE_RIM: u8 = 3;
-
-/// Largest number of vertices [`placenta_slab`] agrees to build.
-const MAX_VERTICES: usize = 1_000_000;
 
 /// Parameters of [`placenta_slab`]. All lengths in millimetres.
 ///
@@ -149,16 +146,7 @@ impl PlacentaParams {
                 )));
             }
         }
-        check_count(W, "cells_radial", self.cells_radial, 2, 400)?;
-        check_count(W, "cells_through", self.cells_through, 1, 100)?;
-        let (nv, _) = self.counts();
-        if nv > MAX_VERTICES {
-            return Err(invalid(format!(
-                "{W}: cells_radial = {} and cells_through = {} would give {nv} vertices \
-                 (more than {MAX_VERTICES}); lower the resolution",
-                self.cells_radial, self.cells_through
-            )));
-        }
+        check_layers(W, self.cells_radial, self.cells_through, self.counts().0)?;
         self.pose.check(W)
     }
 }

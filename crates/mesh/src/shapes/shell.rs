@@ -1,15 +1,12 @@
 //! A bowl-shaped shell: a spherical cap of tets with a given thickness, the
 //! benchmark problem of `unfold deform` (flatten the bowl into a slab).
 
-use super::layered::{prism_tets, ring_start};
-use super::{Pose, check_count, check_positive, check_range, invalid};
+use super::layered::{check_layers, prism_tets, ring_start};
+use super::{Pose, check_positive, check_range};
 use crate::{Field, MeshError, TetMesh};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
-
-/// Largest number of vertices [`bowl_shell`] agrees to build.
-const MAX_VERTICES: usize = 1_000_000;
 
 /// Parameters of [`bowl_shell`]. All lengths in millimetres.
 ///
@@ -97,16 +94,7 @@ impl ShellParams {
         check_positive(W, "radius", self.radius)?;
         check_positive(W, "thickness", self.thickness)?;
         check_range(W, "half_angle_deg", self.half_angle_deg, 1.0, 150.0)?;
-        check_count(W, "cells_radial", self.cells_radial, 2, 400)?;
-        check_count(W, "cells_through", self.cells_through, 1, 100)?;
-        let (nv, _) = self.counts();
-        if nv > MAX_VERTICES {
-            return Err(invalid(format!(
-                "{W}: cells_radial = {} and cells_through = {} would give {nv} vertices \
-                 (more than {MAX_VERTICES}); lower the resolution",
-                self.cells_radial, self.cells_through
-            )));
-        }
+        check_layers(W, self.cells_radial, self.cells_through, self.counts().0)?;
         self.pose.check(W)
     }
 }
