@@ -14,6 +14,7 @@
 //! (gradient descent, the placenta paper's baseline; projected Newton, the
 //! default) reporting every iteration to [`Observer`]s.
 
+pub mod eigen;
 pub mod energy;
 mod error;
 pub mod initializer;
