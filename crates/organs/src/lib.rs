@@ -1,8 +1,14 @@
 //! unfold-organs: the placenta, ventricle and mitral-valve pipelines, built
-//! from the pieces of `unfold-param`. It does no file I/O.
+//! from the pieces of `unfold-param`. It does no file I/O: inputs and
+//! outputs are in-memory meshes, images and reports.
 //!
-//! The pipelines arrive with their own issues; for now the crate fixes the
-//! dependency direction (`organs -> param, mesh`).
+//! - [`placenta`]: volumetric flattening of a placenta tet mesh onto two
+//!   parallel planes, an ellipsoid or a single plane (ALGORITHMS 2), with
+//!   the boundary parcellation and the image pull-back.
 
+mod error;
+pub mod placenta;
+
+pub use error::OrganError;
 pub use unfold_mesh as mesh;
 pub use unfold_param as param;

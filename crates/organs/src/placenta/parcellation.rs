@@ -1,0 +1,763 @@
+//! Boundary parcellation into fetal side, maternal side and margin
+//! (ALGORITHMS 2.5).
+//!
+//! 1. Affinity between boundary vertices `i`, `j` within three edges of each
+//!    other (the 3-ring, `i` itself included):
+//!    `w_ij = exp(gamma <n_i, n_j> l_ij)`, `gamma = 20`, with `n` the
+//!    area-weighted unit vertex normals and `l_ij` the Dijkstra distance
+//!    along boundary edges normalized by its maximum over all 3-ring pairs
+//!    (the paper's Eq. 5 as its code computes it).
+//! 2. The normalized Laplacian `L = I - D^-1/2 W D^-1/2`; its second-smallest
+//!    eigenvector (the Fiedler vector) splits the boundary at 0. The smallest
+//!    eigenvector `D^1/2 1` (eigenvalue 0) is known and deflated, so a sparse
+//!    shift-invert eigensolver ([`unfold_param::eigen`]) finds the Fiedler
+//!    vector directly.
+//! 3. Margin: the vertices with a neighbour in the other cluster, grown to
+//!    every boundary vertex within geodesic distance `r` of them. `r` adapts
+//!    (as the reference implementation): while the margin splits either side
+//!    into more than one connected piece, `r` shrinks in steps of a quarter
+//!    voxel; if the margin covers less than 25 % of the boundary area, `r`
+//!    grows in quarter-voxel steps (never to a radius that splits a side),
+//!    always within `0 < r < 10` voxels.
+//! 4. The cluster with more vertices on the convex hull of the boundary is
+//!    maternal (the maternal side lies on the convex uterine wall).
+//!
+//! Only the largest connected piece of the boundary surface (the outer
+//! surface) is parcellated; the vertices of any other piece (an internal
+//! cavity) stay [`LABEL_INTERIOR`] and carry no template term.
+
+use crate::OrganError;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+use unfold_mesh::geodesic::EdgeGraph;
+use unfold_mesh::geometry::{convex_hull_vertices, triangle_area, vertex_normals};
+use unfold_mesh::topology::{
+    Adjacency, TetBoundary, connected_components, tet_boundary, vertex_adjacency,
+};
+use unfold_mesh::{TetMesh, TriMesh};
+use unfold_param::eigen::{EigenOptions, smallest_eigenpairs};
+use unfold_param::operators::SparseSym;
+use unfold_param::template::{LABEL_FETAL, LABEL_INTERIOR, LABEL_MARGIN, LABEL_MATERNAL};
+
+/// Settings of [`parcellate`]; every default from ALGORITHMS 2.5.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ParcellationConfig {
+    /// `gamma` of the affinity `exp(gamma <n_i, n_j> l_ij)` (default 20).
+    pub gamma: f64,
+    /// Ring size of the affinity neighbourhood (default 3).
+    pub rings: usize,
+    /// Margin half-width `r` to start from, mm (default 15: five 3 mm voxels).
+    pub margin_mm: f64,
+    /// Voxel size, mm: the unit of the margin's adaptive steps (a quarter
+    /// voxel) and of its upper limit (default 3).
+    pub voxel_mm: f64,
+    /// Whether `r` adapts (default true); `false` keeps `margin_mm`.
+    pub adaptive_margin: bool,
+    /// Below this fraction of the boundary area the margin grows (default 0.25).
+    pub min_margin_area_fraction: f64,
+    /// Largest margin radius, in voxels (exclusive; default 10).
+    pub max_margin_voxels: f64,
+}
+
+impl Default for ParcellationConfig {
+    fn default() -> Self {
+        ParcellationConfig {
+            gamma: 20.0,
+            rings: 3,
+            margin_mm: 15.0,
+            voxel_mm: 3.0,
+            adaptive_margin: true,
+            min_margin_area_fraction: 0.25,
+            max_margin_voxels: 10.0,
+        }
+    }
+}
+
+impl ParcellationConfig {
+    /// Checks every value; the error names the offending one.
+    pub fn validate(&self) -> Result<(), OrganError> {
+        let bad = |what: &str, v: f64, want: &str| {
+            Err(OrganError::Config(format!(
+                "parcellation {what} must be {want}, got {v}"
+            )))
+        };
+        if !(self.gamma.is_finite() && self.gamma > 0.0) {
+            return bad("gamma", self.gamma, "finite and > 0");
+        }
+        if !(1..=6).contains(&self.rings) {
+            return bad("rings", self.rings as f64, "in 1..=6");
+        }
+        if !(self.voxel_mm.is_finite() && self.voxel_mm > 0.0) {
+            return bad("voxel_mm", self.voxel_mm, "finite and > 0");
+        }
+        if !(self.max_margin_voxels.is_finite() && self.max_margin_voxels > 0.0) {
+            return bad(
+                "max_margin_voxels",
+                self.max_margin_voxels,
+                "finite and > 0",
+            );
+        }
+        let max_mm = self.max_margin_voxels * self.voxel_mm;
+        if !(self.margin_mm.is_finite() && self.margin_mm > 0.0 && self.margin_mm < max_mm) {
+            return bad(
+                "margin_mm",
+                self.margin_mm,
+                &format!(
+                    "> 0 and below {max_mm} mm ({} voxels)",
+                    self.max_margin_voxels
+                ),
+            );
+        }
+        if !(0.0..1.0).contains(&self.min_margin_area_fraction) {
+            return bad(
+                "min_margin_area_fraction",
+                self.min_margin_area_fraction,
+                "in [0, 1)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The result of [`parcellate`]: per-vertex labels of the *volume* mesh and
+/// what was found on the way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parcellation {
+    /// Per vertex of the tet mesh: [`LABEL_INTERIOR`] (0), [`LABEL_FETAL`]
+    /// (1), [`LABEL_MATERNAL`] (2) or [`LABEL_MARGIN`] (3).
+    pub labels: Vec<u8>,
+    /// Per vertex of the tet mesh: the Fiedler vector (0 off the
+    /// parcellated boundary), signed so that maternal is positive.
+    pub fiedler: Vec<f64>,
+    /// The boundary surface of the tet mesh (outward), with its map to the
+    /// volume vertices.
+    pub boundary: TetBoundary,
+    /// What the parcellation found.
+    pub summary: ParcellationSummary,
+}
+
+/// Figures of a parcellation, for the report.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ParcellationSummary {
+    /// Fetal vertices (margin excluded).
+    pub fetal: usize,
+    /// Maternal vertices (margin excluded).
+    pub maternal: usize,
+    /// Margin vertices.
+    pub margin: usize,
+    /// Margin half-width the adaptation started from, mm.
+    pub margin_radius_initial_mm: f64,
+    /// Margin half-width used, mm.
+    pub margin_radius_mm: f64,
+    /// Fraction of the boundary area in the margin.
+    pub margin_area_fraction: f64,
+    /// Whether each side is one connected piece outside the margin.
+    pub sides_connected: bool,
+    /// Connected pieces of the boundary surface (1 for a solid without
+    /// cavities; only the largest is parcellated).
+    pub boundary_components: usize,
+    /// Vertices of the parcellated boundary piece.
+    pub boundary_vertices: usize,
+    /// Convex-hull vertices of the cluster chosen as maternal.
+    pub hull_maternal: usize,
+    /// Convex-hull vertices of the cluster chosen as fetal.
+    pub hull_fetal: usize,
+    /// The Fiedler eigenvalue (second-smallest of `L`).
+    pub fiedler_value: f64,
+    /// Iterations of the eigensolver.
+    pub eigen_iterations: usize,
+}
+
+/// Parcellates the boundary of a valid tet mesh (see the module docs).
+///
+/// # Errors
+/// `Config` for bad settings; `Mesh` when the boundary cannot be extracted;
+/// `Parcellation` when the boundary is too small, the eigensolver fails, or
+/// a cluster is empty (e.g. a sphere has no two sides).
+pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcellation, OrganError> {
+    config.validate()?;
+    let boundary = tet_boundary(mesh)?;
+    let surface = &boundary.surface;
+    let ns = surface.positions.len();
+    let comps = connected_components(ns, &surface.triangles);
+    if comps.count == 0 {
+        return Err(OrganError::Parcellation("the mesh has no boundary".into()));
+    }
+    // The largest piece (most triangles) is the outer surface.
+    let main = (0..comps.count)
+        .max_by_key(|&c| comps.element_counts[c])
+        .unwrap_or(0) as u32;
+    let piece: Vec<u32> = (0..ns as u32)
+        .filter(|&v| comps.vertex_label[v as usize] == main)
+        .collect();
+    if piece.len() < 8 {
+        return Err(OrganError::Parcellation(format!(
+            "the boundary has only {} vertices; at least 8 are needed",
+            piece.len()
+        )));
+    }
+    let mut local = vec![u32::MAX; ns];
+    for (k, &v) in piece.iter().enumerate() {
+        local[v as usize] = k as u32;
+    }
+    let sub = TriMesh::new(
+        piece
+            .iter()
+            .map(|&v| surface.positions[v as usize])
+            .collect(),
+        surface
+            .triangles
+            .iter()
+            .filter(|t| comps.vertex_label[t[0] as usize] == main)
+            .map(|t| t.map(|v| local[v as usize]))
+            .collect(),
+    );
+
+    let n = sub.positions.len();
+    let adj = vertex_adjacency(n, &sub.triangles);
+    let graph = EdgeGraph::from_tri_mesh(&sub);
+    let normals = vertex_normals(&sub);
+    let laplacian = normalized_affinity_laplacian(&adj, &graph, &normals, config)?;
+    let sqrt_d = laplacian.sqrt_degree.clone();
+    let pairs = smallest_eigenpairs(&laplacian.l, 1, &[sqrt_d], &EigenOptions::default())
+        .map_err(|e| OrganError::Parcellation(format!("Fiedler vector: {e}")))?;
+    let mut fiedler = pairs.vectors[0].clone();
+    let cluster_a: Vec<bool> = fiedler.iter().map(|&f| f > 0.0).collect();
+    let count_a = cluster_a.iter().filter(|&&a| a).count();
+    if count_a == 0 || count_a == n {
+        return Err(OrganError::Parcellation(
+            "the Fiedler vector does not split the boundary into two sides".into(),
+        ));
+    }
+
+    // Maternal = the cluster with more convex-hull vertices.
+    let hull = convex_hull_vertices(&sub.positions);
+    let hull_a = (0..n).filter(|&i| hull[i] && cluster_a[i]).count();
+    let hull_b = (0..n).filter(|&i| hull[i] && !cluster_a[i]).count();
+    let a_is_maternal = hull_a >= hull_b;
+    let maternal: Vec<bool> = cluster_a.iter().map(|&a| a == a_is_maternal).collect();
+    if !a_is_maternal {
+        fiedler.iter_mut().for_each(|f| *f = -*f);
+    }
+    let (hull_maternal, hull_fetal) = if a_is_maternal {
+        (hull_a, hull_b)
+    } else {
+        (hull_b, hull_a)
+    };
+
+    // Margin seeds: vertices with a neighbour in the other cluster.
+    let seeds: Vec<u32> = (0..n)
+        .filter(|&i| {
+            adj.neighbors(i)
+                .iter()
+                .any(|&j| maternal[j as usize] != maternal[i])
+        })
+        .map(|i| i as u32)
+        .collect();
+    let seed_distance = graph.distances(&seeds);
+    let areas = barycentric_areas(&sub);
+    let total_area: f64 = areas.iter().sum();
+    let margin = choose_margin(&adj, &maternal, &seed_distance, &areas, total_area, config);
+
+    let mut labels = vec![LABEL_INTERIOR; mesh.num_vertices()];
+    let mut fiedler_volume = vec![0.0; mesh.num_vertices()];
+    let (mut fetal, mut mat, mut marg) = (0, 0, 0);
+    for (k, &sv) in piece.iter().enumerate() {
+        let v = boundary.to_volume[sv as usize] as usize;
+        fiedler_volume[v] = fiedler[k];
+        labels[v] = if seed_distance[k] <= margin.radius {
+            marg += 1;
+            LABEL_MARGIN
+        } else if maternal[k] {
+            mat += 1;
+            LABEL_MATERNAL
+        } else {
+            fetal += 1;
+            LABEL_FETAL
+        };
+    }
+    if fetal == 0 || mat == 0 {
+        return Err(OrganError::Parcellation(format!(
+            "the margin covers a whole side ({fetal} fetal, {mat} maternal vertices left); \
+             try a smaller margin"
+        )));
+    }
+    Ok(Parcellation {
+        labels,
+        fiedler: fiedler_volume,
+        summary: ParcellationSummary {
+            fetal,
+            maternal: mat,
+            margin: marg,
+            margin_radius_initial_mm: config.margin_mm,
+            margin_radius_mm: margin.radius,
+            margin_area_fraction: margin.area / total_area,
+            sides_connected: margin.connected,
+            boundary_components: comps.count,
+            boundary_vertices: n,
+            hull_maternal,
+            hull_fetal,
+            fiedler_value: pairs.values[0],
+            eigen_iterations: pairs.iterations,
+        },
+        boundary,
+    })
+}
+
+/// The normalized Laplacian of the affinity and `sqrt(d)` (its null vector).
+struct AffinityLaplacian {
+    l: SparseSym,
+    sqrt_degree: Vec<f64>,
+}
+
+/// Builds `L = I - D^-1/2 W D^-1/2` of the module's affinity `W`.
+fn normalized_affinity_laplacian(
+    adj: &Adjacency,
+    graph: &EdgeGraph,
+    normals: &[unfold_mesh::nalgebra::Vector3<f64>],
+    config: &ParcellationConfig,
+) -> Result<AffinityLaplacian, OrganError> {
+    let n = adj.num_vertices();
+    // Per vertex: (neighbour j > i within the ring, Dijkstra distance).
+    let rings: Vec<Vec<(u32, f64)>> = (0..n)
+        .into_par_iter()
+        .map_init(LocalDijkstra::default, |dj, i| {
+            dj.ring_distances(adj, graph, i as u32, config.rings)
+        })
+        .collect();
+    let l_max = rings
+        .iter()
+        .flat_map(|r| r.iter().map(|&(_, d)| d))
+        .fold(0.0, f64::max);
+    if !(l_max.is_finite() && l_max > 0.0) {
+        return Err(OrganError::Parcellation(
+            "the boundary has no edges of positive length".into(),
+        ));
+    }
+    // W, upper triangle including the diagonal (w_ii = exp(0) = 1).
+    let mut w: Vec<(u32, u32, f64)> =
+        Vec::with_capacity(n + rings.iter().map(Vec::len).sum::<usize>());
+    let mut degree = vec![0.0; n];
+    for (i, ring) in rings.iter().enumerate() {
+        w.push((i as u32, i as u32, 1.0));
+        degree[i] += 1.0;
+        for &(j, d) in ring {
+            let value = (config.gamma * normals[i].dot(&normals[j as usize]) * d / l_max).exp();
+            w.push((i as u32, j, value));
+            degree[i] += value;
+            degree[j as usize] += value;
+        }
+    }
+    if degree.iter().any(|d| !d.is_finite()) {
+        return Err(OrganError::Parcellation(
+            "the affinity overflows (a normal is not finite?)".into(),
+        ));
+    }
+    let sqrt_degree: Vec<f64> = degree.iter().map(|d| d.sqrt()).collect();
+    let l = SparseSym::from_entries(
+        n,
+        w.into_iter().map(|(i, j, v)| {
+            let s = v / (sqrt_degree[i as usize] * sqrt_degree[j as usize]);
+            (i, j, if i == j { 1.0 - s } else { -s })
+        }),
+    );
+    Ok(AffinityLaplacian { l, sqrt_degree })
+}
+
+/// Dijkstra from one vertex, stopped once every vertex of its `k`-ring is
+/// settled (distances along edges, exact).
+#[derive(Default)]
+struct LocalDijkstra {
+    dist: Vec<f64>,
+    hops: Vec<u8>,
+    touched: Vec<u32>,
+    heap: BinaryHeap<Item>,
+}
+
+#[derive(PartialEq)]
+struct Item(f64, u32);
+
+impl Eq for Item {}
+
+impl PartialOrd for Item {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Item {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Min-heap on distance, then index (deterministic).
+        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
+    }
+}
+
+impl LocalDijkstra {
+    /// `(j, d(i, j))` for every `j > i` within `k` edges of `i`.
+    fn ring_distances(
+        &mut self,
+        adj: &Adjacency,
+        graph: &EdgeGraph,
+        i: u32,
+        k: usize,
+    ) -> Vec<(u32, f64)> {
+        let n = adj.num_vertices();
+        if self.dist.len() != n {
+            self.dist = vec![f64::INFINITY; n];
+            self.hops = vec![u8::MAX; n];
+        }
+        // The k-ring by breadth-first search.
+        let mut ring = vec![i];
+        self.hops[i as usize] = 0;
+        self.touched.push(i);
+        let mut start = 0;
+        for h in 1..=k as u8 {
+            let end = ring.len();
+            for r in start..end {
+                for &j in adj.neighbors(ring[r] as usize) {
+                    if self.hops[j as usize] == u8::MAX {
+                        self.hops[j as usize] = h;
+                        self.touched.push(j);
+                        ring.push(j);
+                    }
+                }
+            }
+            start = end;
+        }
+        let mut remaining = ring.len();
+        self.dist[i as usize] = 0.0;
+        self.heap.clear();
+        self.heap.push(Item(0.0, i));
+        let mut out = Vec::with_capacity(ring.len());
+        while let Some(Item(d, v)) = self.heap.pop() {
+            if d > self.dist[v as usize] {
+                continue;
+            }
+            if self.hops[v as usize] != u8::MAX {
+                // A ring vertex settled for the first time (its mark is
+                // cleared so that it counts once).
+                remaining -= 1;
+                if v > i {
+                    out.push((v, d));
+                }
+                self.hops[v as usize] = u8::MAX;
+                if remaining == 0 {
+                    break;
+                }
+            }
+            let (nbrs, lens) = graph.neighbors(v);
+            for (&j, &len) in nbrs.iter().zip(lens) {
+                let nd = d + len;
+                if nd < self.dist[j as usize] {
+                    if self.dist[j as usize].is_infinite() {
+                        self.touched.push(j);
+                    }
+                    self.dist[j as usize] = nd;
+                    self.heap.push(Item(nd, j));
+                }
+            }
+        }
+        for &v in &self.touched {
+            self.dist[v as usize] = f64::INFINITY;
+            self.hops[v as usize] = u8::MAX;
+        }
+        self.touched.clear();
+        out.sort_unstable_by_key(|&(j, _)| j);
+        out
+    }
+}
+
+/// One third of the area of every triangle at each vertex.
+fn barycentric_areas(mesh: &TriMesh) -> Vec<f64> {
+    let mut a = vec![0.0; mesh.positions.len()];
+    for t in &mesh.triangles {
+        let [p, q, r] = t.map(|v| mesh.positions[v as usize]);
+        let third = triangle_area(&p, &q, &r) / 3.0;
+        for &v in t {
+            a[v as usize] += third;
+        }
+    }
+    a
+}
+
+/// The margin chosen by the adaptive rule.
+struct Margin {
+    radius: f64,
+    area: f64,
+    connected: bool,
+}
+
+/// Whether every side, outside the margin `seed_distance <= r`, is one
+/// connected piece (over boundary edges), and the margin's area.
+fn evaluate_margin(
+    adj: &Adjacency,
+    maternal: &[bool],
+    seed_distance: &[f64],
+    areas: &[f64],
+    r: f64,
+) -> (bool, f64) {
+    let n = maternal.len();
+    let in_margin = |i: usize| seed_distance[i] <= r;
+    let area: f64 = (0..n).filter(|&i| in_margin(i)).map(|i| areas[i]).sum();
+    let mut seen = vec![false; n];
+    let mut pieces = [0usize; 2];
+    let mut stack = Vec::new();
+    for s in 0..n {
+        if seen[s] || in_margin(s) {
+            continue;
+        }
+        pieces[usize::from(maternal[s])] += 1;
+        seen[s] = true;
+        stack.push(s);
+        while let Some(v) = stack.pop() {
+            for &j in adj.neighbors(v) {
+                let j = j as usize;
+                if !seen[j] && !in_margin(j) && maternal[j] == maternal[s] {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    (pieces[0] <= 1 && pieces[1] <= 1, area)
+}
+
+/// The adaptive margin radius (module docs, step 3).
+fn choose_margin(
+    adj: &Adjacency,
+    maternal: &[bool],
+    seed_distance: &[f64],
+    areas: &[f64],
+    total_area: f64,
+    config: &ParcellationConfig,
+) -> Margin {
+    let eval = |r: f64| evaluate_margin(adj, maternal, seed_distance, areas, r);
+    let r0 = config.margin_mm;
+    let (connected0, area0) = eval(r0);
+    if !config.adaptive_margin {
+        return Margin {
+            radius: r0,
+            area: area0,
+            connected: connected0,
+        };
+    }
+    let step = 0.25 * config.voxel_mm;
+    let r_max = config.max_margin_voxels * config.voxel_mm;
+    let mut best = Margin {
+        radius: r0,
+        area: area0,
+        connected: connected0,
+    };
+    if !connected0 {
+        // Shrink while a side is split.
+        let mut r = r0 - step;
+        while r > 0.0 {
+            let (connected, area) = eval(r);
+            best = Margin {
+                radius: r,
+                area,
+                connected,
+            };
+            if connected {
+                break;
+            }
+            r -= step;
+        }
+        if !best.connected {
+            let (connected, area) = eval(r0);
+            best = Margin {
+                radius: r0,
+                area,
+                connected,
+            };
+        }
+        return best;
+    }
+    // Grow while the margin is too small and growing splits no side.
+    let mut r = r0;
+    while best.area < config.min_margin_area_fraction * total_area && r + step < r_max {
+        r += step;
+        let (connected, area) = eval(r);
+        if !connected {
+            break;
+        }
+        best = Margin {
+            radius: r,
+            area,
+            connected,
+        };
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use unfold_mesh::shapes::{PlacentaParams, placenta_slab};
+
+    fn slab(cells_radial: usize) -> TetMesh {
+        placenta_slab(&PlacentaParams {
+            cells_radial,
+            ..PlacentaParams::default()
+        })
+        .unwrap()
+        .mesh
+    }
+
+    #[test]
+    fn ring_distances_equal_full_dijkstra_within_the_ring() {
+        let b = tet_boundary(&slab(5)).unwrap();
+        let n = b.surface.positions.len();
+        let adj = vertex_adjacency(n, &b.surface.triangles);
+        let graph = EdgeGraph::from_tri_mesh(&b.surface);
+        let mut dj = LocalDijkstra::default();
+        for i in [0u32, 7, 40, (n - 1) as u32] {
+            let full = graph.distances(&[i]);
+            let ring: Vec<u32> = unfold_mesh::topology::k_ring(&adj, i, 3);
+            let got = dj.ring_distances(&adj, &graph, i, 3);
+            let want: Vec<u32> = ring.iter().copied().filter(|&j| j > i).collect();
+            let mut want_sorted = want.clone();
+            want_sorted.sort_unstable();
+            assert_eq!(got.iter().map(|&(j, _)| j).collect::<Vec<_>>(), want_sorted);
+            for (j, d) in got {
+                assert!((d - full[j as usize]).abs() < 1e-12);
+            }
+        }
+    }
+
+    /// A path of 20 vertices, `0..10` fetal, `10..20` maternal, unit areas.
+    fn path() -> (Adjacency, Vec<bool>, Vec<f64>) {
+        let n = 20usize;
+        let mut offsets = vec![0usize];
+        let mut neighbors = Vec::new();
+        for i in 0..n {
+            if i > 0 {
+                neighbors.push(i as u32 - 1);
+            }
+            if i + 1 < n {
+                neighbors.push(i as u32 + 1);
+            }
+            offsets.push(neighbors.len());
+        }
+        let adj = Adjacency { offsets, neighbors };
+        let maternal = (0..n).map(|i| i >= 10).collect();
+        (adj, maternal, vec![1.0; n])
+    }
+
+    #[test]
+    fn the_margin_shrinks_while_it_splits_a_side() {
+        let (adj, maternal, areas) = path();
+        // Vertex 5 (inside the fetal half) is close to a seed; its
+        // neighbours are not, so any r >= 1 cuts the fetal side in two.
+        let mut d: Vec<f64> = (0..20)
+            .map(|i: i32| 10.0 * f64::from((i - 10).abs()))
+            .collect();
+        d[9] = 0.0;
+        d[10] = 0.0;
+        d[5] = 1.0;
+        let config = ParcellationConfig {
+            margin_mm: 3.0,
+            voxel_mm: 1.0,
+            ..ParcellationConfig::default()
+        };
+        let m = choose_margin(&adj, &maternal, &d, &areas, 20.0, &config);
+        assert!(m.connected);
+        assert!(m.radius < 1.0 && m.radius > 0.0, "{}", m.radius);
+        assert_eq!(m.radius, 0.75);
+        // Without adaptation the split stays and is reported.
+        let fixed = ParcellationConfig {
+            adaptive_margin: false,
+            ..config
+        };
+        let m = choose_margin(&adj, &maternal, &d, &areas, 20.0, &fixed);
+        assert!(!m.connected && m.radius == 3.0);
+    }
+
+    #[test]
+    fn the_margin_grows_to_a_quarter_of_the_area() {
+        let (adj, maternal, areas) = path();
+        // Distance to the cut between 9 and 10: |i - 9.5| - 0.5 mm.
+        let d: Vec<f64> = (0..20).map(|i| (f64::from(i) - 9.5).abs() - 0.5).collect();
+        let config = ParcellationConfig {
+            margin_mm: 0.5,
+            voxel_mm: 1.0,
+            ..ParcellationConfig::default()
+        };
+        let m = choose_margin(&adj, &maternal, &d, &areas, 20.0, &config);
+        // 25 % of 20 vertices = 5: r = 2 gives 6 vertices (d = 0, 1, 2).
+        assert!(m.area >= 5.0, "{}", m.area);
+        assert_eq!(m.radius, 2.0);
+        assert!(m.connected);
+        // The upper limit (10 voxels, exclusive) stops the growth.
+        let capped = ParcellationConfig {
+            max_margin_voxels: 1.2,
+            ..config
+        };
+        let m = choose_margin(&adj, &maternal, &d, &areas, 20.0, &capped);
+        assert_eq!(m.radius, 1.0);
+    }
+
+    #[test]
+    fn bad_settings_name_the_value() {
+        for (c, needle) in [
+            (
+                ParcellationConfig {
+                    gamma: 0.0,
+                    ..Default::default()
+                },
+                "gamma",
+            ),
+            (
+                ParcellationConfig {
+                    rings: 0,
+                    ..Default::default()
+                },
+                "rings",
+            ),
+            (
+                ParcellationConfig {
+                    margin_mm: 30.0,
+                    ..Default::default()
+                },
+                "margin_mm",
+            ),
+            (
+                ParcellationConfig {
+                    voxel_mm: f64::NAN,
+                    ..Default::default()
+                },
+                "voxel_mm",
+            ),
+            (
+                ParcellationConfig {
+                    min_margin_area_fraction: 1.0,
+                    ..Default::default()
+                },
+                "min_margin_area_fraction",
+            ),
+        ] {
+            let e = c.validate().unwrap_err().to_string();
+            assert!(e.contains(needle), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_fiedler_vector_is_positive_on_the_maternal_side() {
+        let p = parcellate(&slab(8), &ParcellationConfig::default()).unwrap();
+        for (l, f) in p.labels.iter().zip(&p.fiedler) {
+            match *l {
+                LABEL_MATERNAL => assert!(*f > 0.0),
+                LABEL_FETAL => assert!(*f <= 0.0),
+                _ => {}
+            }
+        }
+        let s = p.summary;
+        assert!(s.hull_maternal > s.hull_fetal);
+        assert_eq!(s.boundary_components, 1);
+        assert!(s.fiedler_value >= 0.0 && s.fiedler_value < 1e-2);
+        assert!(s.margin_area_fraction >= 0.25 - 1e-12);
+    }
+}
