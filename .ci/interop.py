@@ -74,4 +74,94 @@ nibabel.save(nibabel.Nifti1Image(data.astype(np.float32), img.affine), back)
 bi = info(back)
 assert np.allclose(np.array(bi["affine"]), img.affine, atol=1e-4)
 print(f"unfold read a nibabel-written NIfTI: affine ok")
-print(f"{checked + 2} passed, 0 failed")
+
+
+# The placenta pipeline's outputs (`unfold demo` runs it into placenta/): silent
+# when they are right, one clear line and a non-zero exit when not.
+def fail(msg):
+    sys.exit(f"interop: placenta: {msg}")
+
+
+pl = demo / "placenta"
+for name in ["original.vtu", "flattened.vtu", "report.json", "placenta_mri_flat.nii.gz"]:
+    if not (pl / name).is_file():
+        fail(f"{pl / name} is missing (did `unfold demo` run the placenta pipeline?)")
+
+meshes = {}
+for name in ["original.vtu", "flattened.vtu"]:
+    m = meshio.read(pl / name)
+    types = {c.type for c in m.cells}
+    if types != {"tetra"}:
+        fail(f"{name}: cell types {sorted(types)}, expected only tetra")
+    n_tets = sum(len(c.data) for c in m.cells)
+    if "side" not in m.point_data:
+        fail(f"{name}: no point array 'side' (has {sorted(m.point_data)})")
+    side = np.asarray(m.point_data["side"]).ravel()
+    if len(side) != len(m.points):
+        fail(f"{name}: 'side' has {len(side)} values for {len(m.points)} points")
+    if set(np.unique(side).tolist()) != {0, 1, 2, 3}:
+        fail(f"{name}: 'side' values {np.unique(side).tolist()}, expected 0, 1, 2 and 3")
+    if not np.all(np.isfinite(m.points)):
+        fail(f"{name}: non-finite coordinates")
+    meshes[name] = (m, n_tets, side)
+
+orig, n_orig, side_orig = meshes["original.vtu"]
+flat, n_flat, side_flat = meshes["flattened.vtu"]
+if (len(orig.points), n_orig) != (len(flat.points), n_flat):
+    fail(f"original has {len(orig.points)} points / {n_orig} tets, flattened {len(flat.points)} / {n_flat}")
+if not np.array_equal(side_orig, side_flat):
+    fail("'side' differs between original.vtu and flattened.vtu")
+if not np.array_equal(np.concatenate([c.data for c in orig.cells]), np.concatenate([c.data for c in flat.cells])):
+    fail("the tets of original.vtu and flattened.vtu differ")
+for arr in ["log2_det_j", "sym_dirichlet"]:
+    if arr not in flat.cell_data:
+        fail(f"flattened.vtu: no cell array '{arr}' (has {sorted(flat.cell_data)})")
+    values = np.concatenate([np.asarray(b).ravel() for b in flat.cell_data[arr]])
+    if len(values) != n_flat:
+        fail(f"flattened.vtu: '{arr}' has {len(values)} values for {n_flat} tets")
+    if not np.all(np.isfinite(values)):
+        fail(f"flattened.vtu: '{arr}' has non-finite values")
+
+try:
+    report = json.loads((pl / "report.json").read_text())
+except json.JSONDecodeError as e:
+    fail(f"report.json does not parse: {e}")
+required = [
+    "template", "lambda", "solver", "iterations", "seconds", "converged", "objective",
+    "template_error_mm", "template_error_voxels", "dirichlet_excess_percent", "min_det_j",
+    "inverted_tets", "theta", "theta_initial", "log2_det_j", "log2_edge_ratio",
+    "log2_area_ratio", "boundary", "transform",
+]
+missing = [k for k in required if k not in report]
+if missing:
+    fail(f"report.json lacks {missing}")
+for k in ["log2_det_j", "log2_edge_ratio", "log2_area_ratio"]:
+    summary = report[k]
+    if not isinstance(summary, dict) or any(not isinstance(summary.get(s), (int, float)) for s in ["mean", "std", "p5", "p50", "p95"]):
+        fail(f"report.json: {k} should have numbers mean, std, p5, p50, p95, got {summary}")
+if any(not isinstance(report["boundary"].get(s), int) for s in ["fetal", "maternal", "margin"]):
+    fail(f"report.json: boundary should count fetal, maternal and margin, got {report['boundary']}")
+if report["inverted_tets"] != 0:
+    fail(f"report.json: {report['inverted_tets']} inverted tets")
+if report["min_det_j"] <= 0:
+    fail(f"report.json: min_det_j {report['min_det_j']} <= 0")
+
+flat_img_path = pl / "placenta_mri_flat.nii.gz"
+flat_img = nibabel.load(flat_img_path)
+flat_data = np.asarray(flat_img.dataobj, dtype=np.float64)
+if flat_data.ndim != 3:
+    fail(f"{flat_img_path.name}: {flat_data.ndim}D, expected 3D (shape {flat_data.shape})")
+if not np.any(flat_data != 0):
+    fail(f"{flat_img_path.name}: all zero")
+entries = [i for i in report.get("images", []) if Path(i["output"]).name == flat_img_path.name]
+if len(entries) != 1:
+    fail(f"report.json: expected one images entry for {flat_img_path.name}, got {report.get('images')}")
+entry = entries[0]
+if list(flat_data.shape) != entry["dims"]:
+    fail(f"{flat_img_path.name}: shape {flat_data.shape}, report.json says {entry['dims']}")
+if not np.allclose(flat_img.affine, np.array(entry["affine"]), rtol=1e-6, atol=1e-4):
+    fail(f"{flat_img_path.name}: affine {flat_img.affine.tolist()} is not the template grid's {entry['affine']}")
+inside = int(np.count_nonzero(flat_data))
+if inside != entry["sampled"]:
+    fail(f"{flat_img_path.name}: {inside} non-zero voxels, report.json says {entry['sampled']} sampled")
+print(f"{checked + 5} passed, 0 failed")

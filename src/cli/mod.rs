@@ -4,12 +4,14 @@ mod convert;
 mod deform;
 mod demo;
 mod info;
+mod placenta;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use thiserror::Error;
 use unfold::io::IoError;
 use unfold::mesh::MeshError;
+use unfold::organs::OrganError;
 
 /// Errors of the command-line tool (one line each when printed).
 #[derive(Debug, Error)]
@@ -38,6 +40,15 @@ pub enum CliError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// An organ pipeline rejected its input or failed; `path` names the
+    /// input concerned (the mesh, or an image).
+    #[error("{path}: {source}")]
+    Organ {
+        /// The input file (or the name of a built-in shape).
+        path: String,
+        /// What went wrong.
+        source: OrganError,
+    },
     /// A usage error not caught by the argument parser.
     #[error("{0}")]
     Usage(String),
@@ -58,10 +69,14 @@ enum Command {
     Info(info::InfoArgs),
     /// Convert a mesh between formats (by file extension).
     Convert(convert::ConvertArgs),
-    /// Write the built-in synthetic shapes (and their info) to a directory.
+    /// Write the built-in synthetic shapes (and their info) to a directory, and run the
+    /// placenta pipeline on a built-in slab.
     Demo(demo::DemoArgs),
     /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
     Deform(deform::DeformArgs),
+    /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
+    /// single plane), pulling images into the template frame.
+    Placenta(placenta::PlacentaArgs),
 }
 
 /// Runs a parsed command line.
@@ -71,6 +86,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Convert(a) => convert::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Deform(a) => deform::run(&a),
+        Command::Placenta(a) => placenta::run(&a),
     }
 }
 

@@ -627,14 +627,39 @@ pub fn flatten_with(
     observer: &mut dyn PipelineObserver,
 ) -> Result<Outcome, OrganError> {
     let start = Instant::now();
-    let mut timings = Timings::default();
     config.validate()?;
-
     observer.stage("validation");
-    let t = Instant::now();
     let prepared = prepare_mesh(mesh)?;
+    let prepare_seconds = start.elapsed().as_secs_f64();
+    flatten_prepared_impl(prepared, config, observer, start, prepare_seconds)
+}
+
+/// [`flatten_with`] for a mesh already checked by [`prepare_mesh`] (so a
+/// caller that validated the input up front does not pay for it twice).
+///
+/// # Errors
+/// As [`flatten_with`], except the mesh checks.
+pub fn flatten_prepared_with(
+    prepared: PreparedMesh,
+    config: &Config,
+    observer: &mut dyn PipelineObserver,
+) -> Result<Outcome, OrganError> {
+    config.validate()?;
+    flatten_prepared_impl(prepared, config, observer, Instant::now(), 0.0)
+}
+
+fn flatten_prepared_impl(
+    prepared: PreparedMesh,
+    config: &Config,
+    observer: &mut dyn PipelineObserver,
+    start: Instant,
+    prepare_seconds: f64,
+) -> Result<Outcome, OrganError> {
+    let mut timings = Timings {
+        prepare: prepare_seconds,
+        ..Timings::default()
+    };
     let rest = prepared.mesh;
-    timings.prepare = t.elapsed().as_secs_f64();
 
     observer.stage("parcellation");
     let t = Instant::now();

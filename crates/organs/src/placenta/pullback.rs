@@ -494,9 +494,10 @@ fn fitting_spacing(ext: [f64; 3], spacing: [f64; 3]) -> Option<[f64; 3]> {
     fits(s).then_some(s)
 }
 
-/// World bounding box of an image's voxels (as boxes): the affine image of
-/// `[-1/2, n - 1/2]` along every axis.
-fn image_world_box(image: &Volume<f32>) -> ([f64; 3], [f64; 3]) {
+/// World bounding box `(min, max)` of an image's voxels (as boxes): the
+/// affine image of the 8 corners of `[-1/2, n - 1/2]^3` in voxel
+/// coordinates. Callers can check overlap with a mesh before any work.
+pub fn image_world_box(image: &Volume<f32>) -> ([f64; 3], [f64; 3]) {
     let d = image.dims();
     let corners: Vec<Point3<f64>> = (0..8)
         .map(|c: usize| {

@@ -1,0 +1,107 @@
+//! The whole placenta pipeline on the synthetic slab, parallel planes
+//! (issue 4): validation, parcellation (affinity, Fiedler vector, margin),
+//! alignment, initial estimates, projected Newton to `|grad|_F < 1e-4`, and
+//! the evaluation of the map. File I/O is not included.
+//!
+//! - `placenta/planes_7k`: 7,200 tets (`cells_radial = 10`, `cells_through = 4`);
+//! - `placenta/planes_60k`: 60,552 tets (`cells_radial = 29`, `cells_through = 4`).
+//!
+//! Before timing, one run per mesh asserts convergence, no inverted tet and
+//! a sub-voxel template error. The summary printed at the end gives the
+//! median per mesh with the seconds per step from the report.
+//!
+//! Targets: under 2 s for ~7,000 tets and under 20 s for ~60,000 tets.
+//!
+//! Run with `cargo bench --bench placenta` (about 2 minutes on 2 cores;
+//! criterion warns that 10 samples of the 60k run do not fit its time
+//! target: each sample is one run, which is intended).
+
+use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+use unfold::mesh::TetMesh;
+use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
+use unfold::organs::placenta::{Config, Outcome, flatten};
+
+fn slab(cells_radial: usize) -> TetMesh {
+    placenta_slab(&PlacentaParams {
+        cells_radial,
+        cells_through: 4,
+        ..PlacentaParams::default()
+    })
+    .expect("slab")
+    .mesh
+}
+
+fn check(mesh: &TetMesh, what: &str) -> Outcome {
+    let out = flatten(mesh, &Config::default()).expect("pipeline");
+    let r = &out.report;
+    assert!(r.converged, "{what}: {:?}", r.stop_reason);
+    assert_eq!(r.inverted_tets, 0, "{what}");
+    assert!(r.template_error_mm < 1.5, "{what}: {}", r.template_error_mm);
+    out
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn placenta(c: &mut Criterion) {
+    let meshes = [("planes_7k", slab(10), 5), ("planes_60k", slab(29), 90)];
+    assert_eq!(meshes[0].1.num_tets(), 7_200);
+    assert_eq!(meshes[1].1.num_tets(), 60_552);
+    let mut g = c.benchmark_group("placenta");
+    g.sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_millis(1));
+    let mut results = Vec::new();
+    for (name, mesh, seconds) in &meshes {
+        let out = check(mesh, name);
+        let mut times = Vec::new();
+        g.measurement_time(Duration::from_secs(*seconds));
+        g.bench_function(*name, |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    let t0 = Instant::now();
+                    black_box(flatten(mesh, &Config::default()).expect("pipeline"));
+                    let dt = t0.elapsed();
+                    times.push(dt.as_secs_f64());
+                    total += dt;
+                }
+                total
+            })
+        });
+        results.push((*name, mesh.num_tets(), out, median(&mut times), times.len()));
+    }
+    g.finish();
+    println!("\nplacenta summary (whole pipeline without file I/O, parallel planes, Newton):");
+    for (name, tets, out, med, runs) in &results {
+        let r = &out.report;
+        let t = &r.timings;
+        println!(
+            "  {name:<11} {tets:>6} tets: {med:7.3} s (median of {runs} runs); {} iterations, \
+             template error {:.3} mm, Dirichlet excess {:.2} %; steps of the checked run: \
+             prepare {:.3} s, parcellation {:.3} s, initialization {:.3} s, optimization {:.3} s, \
+             evaluation {:.3} s",
+            r.iterations,
+            r.template_error_mm,
+            r.dirichlet_excess_percent,
+            t.prepare,
+            t.parcellation,
+            t.initialization,
+            t.optimization,
+            t.evaluation
+        );
+    }
+    println!("  targets: < 2 s on ~7,000 tets, < 20 s on ~60,000 tets");
+}
+
+criterion_group!(benches, placenta);
+criterion_main!(benches);

@@ -1,0 +1,795 @@
+//! `unfold placenta MESH -o DIR [--image FILE ...]`: flattens a placenta tet
+//! mesh onto a canonical template (ALGORITHMS 2) and pulls images into the
+//! template frame.
+//!
+//! The pipeline is [`unfold::organs::placenta::flatten_with`]: it minimizes
+//!
+//! ```text
+//! phi(X, theta) = sum_{m in boundary} A_m T(x_m, theta)  +  lambda sum_k V_k D(J_k)
+//! ```
+//!
+//! (`T` the template term of the fetal, maternal and margin boundary
+//! vertices, `D` the symmetric Dirichlet energy), flip-free, and evaluates the
+//! map. Every image given with `--image` is then resampled on an
+//! axis-aligned grid covering the flattened mesh (ALGORITHMS 2.7), one
+//! pull-back table per distinct grid spacing, shared by all frames of a 4D
+//! series and by all images with that spacing.
+//!
+//! Outputs in DIR (created if missing), each written atomically:
+//!
+//! - `original.vtu`: the input (tets oriented positively) with the point
+//!   array `side` (0 interior, 1 fetal, 2 maternal, 3 margin);
+//! - `flattened.vtu`: the mapped mesh in the template frame, point array
+//!   `side`, cell arrays `log2_det_j` and `sym_dirichlet`;
+//! - `<name>_flat.nii.gz` for every image `<name>.nii[.gz]`;
+//! - `report.json`: the library's report plus `mesh` (the input) and
+//!   `images` (one entry per image: input, output, spacing, dims, frames
+//!   and the voxel counts of the pull-back).
+//!
+//! Every input is read and checked before the optimization starts: the mesh
+//! (tets, finite coordinates, no degenerate tets, one component, manifold
+//! boundary), every image (readable, overlapping the mesh), distinct image
+//! names, and no output path equal to an input. Tets with a negative
+//! orientation are reoriented (a repair that is reported, not an error).
+
+use super::CliError;
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use std::fmt;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use unfold::io::{
+    NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
+};
+use unfold::mesh::geometry::bounding_box;
+use unfold::mesh::{CellMesh, CellType, MeshError, TetMesh};
+use unfold::organs::OrganError;
+use unfold::organs::placenta::parcellation::ParcellationConfig;
+use unfold::organs::placenta::pullback::{PullbackTable, image_world_box};
+use unfold::organs::placenta::{
+    Config, PipelineObserver, PreparedMesh, Report, SolverKind, TemplateKind,
+    flatten_prepared_with, prepare_mesh,
+};
+use unfold::param::Iteration;
+
+/// Templates on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum TemplateArg {
+    /// Two parallel planes z = +-h (fetal side up); the default.
+    Planes,
+    /// An axis-aligned ellipsoid with radii rx, ry, rz.
+    Ellipsoid,
+    /// The maternal side on z = -h, the fetal side free (starts from planes).
+    SinglePlane,
+}
+
+impl From<TemplateArg> for TemplateKind {
+    fn from(t: TemplateArg) -> Self {
+        match t {
+            TemplateArg::Planes => TemplateKind::Planes,
+            TemplateArg::Ellipsoid => TemplateKind::Ellipsoid,
+            TemplateArg::SinglePlane => TemplateKind::SinglePlane,
+        }
+    }
+}
+
+/// Solvers on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SolverArg {
+    /// Projected Newton (sparse Cholesky of the PSD-projected Hessian).
+    Newton,
+    /// Gradient descent (the paper's Algorithm 1; thousands of iterations).
+    Gd,
+}
+
+impl From<SolverArg> for SolverKind {
+    fn from(s: SolverArg) -> Self {
+        match s {
+            SolverArg::Newton => SolverKind::Newton,
+            SolverArg::Gd => SolverKind::Gd,
+        }
+    }
+}
+
+/// Arguments of `unfold placenta`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Writes DIR/original.vtu and DIR/flattened.vtu (point array `side`: 0 \
+interior, 1 fetal, 2 maternal, 3 margin), DIR/<name>_flat.nii.gz per image and DIR/report.json."
+)]
+pub struct PlacentaArgs {
+    /// Placenta tet mesh (.vtu .vtk .mesh .msh), millimetres, scanner frame.
+    /// Boundary triangles and other lower-dimensional cells are ignored.
+    mesh: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// Template the mesh is flattened onto.
+    #[arg(long, value_enum, default_value = "planes")]
+    template: TemplateArg,
+    /// Weight lambda of the distortion term (the paper finds 0.1..5 alike).
+    #[arg(
+        long,
+        value_name = "LAMBDA",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    lambda: f64,
+    /// Half-width of the margin between the fetal and maternal sides to
+    /// start from, mm (adapted in quarter-voxel steps, below 10 voxels).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 15.0,
+        allow_negative_numbers = true
+    )]
+    margin_mm: f64,
+    /// Voxel size of the acquisition, mm: the unit of the margin's steps and
+    /// of the template error in voxels.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
+    voxel_mm: f64,
+    /// Optimizer.
+    #[arg(long, value_enum, default_value = "newton")]
+    solver: SolverArg,
+    /// A 3D or 4D NIfTI image (.nii, .nii.gz) in the mesh's scanner frame to
+    /// pull into the template; written as DIR/<name>_flat.nii.gz. Repeatable.
+    #[arg(long = "image", value_name = "FILE")]
+    images: Vec<PathBuf>,
+    /// Isotropic voxel size of the template-space images, mm [default: each
+    /// input image's own voxel spacing].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    spacing_mm: Option<f64>,
+    /// Stop when the gradient norm |grad phi|_F falls below this.
+    #[arg(
+        long,
+        value_name = "TOL",
+        default_value_t = 1e-4,
+        allow_negative_numbers = true
+    )]
+    tol: f64,
+    /// Iteration limit per optimization stage [default: 200 for newton,
+    /// 100000 for gd]. Not converging within it is not an error.
+    #[arg(long, value_name = "N")]
+    max_iterations: Option<usize>,
+}
+
+/// A usage error naming `path`.
+fn at(path: &Path, msg: impl fmt::Display) -> CliError {
+    CliError::Usage(format!("{}: {msg}", path.display()))
+}
+
+/// A pipeline error about the input `path` (the mesh, or an image),
+/// reworded where the library's message speaks to programmers.
+fn organ(path: &str, source: OrganError) -> CliError {
+    if let OrganError::Mesh(MeshError::MultipleComponents { count }) = source {
+        return CliError::Usage(format!(
+            "{path}: the mesh has {count} connected components; the placenta pipeline needs \
+             one (keep the largest, or split the file)"
+        ));
+    }
+    CliError::Organ {
+        path: path.to_string(),
+        source,
+    }
+}
+
+/// `value` if it is finite and positive, else a usage error naming `flag`.
+fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(CliError::Usage(format!(
+            "{flag} must be a finite number > 0, got {value}"
+        )))
+    }
+}
+
+impl PlacentaArgs {
+    /// The pipeline settings, every flag checked.
+    fn config(&self) -> Result<Config, CliError> {
+        let lambda = positive("--lambda", self.lambda)?;
+        let margin_mm = positive("--margin-mm", self.margin_mm)?;
+        let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
+        let grad_tol = positive("--tol", self.tol)?;
+        if let Some(s) = self.spacing_mm {
+            positive("--spacing-mm", s)?;
+        }
+        if self.max_iterations == Some(0) {
+            return Err(CliError::Usage(
+                "--max-iterations must be at least 1".into(),
+            ));
+        }
+        let config = Config {
+            template: self.template.into(),
+            lambda,
+            solver: self.solver.into(),
+            grad_tol,
+            max_iterations: self.max_iterations,
+            max_seconds: None,
+            parcellation: ParcellationConfig {
+                margin_mm,
+                voxel_mm,
+                ..ParcellationConfig::default()
+            },
+        };
+        config
+            .validate()
+            .map_err(|e| CliError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
+        Ok(config)
+    }
+}
+
+/// The tets of a cell mesh as read from a file. Lower-dimensional cells
+/// (boundary triangles, edges, points) are dropped with their cell data;
+/// other volume cells are an error. A mesh without tets gives a [`TetMesh`]
+/// without tets, which the pipeline rejects with its own message.
+fn tets_of(cells: &CellMesh) -> Result<TetMesh, String> {
+    let mut tets = Vec::with_capacity(cells.num_cells());
+    let mut rows = Vec::with_capacity(cells.num_cells());
+    for (i, (t, vs)) in cells.cells().enumerate() {
+        match t {
+            CellType::Tetra => {
+                let tet = <[u32; 4]>::try_from(vs)
+                    .map_err(|_| format!("cell {i} is a tet with {} vertices", vs.len()))?;
+                tets.push(tet);
+                rows.push(i);
+            }
+            t if t.dimension() == 3 => {
+                return Err(format!(
+                    "cell {i} is a {t:?}; the placenta pipeline needs a tetrahedral mesh \
+                     (split other volume cells into tets first)"
+                ));
+            }
+            _ => {}
+        }
+    }
+    let cell_data = if rows.len() == cells.num_cells() {
+        cells.cell_data.clone()
+    } else {
+        cells.cell_data.select(&rows)
+    };
+    Ok(TetMesh {
+        positions: cells.positions.clone(),
+        tets,
+        point_data: cells.point_data.clone(),
+        cell_data,
+    })
+}
+
+/// `<name>` of an image file `<name>.nii` or `<name>.nii.gz` (any case).
+fn image_name(path: &Path) -> Option<String> {
+    let name = path.file_name()?.to_str()?;
+    let lower = name.to_ascii_lowercase();
+    [".nii.gz", ".nii"].iter().find_map(|ext| {
+        (lower.ends_with(ext) && name.len() > ext.len())
+            .then(|| name[..name.len() - ext.len()].to_string())
+    })
+}
+
+/// The output file of an image called `name`.
+fn flat_name(name: &str) -> String {
+    format!("{name}_flat.nii.gz")
+}
+
+/// The fixed outputs in DIR.
+const ORIGINAL: &str = "original.vtu";
+const FLATTENED: &str = "flattened.vtu";
+const REPORT: &str = "report.json";
+
+/// An image to pull into the template.
+#[derive(Debug, Clone)]
+pub(crate) struct ImageInput {
+    /// Where it came from (messages and the report).
+    pub path: PathBuf,
+    /// Its name: the output is `DIR/<name>_flat.nii.gz`.
+    pub name: String,
+    /// The image.
+    pub image: NiftiImage,
+}
+
+/// What [`run_pipeline`] works on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PipelineInput<'a> {
+    /// The mesh's name in messages and the report (its path, usually).
+    pub label: &'a str,
+    /// The placenta tet mesh (mm, scanner frame), checked and oriented.
+    pub mesh: &'a PreparedMesh,
+    /// Images to pull into the template.
+    pub images: &'a [ImageInput],
+    /// Pipeline settings (already validated).
+    pub config: &'a Config,
+    /// Isotropic spacing of the template grids, mm; `None`: each image's
+    /// own spacing.
+    pub spacing_mm: Option<f64>,
+    /// Output directory (created if missing).
+    pub dir: &'a Path,
+    /// Show a progress spinner on stderr (only if stderr is a terminal).
+    pub progress: bool,
+}
+
+/// One entry of `images` in `report.json`.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ImageReport {
+    /// The input image.
+    pub input: String,
+    /// The template-space image written.
+    pub output: String,
+    /// Voxel size of the template grid, mm.
+    pub spacing_mm: [f64; 3],
+    /// Voxels along x, y, z of the template grid.
+    pub dims: [usize; 3],
+    /// Frames (1 for a 3D image).
+    pub frames: usize,
+    /// Voxel-to-world affine of the template grid (template frame, mm),
+    /// row-major.
+    pub affine: [[f64; 4]; 4],
+    /// Template voxels whose centre lies inside the flattened mesh.
+    pub inside_mesh: usize,
+    /// Of those, voxels whose source point lies inside the image.
+    pub sampled: usize,
+    /// Of those, voxels whose source point lies outside the image (0).
+    pub outside_image: usize,
+}
+
+/// `report.json`: the library's report with the inputs and images added.
+#[derive(Serialize)]
+struct FullReport<'a> {
+    mesh: &'a str,
+    #[serde(flatten)]
+    report: &'a Report,
+    images: &'a [ImageReport],
+}
+
+/// What a run produced, for the summary on stdout.
+#[derive(Debug, Clone)]
+pub(crate) struct Summary {
+    /// The mesh's name.
+    pub label: String,
+    /// The library's report.
+    pub report: Report,
+    /// The pulled-back images.
+    pub images: Vec<ImageReport>,
+    /// Every file written, in order.
+    pub written: Vec<PathBuf>,
+}
+
+/// The report's name of a stop reason.
+fn stop_name(r: unfold::param::StopReason) -> String {
+    serde_json::to_value(r)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_else(|| format!("{r:?}"))
+}
+
+/// `name value` pairs of template parameters, mm.
+fn params(theta: &std::collections::BTreeMap<&'static str, f64>) -> String {
+    theta
+        .iter()
+        .map(|(k, v)| format!("{k} {v:.2}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn plural(n: usize, one: &str) -> String {
+    if n == 1 {
+        format!("{n} {one}")
+    } else {
+        format!("{n} {one}s")
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.report;
+        let status = if r.converged {
+            "converged".to_string()
+        } else {
+            format!("NOT converged ({})", stop_name(r.stop_reason))
+        };
+        writeln!(
+            f,
+            "{}: {} tets, {} vertices -> {} template ({}): {status} in {}, {:.2} s",
+            self.label,
+            r.input.tets,
+            r.input.vertices,
+            r.template,
+            r.solver,
+            plural(r.iterations, "iteration"),
+            r.seconds
+        )?;
+        if r.input.reoriented_tets > 0 {
+            writeln!(
+                f,
+                "  reoriented {} (negatively oriented in the input)",
+                plural(r.input.reoriented_tets, "tet")
+            )?;
+        }
+        writeln!(
+            f,
+            "  template error {:.3} mm ({:.3} voxels of {} mm), Dirichlet excess {:.2} %",
+            r.template_error_mm, r.template_error_voxels, r.voxel_mm, r.dirichlet_excess_percent
+        )?;
+        writeln!(
+            f,
+            "  min det J {:.4}, {}",
+            r.min_det_j,
+            plural(r.inverted_tets, "inverted tet")
+        )?;
+        writeln!(
+            f,
+            "  {} mm (initial {} mm)",
+            params(&r.theta),
+            params(&r.theta_initial)
+        )?;
+        writeln!(
+            f,
+            "  boundary vertices: {} fetal, {} maternal, {} margin",
+            r.boundary.fetal, r.boundary.maternal, r.boundary.margin
+        )?;
+        for i in &self.images {
+            writeln!(
+                f,
+                "  {} -> {}: {} voxels inside the mesh, {} sampled, {} outside the image",
+                i.input, i.output, i.inside_mesh, i.sampled, i.outside_image
+            )?;
+        }
+        for (k, p) in self.written.iter().enumerate() {
+            if k + 1 == self.written.len() {
+                write!(f, "wrote {}", p.display())?;
+            } else {
+                writeln!(f, "wrote {}", p.display())?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The progress spinner on stderr: the current stage and, while optimizing,
+/// the iteration, objective and gradient norm. Nothing at all is drawn when
+/// stderr is not a terminal.
+struct Progress {
+    bar: Option<ProgressBar>,
+    stage: String,
+}
+
+impl Progress {
+    fn new(show: bool) -> Self {
+        let bar = (show && std::io::stderr().is_terminal()).then(|| {
+            let bar = ProgressBar::new_spinner();
+            if let Ok(style) = ProgressStyle::with_template("{spinner} [{elapsed}] {wide_msg}") {
+                bar.set_style(style);
+            }
+            bar.enable_steady_tick(Duration::from_millis(120));
+            bar
+        });
+        Progress {
+            bar,
+            stage: String::new(),
+        }
+    }
+
+    fn set(&mut self, stage: &str) {
+        self.stage = stage.to_string();
+        if let Some(b) = &self.bar {
+            b.set_message(stage.to_string());
+        }
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+impl PipelineObserver for Progress {
+    fn stage(&mut self, name: &str) {
+        self.set(name);
+    }
+
+    fn iteration(&mut self, it: &Iteration) {
+        if let Some(b) = &self.bar {
+            b.set_message(format!(
+                "{}, it {}: phi {:.5e}, |grad| {:.2e}",
+                self.stage, it.iteration, it.value, it.grad_norm
+            ));
+        }
+    }
+}
+
+/// Checks that no two images have the same name (so the same output).
+fn check_names<'a>(images: impl IntoIterator<Item = (&'a Path, &'a str)>) -> Result<(), CliError> {
+    let mut seen: Vec<(&Path, &str)> = Vec::new();
+    for (path, name) in images {
+        if let Some((first, _)) = seen.iter().find(|(_, n)| *n == name) {
+            return Err(at(
+                path,
+                format!(
+                    "has the same name as {} (both would be written to {}); rename one of them",
+                    first.display(),
+                    flat_name(name)
+                ),
+            ));
+        }
+        seen.push((path, name));
+    }
+    Ok(())
+}
+
+fn fmt3(p: &[f64; 3]) -> String {
+    format!("{:.1}, {:.1}, {:.1}", p[0], p[1], p[2])
+}
+
+/// Checks that every image's world box meets the mesh's bounding box.
+fn check_overlap(mesh: &TetMesh, images: &[ImageInput]) -> Result<(), CliError> {
+    let Some(bb) = bounding_box(&mesh.positions) else {
+        return Ok(());
+    };
+    let (mlo, mhi) = (
+        [bb.min.x, bb.min.y, bb.min.z],
+        [bb.max.x, bb.max.y, bb.max.z],
+    );
+    for img in images {
+        let (lo, hi) = image_world_box(&img.image.volume);
+        let meets = (0..3).all(|a| lo[a] <= mhi[a] && mlo[a] <= hi[a]);
+        if !meets {
+            return Err(at(
+                &img.path,
+                format!(
+                    "the image does not overlap the mesh: its world bounding box is [{}] - [{}] \
+                     mm, the mesh's is [{}] - [{}] mm (is it an image of this placenta, in the \
+                     same scanner frame?)",
+                    fmt3(&lo),
+                    fmt3(&hi),
+                    fmt3(&mlo),
+                    fmt3(&mhi)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether two grid spacings are the same (to 1e-6 relative).
+fn same_spacing(a: &[f64; 3], b: &[f64; 3]) -> bool {
+    (0..3).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i].abs().max(b[i].abs()))
+}
+
+fn row_major(m: &unfold::mesh::nalgebra::Matrix4<f64>) -> [[f64; 4]; 4] {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
+}
+
+/// Runs the placenta pipeline and writes its outputs into `input.dir`:
+/// checks the mesh and images first (mesh validity, distinct image names,
+/// every image overlapping the mesh), flattens, pulls every image back
+/// (one table per distinct spacing) and writes `original.vtu`,
+/// `flattened.vtu`, `<name>_flat.nii.gz` per image and `report.json` (last).
+pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliError> {
+    let label = input.label;
+    // Fail fast: everything that can be checked before the optimization.
+    check_names(
+        input
+            .images
+            .iter()
+            .map(|i| (i.path.as_path(), i.name.as_str())),
+    )?;
+    check_overlap(&input.mesh.mesh, input.images)?;
+    if let Some(s) = input.spacing_mm {
+        positive("--spacing-mm", s)?;
+    }
+    super::ensure_dir(input.dir)?;
+
+    let mut progress = Progress::new(input.progress);
+    let outcome = flatten_prepared_with(input.mesh.clone(), input.config, &mut progress).map_err(
+        |e| match e {
+            OrganError::Config(_) => CliError::Usage(e.to_string()),
+            e => organ(label, e),
+        },
+    )?;
+
+    let dir = input.dir;
+    let mut written = Vec::new();
+    progress.set("writing meshes");
+    let opts = WriteOptions::default();
+    for (name, mesh) in [
+        (ORIGINAL, &outcome.original),
+        (FLATTENED, &outcome.flattened),
+    ] {
+        let p = dir.join(name);
+        write_mesh(&p, &CellMesh::from(mesh), &opts)?;
+        written.push(p);
+    }
+
+    let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
+    let mut image_reports = Vec::with_capacity(input.images.len());
+    for img in input.images {
+        let in_path = img.path.display().to_string();
+        let spacing = match input.spacing_mm {
+            Some(s) => [s; 3],
+            None => img.image.volume.spacing(),
+        };
+        let k = match tables.iter().position(|(s, _)| same_spacing(s, &spacing)) {
+            Some(k) => k,
+            None => {
+                progress.set(&format!(
+                    "pull-back table at [{}] mm",
+                    spacing.map(|s| format!("{s:.3}")).join(", ")
+                ));
+                let table = outcome
+                    .pullback_table(spacing)
+                    .map_err(|e| organ(&in_path, e))?;
+                tables.push((spacing, table));
+                tables.len() - 1
+            }
+        };
+        let table = &tables[k].1;
+        progress.set(&format!("pulling back {in_path}"));
+        let (volume, stats) = table
+            .apply(&img.image.volume)
+            .map_err(|e| organ(&in_path, e))?;
+        let grid = *table.grid();
+        let frames = volume.frames();
+        let mut out = NiftiImage::new(volume);
+        out.time_step = img.image.time_step;
+        out.xyzt_units = img.image.xyzt_units;
+        out.description = "unfold placenta: pulled back into the template".into();
+        let out_path = dir.join(flat_name(&img.name));
+        write_image(&out_path, &out)?;
+        image_reports.push(ImageReport {
+            input: in_path,
+            output: out_path.display().to_string(),
+            spacing_mm: grid.spacing,
+            dims: grid.dims,
+            frames,
+            affine: row_major(&grid.affine()),
+            inside_mesh: stats.inside_mesh,
+            sampled: stats.sampled,
+            outside_image: stats.outside_image,
+        });
+        written.push(out_path);
+    }
+
+    let report_path = dir.join(REPORT);
+    let full = FullReport {
+        mesh: label,
+        report: &outcome.report,
+        images: &image_reports,
+    };
+    let json = serde_json::to_string_pretty(&full)
+        .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
+    atomic_write(&report_path, format!("{json}\n").as_bytes())?;
+    written.push(report_path);
+    drop(progress);
+
+    Ok(Summary {
+        label: label.to_string(),
+        report: outcome.report,
+        images: image_reports,
+        written,
+    })
+}
+
+/// Runs `unfold placenta`.
+pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
+    let config = a.config()?;
+    let dir = a.output.as_path();
+    if dir.exists() && !dir.is_dir() {
+        return Err(at(
+            dir,
+            "exists and is not a directory; -o needs a directory (created if missing)",
+        ));
+    }
+    let mut names = Vec::with_capacity(a.images.len());
+    for p in &a.images {
+        let name = image_name(p)
+            .ok_or_else(|| at(p, "not a NIfTI image name (expected .nii or .nii.gz)"))?;
+        names.push(name);
+    }
+    check_names(
+        a.images
+            .iter()
+            .zip(&names)
+            .map(|(p, n)| (p.as_path(), n.as_str())),
+    )?;
+    // Never overwrite an input.
+    let out_dir = super::canonical(dir);
+    let mut outputs: Vec<String> = [ORIGINAL, FLATTENED, REPORT]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    outputs.extend(names.iter().map(|n| flat_name(n)));
+    for input in std::iter::once(&a.mesh).chain(&a.images) {
+        let c = super::canonical(input);
+        if let Some(o) = outputs.iter().find(|o| out_dir.join(o) == c) {
+            return Err(at(
+                input,
+                format!(
+                    "is an input and would be overwritten by the output {}; choose another -o",
+                    dir.join(o).display()
+                ),
+            ));
+        }
+    }
+
+    let cells = read_mesh(&a.mesh)?;
+    let mesh = tets_of(&cells).map_err(|e| at(&a.mesh, e))?;
+    drop(cells);
+    let label = a.mesh.display().to_string();
+    // Mesh problems first: an image cannot be judged against a broken mesh.
+    let prepared = prepare_mesh(&mesh).map_err(|e| organ(&label, e))?;
+    drop(mesh);
+    let mut images = Vec::with_capacity(a.images.len());
+    for (p, name) in a.images.iter().zip(names) {
+        images.push(ImageInput {
+            path: p.clone(),
+            name,
+            image: read_image(p)?,
+        });
+    }
+
+    let summary = run_pipeline(&PipelineInput {
+        label: &label,
+        mesh: &prepared,
+        images: &images,
+        config: &config,
+        spacing_mm: a.spacing_mm,
+        dir,
+        progress: true,
+    })?;
+    println!("{summary}");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use unfold::mesh::nalgebra::Point3;
+
+    #[test]
+    fn image_names_drop_the_nifti_extension() {
+        assert_eq!(
+            image_name(Path::new("a/bold.nii.gz")).as_deref(),
+            Some("bold")
+        );
+        assert_eq!(image_name(Path::new("T2.NII")).as_deref(), Some("T2"));
+        assert_eq!(image_name(Path::new("x.y.nii")).as_deref(), Some("x.y"));
+        assert_eq!(image_name(Path::new(".nii")), None);
+        assert_eq!(image_name(Path::new("img.vtu")), None);
+    }
+
+    #[test]
+    fn spacings_compare_relatively() {
+        assert!(same_spacing(&[2.0; 3], &[2.0 + 1e-9, 2.0, 2.0]));
+        assert!(!same_spacing(&[2.0; 3], &[2.0, 2.1, 2.0]));
+    }
+
+    #[test]
+    fn surface_cells_are_dropped_and_volume_cells_rejected() {
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let mut m = CellMesh::from_points(vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+        ]);
+        m.push_cell(CellType::Triangle, &[0, 1, 2]);
+        m.push_cell(CellType::Tetra, &[0, 1, 2, 3]);
+        let t = tets_of(&m).unwrap();
+        assert_eq!(t.tets, vec![[0, 1, 2, 3]]);
+        let mut tri = CellMesh::from_points(m.positions.clone());
+        tri.push_cell(CellType::Triangle, &[0, 1, 2]);
+        assert!(tets_of(&tri).unwrap().tets.is_empty());
+        let mut wedge = CellMesh::from_points(m.positions.clone());
+        wedge.push_cell(CellType::Pyramid, &[0, 1, 2, 3, 0]);
+        assert!(tets_of(&wedge).unwrap_err().contains("Pyramid"));
+    }
+}

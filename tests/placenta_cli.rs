@@ -1,0 +1,689 @@
+//! `unfold placenta` (and the placenta part of `unfold demo`) through the
+//! binary: outputs and report on small synthetic slabs for every template
+//! and both solvers, images pulled into the template (values checked against
+//! the map, 3D and 4D, default and explicit spacing), and every kind of bad
+//! input as a one-line error naming the file.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use unfold::io::{NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh};
+use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
+use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
+use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
+
+fn unfold(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unfold"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the unfold binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// Fails with a single stderr line naming `needle`.
+fn assert_one_line_error(o: &Output, needle: &str) {
+    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
+    let err = stderr(o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("unfold: error: "), "{err}");
+    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
+}
+
+/// Succeeds with nothing on stderr (no progress output when not a terminal).
+fn assert_ok(o: &Output) {
+    assert!(o.status.success(), "{}", stderr(o));
+    assert!(o.stderr.is_empty(), "stderr: {}", stderr(o));
+}
+
+/// A small placenta slab (`18 n^2 m` tets).
+fn slab_mesh(cells_radial: usize, cells_through: usize) -> TetMesh {
+    placenta_slab(&PlacentaParams {
+        cells_radial,
+        cells_through,
+        ..PlacentaParams::default()
+    })
+    .expect("valid slab parameters")
+    .mesh
+}
+
+/// The default test slab (6 radial cells, 2 layers: 1296 tets).
+fn slab() -> TetMesh {
+    slab_mesh(6, 2)
+}
+
+fn write_tets(path: &Path, mesh: &TetMesh) {
+    write_mesh(path, &CellMesh::from(mesh), &WriteOptions::default()).expect("mesh written");
+}
+
+/// Writes the default slab to `dir/slab.vtu`.
+fn slab_file(dir: &Path) -> PathBuf {
+    let p = dir.join("slab.vtu");
+    write_tets(&p, &slab());
+    p
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("report.json")).expect("report.json exists");
+    serde_json::from_str(&text).expect("report.json is JSON")
+}
+
+/// The intensity of the test images: affine in world position, so that
+/// trilinear interpolation reproduces it exactly.
+fn intensity(p: &Point3<f64>) -> f64 {
+    500.0 + 2.0 * p.x - 1.5 * p.y + 4.0 * p.z
+}
+
+/// An image with `frames` frames (frame `t` holds `intensity + 100 t`),
+/// voxel spacing `spacing`, axis-aligned, covering `mesh` with a 6 mm margin
+/// and shifted by `offset`.
+fn image_around(mesh: &TetMesh, spacing: [f64; 3], frames: usize, offset: f64) -> NiftiImage {
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(-f64::INFINITY),
+    );
+    for p in &mesh.positions {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    lo -= Vector3::repeat(6.0);
+    hi += Vector3::repeat(6.0);
+    let dims: [usize; 3] =
+        std::array::from_fn(|a| ((hi[a] - lo[a]) / spacing[a]).ceil() as usize + 1);
+    let mut affine = Matrix4::identity();
+    for a in 0..3 {
+        affine[(a, a)] = spacing[a];
+        affine[(a, 3)] = lo[a] + offset;
+    }
+    let mut data = Vec::new();
+    for t in 0..frames {
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                    data.push((intensity(&p) + 100.0 * t as f64) as f32);
+                }
+            }
+        }
+    }
+    let vol = Volume::new([dims[0], dims[1], dims[2], frames], affine, data).expect("volume");
+    NiftiImage::new(vol)
+}
+
+fn field_values(fields: &unfold::mesh::Fields, name: &str) -> Vec<f64> {
+    fields
+        .get(name)
+        .unwrap_or_else(|| panic!("array {name} missing"))
+        .values()
+        .to_f64()
+}
+
+fn assert_summary(v: &serde_json::Value, what: &str) {
+    let o = v
+        .as_object()
+        .unwrap_or_else(|| panic!("{what} is not an object: {v}"));
+    for k in ["mean", "std", "p5", "p50", "p95"] {
+        assert!(
+            o.get(k).and_then(|x| x.as_f64()).is_some(),
+            "{what}.{k}: {v}"
+        );
+    }
+}
+
+/// Checks the outputs of a successful run in `out` on `input`.
+fn check_outputs(out: &Path, input: &TetMesh) -> serde_json::Value {
+    let original = read_mesh(out.join("original.vtu")).expect("original.vtu reads");
+    let flat = read_mesh(out.join("flattened.vtu")).expect("flattened.vtu reads");
+    for (name, m) in [("original", &original), ("flattened", &flat)] {
+        assert_eq!(m.num_points(), input.num_vertices(), "{name}");
+        assert_eq!(m.num_cells(), input.num_tets(), "{name}");
+        assert!(m.cells().all(|(t, _)| t == CellType::Tetra), "{name}");
+        let side: BTreeSet<i64> = field_values(&m.point_data, "side")
+            .into_iter()
+            .map(|x| x as i64)
+            .collect();
+        assert_eq!(side, BTreeSet::from([0, 1, 2, 3]), "{name}: side values");
+    }
+    for name in ["log2_det_j", "sym_dirichlet"] {
+        let v = field_values(&flat.cell_data, name);
+        assert_eq!(v.len(), input.num_tets(), "{name}");
+        assert!(v.iter().all(|x| x.is_finite()), "{name}");
+    }
+    // Symmetric Dirichlet is at least 6 in 3D.
+    assert!(
+        field_values(&flat.cell_data, "sym_dirichlet")
+            .iter()
+            .all(|&d| d >= 6.0 - 1e-9)
+    );
+
+    let r = report(out);
+    for k in [
+        "mesh",
+        "images",
+        "template",
+        "lambda",
+        "solver",
+        "iterations",
+        "seconds",
+        "converged",
+        "objective",
+        "template_error_mm",
+        "template_error_voxels",
+        "dirichlet_excess_percent",
+        "min_det_j",
+        "inverted_tets",
+        "theta",
+        "theta_initial",
+        "transform",
+    ] {
+        assert!(r.get(k).is_some(), "report.json lacks {k}");
+    }
+    for k in ["log2_det_j", "log2_edge_ratio", "log2_area_ratio"] {
+        assert_summary(&r[k], k);
+    }
+    for k in ["fetal", "maternal", "margin"] {
+        assert!(r["boundary"][k].as_u64().unwrap_or(0) > 0, "boundary.{k}");
+    }
+    assert_eq!(r["inverted_tets"], 0);
+    assert!(r["min_det_j"].as_f64().unwrap_or(-1.0) > 0.0);
+    assert!(r["dirichlet_excess_percent"].as_f64().unwrap_or(-1.0) >= 0.0);
+    assert_eq!(r["input"]["tets"], input.num_tets());
+    r
+}
+
+#[test]
+fn planes_writes_meshes_and_a_full_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let out = dir.path().join("out/nested");
+    let o = unfold(&["placenta", &s(&mesh_path), "-o", &s(&out)]);
+    assert_ok(&o);
+    let r = check_outputs(&out, &slab());
+    assert_eq!(r["template"], "planes");
+    assert_eq!(r["solver"], "newton");
+    assert_eq!(r["lambda"], 1.0);
+    assert_eq!(r["converged"], true);
+    assert_eq!(r["mesh"], s(&mesh_path));
+    assert_eq!(r["images"], serde_json::json!([]));
+    assert_eq!(r["input"]["reoriented_tets"], 0);
+    let h = r["theta"]["h"].as_f64().expect("theta.h");
+    // The slab is 9..25 mm thick: the planes end up in between.
+    assert!((3.0..13.0).contains(&h), "h = {h}");
+    let text = stdout(&o);
+    for needle in [
+        "planes template",
+        "converged",
+        "template error",
+        "Dirichlet excess",
+        "min det J",
+        "0 inverted tets",
+        "h ",
+        "fetal",
+        "report.json",
+        "flattened.vtu",
+    ] {
+        assert!(text.contains(needle), "summary lacks {needle:?}:\n{text}");
+    }
+    assert!(!text.contains("reoriented"), "{text}");
+    // Nothing else in the directory, and no temporary files left behind.
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["flattened.vtu", "original.vtu", "report.json"]);
+}
+
+#[test]
+fn ellipsoid_and_single_plane_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    for (template, params) in [
+        ("ellipsoid", vec!["rx", "ry", "rz"]),
+        ("single-plane", vec!["h"]),
+    ] {
+        let out = dir.path().join(template);
+        let o = unfold(&[
+            "placenta",
+            &s(&mesh_path),
+            "-o",
+            &s(&out),
+            "--template",
+            template,
+        ]);
+        assert_ok(&o);
+        let r = check_outputs(&out, &slab());
+        assert_eq!(r["template"], template);
+        for p in params {
+            assert!(
+                r["theta"][p].as_f64().is_some_and(|x| x > 0.0),
+                "{template}: {p}"
+            );
+        }
+        let stages = r["stages"].as_array().map(Vec::len);
+        let want = if template == "single-plane" { 2 } else { 1 };
+        assert_eq!(stages, Some(want), "{template}: stages");
+        assert!(stdout(&o).contains(&format!("{template} template")));
+    }
+}
+
+#[test]
+fn gradient_descent_with_few_iterations_reports_not_converged() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let out = dir.path().join("gd");
+    let o = unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "-o",
+        &s(&out),
+        "--solver",
+        "gd",
+        "--max-iterations",
+        "5",
+        "--lambda",
+        "0.5",
+    ]);
+    assert_ok(&o);
+    let r = check_outputs(&out, &slab());
+    assert_eq!(r["converged"], false);
+    assert_eq!(r["solver"], "gd");
+    assert_eq!(r["lambda"], 0.5);
+    assert_eq!(r["iterations"], 5);
+    assert_eq!(r["stop_reason"], "max_iterations");
+    assert!(
+        stdout(&o).contains("NOT converged (max_iterations)"),
+        "{}",
+        stdout(&o)
+    );
+}
+
+/// The tet of `mesh` containing `p` and its barycentric coordinates.
+fn locate(mesh: &CellMesh, p: &Point3<f64>) -> Option<(usize, [f64; 4])> {
+    let mut best: Option<(usize, [f64; 4], f64)> = None;
+    for (k, (_, vs)) in mesh.cells().enumerate() {
+        let x: Vec<Point3<f64>> = vs.iter().map(|&v| mesh.positions[v as usize]).collect();
+        let ds =
+            unfold::mesh::nalgebra::Matrix3::from_columns(&[x[1] - x[0], x[2] - x[0], x[3] - x[0]]);
+        let Some(inv) = ds.try_inverse() else {
+            continue;
+        };
+        let a = inv * (p - x[0]);
+        let alpha = [1.0 - a.x - a.y - a.z, a.x, a.y, a.z];
+        let worst = alpha.iter().copied().fold(f64::INFINITY, f64::min);
+        if best.as_ref().is_none_or(|b| worst > b.2) {
+            best = Some((k, alpha, worst));
+        }
+    }
+    best.filter(|b| b.2 > -1e-9).map(|(k, a, _)| (k, a))
+}
+
+#[test]
+fn images_are_pulled_into_the_template() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = slab();
+    let mesh_path = slab_file(dir.path());
+    let spacing = [3.0, 2.5, 2.0];
+    let t2 = dir.path().join("t2.nii.gz");
+    write_image(&t2, &image_around(&mesh, spacing, 1, 0.0)).unwrap();
+    let bold = dir.path().join("bold.nii");
+    write_image(&bold, &image_around(&mesh, spacing, 3, 0.0)).unwrap();
+    let out = dir.path().join("out");
+    let o = unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "-o",
+        &s(&out),
+        "--image",
+        &s(&t2),
+        "--image",
+        &s(&bold),
+    ]);
+    assert_ok(&o);
+    let r = check_outputs(&out, &mesh);
+    let images = r["images"].as_array().expect("images");
+    assert_eq!(images.len(), 2);
+    assert_eq!(images[0]["input"], s(&t2));
+    assert_eq!(images[0]["output"], s(&out.join("t2_flat.nii.gz")));
+    assert_eq!(images[1]["output"], s(&out.join("bold_flat.nii.gz")));
+    assert_eq!(images[0]["frames"], 1);
+    assert_eq!(images[1]["frames"], 3);
+    // One table for both: same grid.
+    assert_eq!(images[0]["dims"], images[1]["dims"]);
+    assert_eq!(images[0]["affine"], images[1]["affine"]);
+    for i in images {
+        assert!(i["inside_mesh"].as_u64().unwrap_or(0) > 100, "{i}");
+        assert_eq!(i["sampled"], i["inside_mesh"], "{i}");
+        assert_eq!(i["outside_image"], 0, "{i}");
+    }
+
+    let flat3 = read_image(out.join("t2_flat.nii.gz")).expect("t2_flat reads");
+    let flat4 = read_image(out.join("bold_flat.nii.gz")).expect("bold_flat reads");
+    let (v3, v4) = (&flat3.volume, &flat4.volume);
+    // Default spacing: the input's own.
+    for (got, want) in v3.spacing().iter().zip(spacing) {
+        assert!((got - want).abs() < 1e-5, "{:?}", v3.spacing());
+    }
+    let d3 = v3.dims();
+    assert_eq!(d3[3], 1);
+    assert_eq!(v4.dims(), [d3[0], d3[1], d3[2], 3]);
+    assert!((v3.affine() - v4.affine()).abs().max() < 1e-5);
+    let dims: Vec<usize> = images[0]["dims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap() as usize)
+        .collect();
+    assert_eq!(dims, d3[..3]);
+
+    // Every non-zero voxel holds the intensity at its source point: locate
+    // its centre in the flattened mesh and map it to the original.
+    let original = read_mesh(out.join("original.vtu")).unwrap();
+    let flat = read_mesh(out.join("flattened.vtu")).unwrap();
+    let n = v3.frame_len();
+    let inside: Vec<usize> = (0..n).filter(|&i| v3.data()[i] != 0.0).collect();
+    assert_eq!(
+        inside.len() as u64,
+        images[0]["inside_mesh"].as_u64().unwrap()
+    );
+    let step = (inside.len() / 40).max(1);
+    let mut checked = 0;
+    for &idx in inside.iter().step_by(step) {
+        let (i, j, k) = (idx % d3[0], (idx / d3[0]) % d3[1], idx / (d3[0] * d3[1]));
+        let p = v3.voxel_to_world(&Point3::new(i as f64, j as f64, k as f64));
+        let (tet, alpha) = locate(&flat, &p).expect("a voxel with a value lies in the mesh");
+        let (_, vs) = original.cell(tet);
+        let z = vs.iter().zip(alpha).fold(Vector3::zeros(), |acc, (&v, a)| {
+            acc + original.positions[v as usize].coords * a
+        });
+        let want = intensity(&Point3::from(z));
+        let got = f64::from(v3.data()[idx]);
+        assert!(
+            (got - want).abs() < 1e-3 * want.abs(),
+            "voxel {idx}: {got} vs {want}"
+        );
+        for t in 0..3 {
+            let g = f64::from(v4.data()[t * n + idx]);
+            let w = want + 100.0 * t as f64;
+            assert!(
+                (g - w).abs() < 1e-3 * w.abs(),
+                "frame {t}, voxel {idx}: {g} vs {w}"
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked >= 20, "{checked}");
+    assert!(stdout(&o).contains("t2_flat.nii.gz"));
+}
+
+#[test]
+fn spacing_flag_sets_the_template_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = slab();
+    let mesh_path = slab_file(dir.path());
+    let img = dir.path().join("mri.nii.gz");
+    write_image(&img, &image_around(&mesh, [3.0, 3.0, 3.0], 1, 0.0)).unwrap();
+    let out = dir.path().join("out");
+    let o = unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "-o",
+        &s(&out),
+        "--image",
+        &s(&img),
+        "--spacing-mm",
+        "2",
+    ]);
+    assert_ok(&o);
+    let flat = read_image(out.join("mri_flat.nii.gz")).unwrap();
+    for a in 0..3 {
+        assert!(
+            (flat.volume.spacing()[a] - 2.0).abs() < 1e-6,
+            "{:?}",
+            flat.volume.spacing()
+        );
+    }
+    assert_eq!(
+        report(&out)["images"][0]["spacing_mm"],
+        serde_json::json!([2.0, 2.0, 2.0])
+    );
+}
+
+#[test]
+fn an_inverted_tet_is_reoriented_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut mesh = slab();
+    mesh.tets[7].swap(0, 1);
+    let p = dir.path().join("inverted.vtu");
+    write_tets(&p, &mesh);
+    let out = dir.path().join("out");
+    let o = unfold(&["placenta", &s(&p), "-o", &s(&out)]);
+    assert_ok(&o);
+    assert!(stdout(&o).contains("reoriented 1 tet "), "{}", stdout(&o));
+    let r = check_outputs(&out, &mesh);
+    assert_eq!(r["input"]["reoriented_tets"], 1);
+    assert_eq!(r["inverted_tets"], 0);
+}
+
+#[test]
+fn a_surface_mesh_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut tri = CellMesh::from_points(vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(10.0, 0.0, 0.0),
+        Point3::new(0.0, 10.0, 0.0),
+        Point3::new(0.0, 0.0, 10.0),
+    ]);
+    for t in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+        tri.push_cell(CellType::Triangle, &t);
+    }
+    for ext in ["ply", "vtp"] {
+        let p = dir.path().join(format!("surface.{ext}"));
+        write_mesh(&p, &tri, &WriteOptions::default()).unwrap();
+        let out = dir.path().join("out");
+        let o = unfold(&["placenta", &s(&p), "-o", &s(&out)]);
+        assert_one_line_error(&o, &s(&p));
+        assert_one_line_error(&o, "tetrahedral");
+        assert!(!out.exists(), "nothing written on bad input");
+    }
+}
+
+#[test]
+fn a_degenerate_tet_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two tets sharing a face; the second is flat (all four corners on z = 0).
+    let mesh = TetMesh::new(
+        vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(10.0, 0.0, 0.0),
+            Point3::new(0.0, 10.0, 0.0),
+            Point3::new(0.0, 0.0, 10.0),
+            Point3::new(3.0, 3.0, 0.0),
+        ],
+        vec![[0, 1, 2, 3], [0, 2, 1, 4]],
+    );
+    let p = dir.path().join("flat.vtu");
+    write_tets(&p, &mesh);
+    let o = unfold(&["placenta", &s(&p), "-o", &s(&dir.path().join("out"))]);
+    assert_one_line_error(&o, &s(&p));
+    assert_one_line_error(&o, "degenerate");
+}
+
+#[test]
+fn two_components_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = slab_mesh(5, 2);
+    let n = a.num_vertices() as u32;
+    let mut positions = a.positions.clone();
+    positions.extend(
+        a.positions
+            .iter()
+            .map(|p| p + Vector3::new(250.0, 0.0, 0.0)),
+    );
+    let mut tets = a.tets.clone();
+    tets.extend(a.tets.iter().map(|t| t.map(|v| v + n)));
+    let p = dir.path().join("twins.vtu");
+    write_tets(&p, &TetMesh::new(positions, tets));
+    let o = unfold(&["placenta", &s(&p), "-o", &s(&dir.path().join("out"))]);
+    assert_one_line_error(&o, &s(&p));
+    assert_one_line_error(&o, "2 connected components");
+}
+
+#[test]
+fn a_nan_coordinate_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nan.vtk");
+    std::fs::write(
+        &p,
+        "# vtk DataFile Version 4.2\nNaN coordinate\nASCII\nDATASET UNSTRUCTURED_GRID\n\
+         POINTS 4 double\n0 0 0\n10 0 0\n0 10 0\n0 0 nan\n\
+         CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n",
+    )
+    .unwrap();
+    let o = unfold(&["placenta", &s(&p), "-o", &s(&dir.path().join("out"))]);
+    assert_one_line_error(&o, &s(&p));
+    assert_one_line_error(&o, "non-finite");
+}
+
+#[test]
+fn image_problems_are_caught_before_the_optimization() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = slab();
+    let mesh_path = slab_file(dir.path());
+    let out = dir.path().join("out");
+    let run = |images: &[&Path]| {
+        let mut args = vec!["placenta".to_string(), s(&mesh_path), "-o".into(), s(&out)];
+        for i in images {
+            args.push("--image".into());
+            args.push(s(i));
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        unfold(&args)
+    };
+
+    let far = dir.path().join("far.nii.gz");
+    write_image(&far, &image_around(&mesh, [3.0; 3], 1, 1000.0)).unwrap();
+    let o = run(&[&far]);
+    assert_one_line_error(&o, &s(&far));
+    assert_one_line_error(&o, "does not overlap the mesh");
+    assert_one_line_error(&o, " mm");
+
+    let missing = dir.path().join("missing.nii.gz");
+    assert_one_line_error(&run(&[&missing]), &s(&missing));
+
+    let good = dir.path().join("a/mri.nii.gz");
+    let same = dir.path().join("b/mri.nii");
+    for p in [&good, &same] {
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        write_image(p, &image_around(&mesh, [3.0; 3], 1, 0.0)).unwrap();
+    }
+    let o = run(&[&good, &same]);
+    assert_one_line_error(&o, &s(&same));
+    assert_one_line_error(&o, "same name");
+
+    let not_nifti = dir.path().join("mri.vtu");
+    assert_one_line_error(&run(&[&not_nifti]), "NIfTI");
+
+    // Fail fast: nothing was created.
+    assert!(!out.exists());
+}
+
+#[test]
+fn bad_flag_values_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let out = s(&dir.path().join("out"));
+    for (flag, value) in [
+        ("--lambda", "0"),
+        ("--lambda", "-2"),
+        ("--margin-mm", "-1"),
+        ("--voxel-mm", "nan"),
+        ("--spacing-mm", "0"),
+        ("--tol", "inf"),
+        ("--max-iterations", "0"),
+    ] {
+        let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, flag, value]);
+        assert_one_line_error(&o, flag);
+    }
+    // A margin that the parcellation cannot use (10 voxels or more).
+    let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, "--margin-mm", "40"]);
+    assert_one_line_error(&o, "margin_mm");
+    // What the argument parser itself rejects is one line too (exit 2).
+    for (args, needle) in [
+        (vec!["--lambda", "abc"], "--lambda"),
+        (vec!["--template", "cone"], "possible values"),
+        (vec!["--solver", "lbfgs"], "--solver"),
+    ] {
+        let mut all = vec!["placenta", mesh_path.to_str().unwrap(), "-o", &out];
+        all.extend(args);
+        let o = unfold(&all);
+        assert_one_line_error(&o, needle);
+        assert_eq!(o.status.code(), Some(2));
+    }
+    let o = unfold(&["placenta", &s(&mesh_path)]);
+    assert_one_line_error(&o, "--output");
+}
+
+#[test]
+fn the_output_must_be_a_directory_and_never_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let file = dir.path().join("taken");
+    std::fs::write(&file, "x").unwrap();
+    let o = unfold(&["placenta", &s(&mesh_path), "-o", &s(&file)]);
+    assert_one_line_error(&o, &s(&file));
+    assert_one_line_error(&o, "not a directory");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+
+    // The mesh is called original.vtu and -o is its own directory.
+    let own = dir.path().join("own");
+    std::fs::create_dir(&own).unwrap();
+    let input = own.join("original.vtu");
+    write_tets(&input, &slab());
+    let before = std::fs::read(&input).unwrap();
+    let o = unfold(&["placenta", &s(&input), "-o", &s(&own.join("."))]);
+    assert_one_line_error(&o, "overwritten");
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+}
+
+#[test]
+fn demo_runs_the_placenta_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let o = unfold(&["demo", "-o", &s(&out)]);
+    assert_ok(&o);
+    let pl = out.join("placenta");
+    for f in [
+        "original.vtu",
+        "flattened.vtu",
+        "report.json",
+        "placenta_mri_flat.nii.gz",
+    ] {
+        assert!(pl.join(f).is_file(), "{f} missing");
+    }
+    let r = report(&pl);
+    assert_eq!(r["template"], "planes");
+    assert_eq!(r["converged"], true);
+    assert_eq!(r["inverted_tets"], 0);
+    let tets = r["input"]["tets"].as_u64().unwrap_or(0);
+    assert!((9_000..12_000).contains(&tets), "{tets}");
+    let img = &r["images"][0];
+    assert_eq!(
+        img["sampled"], img["inside_mesh"],
+        "the MRI covers the slab"
+    );
+    let flat = read_image(pl.join("placenta_mri_flat.nii.gz")).unwrap();
+    assert!(flat.volume.data().iter().any(|&x| x != 0.0));
+    assert!(stdout(&o).contains("placenta_mri_flat.nii.gz"));
+}
