@@ -127,6 +127,13 @@ fn parcellation_matches_the_ground_truth_on_varied_slabs() {
             100.0 * fraction,
             parc.summary
         );
+        println!(
+            "slab {} tets, pose {:?}: {:.2} % of {total} side vertices > 20 mm from the rim agree (margin r {} mm)",
+            shape.mesh.num_tets(),
+            p.pose.rotation_deg,
+            100.0 * fraction,
+            parc.summary.margin_radius_mm
+        );
         assert!(parc.summary.sides_connected, "{:?}", parc.summary);
     }
 }
@@ -196,6 +203,14 @@ fn planes_flatten_every_slab_flip_free_sub_voxel_and_fetal_up() {
         );
         assert!((r.template_error_voxels - r.template_error_mm / 3.0).abs() < 1e-12);
         let h = r.theta["h"];
+        println!(
+            "slab {} tets: {} iterations, template error {:.3} mm, min det J {:.3}, {} inverted, h {h:.2} mm",
+            shape.mesh.num_tets(),
+            r.iterations,
+            r.template_error_mm,
+            r.min_det_j,
+            r.inverted_tets
+        );
         assert!(h > 0.0);
         // Fetal side up: every fetal vertex above every maternal vertex's
         // plane side, and the means near +h and -h.
@@ -242,6 +257,15 @@ fn every_template_converges_and_single_plane_starts_from_planes() {
         )
         .unwrap();
         let r = &out.report;
+        println!(
+            "{}: {} iterations, |grad|_F {:.1e}, theta {:?}, template error {:.3} mm, Dirichlet excess {:.2} %",
+            template.name(),
+            r.iterations,
+            r.grad_norm,
+            r.theta,
+            r.template_error_mm,
+            r.dirichlet_excess_percent
+        );
         assert!(r.converged, "{template:?}: {:?}", r.stop_reason);
         for s in &r.stages {
             assert!(s.solve.converged, "{template:?} stage {}", s.template);
@@ -727,6 +751,7 @@ fn the_pulled_back_image_is_the_intensity_composed_with_the_map() {
     );
     assert!(outside_nonzero < table.len() / 50, "{outside_nonzero}");
     let r = correlation(&got, &want);
+    println!("pull-back: {} voxels inside, correlation {r:.5}", got.len());
     assert!(r > 0.99, "correlation {r}");
 
     // 4D: same geometry, frame t = frame 0 + 10 inside the mesh.
