@@ -246,17 +246,11 @@ pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
 /// parcellated boundary (every vertex with a label other than interior),
 /// per volume vertex (0 elsewhere).
 pub fn boundary_weights(parcellation: &Parcellation) -> Vec<f64> {
-    let surface = &parcellation.boundary.surface;
-    let to_volume = &parcellation.boundary.to_volume;
+    let areas = unfold_mesh::geometry::vertex_areas(&parcellation.boundary.surface);
     let mut w = vec![0.0; parcellation.labels.len()];
-    for t in &surface.triangles {
-        let [a, b, c] = t.map(|v| surface.positions[v as usize]);
-        let third = unfold_mesh::geometry::triangle_area(&a, &b, &c) / 3.0;
-        for &v in t {
-            let vol = to_volume[v as usize] as usize;
-            if parcellation.labels[vol] != LABEL_INTERIOR {
-                w[vol] += third;
-            }
+    for (&v, a) in parcellation.boundary.to_volume.iter().zip(areas) {
+        if parcellation.labels[v as usize] != LABEL_INTERIOR {
+            w[v as usize] = a;
         }
     }
     let total: f64 = w.iter().sum();

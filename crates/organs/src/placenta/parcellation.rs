@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 use unfold_mesh::geodesic::EdgeGraph;
-use unfold_mesh::geometry::{convex_hull_vertices, triangle_area, vertex_normals};
+use unfold_mesh::geometry::{convex_hull_vertices, vertex_areas, vertex_normals};
 use unfold_mesh::topology::{
     Adjacency, TetBoundary, connected_components, tet_boundary, vertex_adjacency,
 };
@@ -258,7 +258,7 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
         .map(|i| i as u32)
         .collect();
     let seed_distance = graph.distances(&seeds);
-    let areas = barycentric_areas(&sub);
+    let areas = vertex_areas(&sub);
     let total_area: f64 = areas.iter().sum();
     let margin = choose_margin(&adj, &maternal, &seed_distance, &areas, total_area, config);
 
@@ -468,19 +468,6 @@ impl LocalDijkstra {
         out.sort_unstable_by_key(|&(j, _)| j);
         out
     }
-}
-
-/// One third of the area of every triangle at each vertex.
-fn barycentric_areas(mesh: &TriMesh) -> Vec<f64> {
-    let mut a = vec![0.0; mesh.positions.len()];
-    for t in &mesh.triangles {
-        let [p, q, r] = t.map(|v| mesh.positions[v as usize]);
-        let third = triangle_area(&p, &q, &r) / 3.0;
-        for &v in t {
-            a[v as usize] += third;
-        }
-    }
-    a
 }
 
 /// The margin chosen by the adaptive rule.
