@@ -11,7 +11,6 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{MatMut, Side};
-use std::collections::HashMap;
 
 /// A fixed sparsity pattern of a symmetric `n x n` matrix (its upper
 /// triangle, diagonal included), with the symbolic Cholesky analysis done
@@ -21,7 +20,6 @@ pub struct SpdPattern {
     n: usize,
     symbolic: SymbolicSparseColMat<usize>,
     llt: SymbolicLlt<usize>,
-    slots: HashMap<(u32, u32), usize>,
     diagonal: Vec<usize>,
 }
 
@@ -44,7 +42,6 @@ impl SpdPattern {
         }
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
-        let mut slots = HashMap::new();
         let mut diagonal = Vec::with_capacity(n);
         col_ptr.push(0usize);
         for (c, rows) in cols.iter_mut().enumerate() {
@@ -52,7 +49,6 @@ impl SpdPattern {
             rows.sort_unstable();
             rows.dedup();
             for &r in rows.iter() {
-                slots.insert((r, c as u32), row_idx.len());
                 if r as usize == c {
                     diagonal.push(row_idx.len());
                 }
@@ -67,7 +63,6 @@ impl SpdPattern {
             n,
             symbolic,
             llt,
-            slots,
             diagonal,
         })
     }
@@ -82,10 +77,20 @@ impl SpdPattern {
         self.symbolic.row_idx().len()
     }
 
-    /// The value slot of entry `(i, j)` (either order), if in the pattern.
+    /// The value slot of entry `(i, j)` (either order), if in the pattern:
+    /// a binary search among the sorted rows of column `max(i, j)`.
     pub fn slot(&self, i: u32, j: u32) -> Option<usize> {
-        let key = if i <= j { (i, j) } else { (j, i) };
-        self.slots.get(&key).copied()
+        let (r, c) = if i <= j { (i, j) } else { (j, i) };
+        let c = c as usize;
+        if c >= self.n {
+            return None;
+        }
+        let col_ptr = self.symbolic.col_ptr();
+        let (start, end) = (col_ptr[c], col_ptr[c + 1]);
+        self.symbolic.row_idx()[start..end]
+            .binary_search(&(r as usize))
+            .ok()
+            .map(|k| start + k)
     }
 
     /// The value slots of the diagonal entries.
