@@ -5,8 +5,11 @@
 //! - [`placenta`]: volumetric flattening of a placenta tet mesh onto two
 //!   parallel planes, an ellipsoid or a single plane (ALGORITHMS 2), with
 //!   the boundary parcellation and the image pull-back.
+//! - [`mitral`]: the mitral valve's leaflets laid out below their annulus
+//!   in 2D, flip-free, with clinical maps and measurements (ALGORITHMS 4).
 
 mod error;
+pub mod mitral;
 pub mod placenta;
 
 pub use error::OrganError;

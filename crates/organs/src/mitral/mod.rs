@@ -1,0 +1,582 @@
+//! The mitral valve pipeline (ALGORITHMS 4): the annulus laid out first
+//! (arc length and height), the leaflets below it, relaxed into a flat
+//! map; clinical maps and measurements.
+//!
+//! Steps (each public, so a pipeline can be composed from code):
+//!
+//! 1. [`contract::prepare`]: the input contract. Leaflet annulus vertices,
+//!    commissures, atrial side, ring order (clockwise seen from the atrium,
+//!    from the anterolateral commissure).
+//! 2. [`annulus::parameterize`]: the annulus in 2D (straight, least-squares
+//!    plane or landmark plane).
+//! 3. [`layout`]: the initial leaflet layout (longitudes or Tutte).
+//! 4. [`relax`]: the spring baseline or flip-free symmetric Dirichlet.
+//! 5. [`maps`]: distortion and clinical maps, measurements.
+
+pub mod annulus;
+pub mod contract;
+pub mod layout;
+pub mod maps;
+pub mod relax;
+
+use serde::{Deserialize, Serialize};
+use unfold_mesh::TriMesh;
+use unfold_mesh::nalgebra::{Point3, Vector3};
+
+/// Index of the anterior leaflet in per-leaflet arrays.
+pub const ANTERIOR: usize = 0;
+/// Index of the posterior leaflet in per-leaflet arrays.
+pub const POSTERIOR: usize = 1;
+
+/// The valve as it comes from a segmentation: two leaflet surfaces (disk
+/// topology each) and the annulus ring (a closed polyline, any start, any
+/// direction; a repeated closing point is allowed).
+#[derive(Debug, Clone, Copy)]
+pub struct ValveInput<'a> {
+    /// The anterior leaflet.
+    pub anterior: &'a TriMesh,
+    /// The posterior leaflet.
+    pub posterior: &'a TriMesh,
+    /// The annulus ring's points in order along the ring.
+    pub annulus: &'a [Point3<f64>],
+}
+
+/// One leaflet after the input contract.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leaflet {
+    /// The leaflet surface as given.
+    pub mesh: TriMesh,
+    /// Its annulus vertices (boundary vertices on the ring), in ring order:
+    /// anterior from the anterolateral to the posteromedial commissure,
+    /// posterior from the posteromedial to the anterolateral commissure.
+    pub annulus: Vec<u32>,
+    /// Per annulus vertex: its position along the (reordered) ring as arc
+    /// length from the anterolateral commissure, in `[0, L]` (`L` the ring
+    /// length); non-decreasing along `annulus`. The posterior leaflet's
+    /// last vertex (at the anterolateral commissure) has `L`, not 0.
+    pub annulus_s: Vec<f64>,
+    /// The rest of its boundary loop (the free edge), from the vertex after
+    /// the last annulus vertex to the vertex before the first.
+    pub free_edge: Vec<u32>,
+}
+
+/// The valve after [`contract::prepare`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreparedValve {
+    /// The annulus ring, clockwise seen from the atrium, starting at the
+    /// anterolateral commissure (`ring[0]`); closed implicitly (the last
+    /// point is not repeated). Commissure points not on a ring vertex were
+    /// inserted into their segments.
+    pub ring: Vec<Point3<f64>>,
+    /// Index into `ring` of the posteromedial commissure: the anterior arc
+    /// is `ring[0..=posteromedial]`, the posterior arc
+    /// `ring[posteromedial..]` followed by `ring[0]`.
+    pub posteromedial: usize,
+    /// Unit normal towards the atrium: the normal of the ring's
+    /// least-squares plane, on the side away from the leaflets.
+    pub atrium: Vector3<f64>,
+    /// The leaflets, indexed by [`ANTERIOR`] and [`POSTERIOR`].
+    pub leaflets: [Leaflet; 2],
+    /// The tolerance used to find annulus vertices, mm.
+    pub tolerance_mm: f64,
+}
+
+/// A plane `{p : n . (p - point) = 0}` with unit normal `n` towards the
+/// atrium.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plane {
+    /// A point on the plane.
+    pub point: Point3<f64>,
+    /// Unit normal, towards the atrium.
+    pub normal: Vector3<f64>,
+}
+
+impl Plane {
+    /// Signed distance `n . (p - point)` (positive on the atrial side).
+    pub fn signed_distance(&self, p: &Point3<f64>) -> f64 {
+        self.normal.dot(&(p - self.point))
+    }
+}
+
+/// How the annulus is laid out (ALGORITHMS 4.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AnnulusMode {
+    /// `v = 0`, `u` the 3D arc length.
+    Straight,
+    /// Heights above the least-squares plane of the annulus points.
+    LeastSquares,
+    /// Heights above the plane through the two commissures and the
+    /// barycentre of the posterior annulus points (default).
+    #[default]
+    Landmark,
+}
+
+/// The initial leaflet layout (ALGORITHMS 4.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitMode {
+    /// Longitudes when the leaflet has them, else Tutte (default).
+    #[default]
+    Auto,
+    /// Longitudes (an error when a leaflet has none).
+    Longitudes,
+    /// Tutte embedding below the fixed annulus.
+    Tutte,
+}
+
+/// The relaxation (ALGORITHMS 4.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RelaxMode {
+    /// The source's mass-spring method (baseline; may flip triangles).
+    Spring,
+    /// 2D symmetric Dirichlet, annulus pinned, projected Newton with the
+    /// injective line search (default; never flips).
+    #[default]
+    Sd,
+}
+
+use crate::OrganError;
+use std::time::Instant;
+use unfold_mesh::Field;
+
+/// Settings of the mitral pipeline; every default from ALGORITHMS 4.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Config {
+    /// How the annulus is laid out (default: landmark plane).
+    pub annulus_mode: AnnulusMode,
+    /// The initial layout (default: longitudes when present, else Tutte).
+    pub init: InitMode,
+    /// The relaxation (default: flip-free symmetric Dirichlet).
+    pub relax: RelaxMode,
+    /// Settings of the spring relaxation (`relax = spring`).
+    pub spring: relax::SpringConfig,
+    /// Settings of the symmetric Dirichlet relaxation (`relax = sd`).
+    pub sd: relax::SdConfig,
+    /// Distance within which a leaflet boundary vertex is on the ring, mm.
+    pub tolerance_mm: f64,
+    /// Coaptation threshold and checkerboard size.
+    pub maps: maps::MapsConfig,
+    /// Second cut at the posteromedial commissure: the posterior leaflet is
+    /// drawn `cut_gap_mm` to the right of the anterior one instead of
+    /// touching it there (default false).
+    pub cut_posteromedial: bool,
+    /// Gap between the leaflets at a second cut, mm (default 4).
+    pub cut_gap_mm: f64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            annulus_mode: AnnulusMode::default(),
+            init: InitMode::default(),
+            relax: RelaxMode::default(),
+            spring: relax::SpringConfig::default(),
+            sd: relax::SdConfig::default(),
+            tolerance_mm: contract::DEFAULT_TOLERANCE_MM,
+            maps: maps::MapsConfig::default(),
+            cut_posteromedial: false,
+            cut_gap_mm: 4.0,
+        }
+    }
+}
+
+impl Config {
+    /// Checks the values the steps do not check themselves.
+    pub fn validate(&self) -> Result<(), OrganError> {
+        if !(self.cut_gap_mm.is_finite() && self.cut_gap_mm >= 0.0) {
+            return Err(OrganError::Config(format!(
+                "cut_gap_mm must be finite and >= 0, got {}",
+                self.cut_gap_mm
+            )));
+        }
+        if !(self.tolerance_mm.is_finite() && self.tolerance_mm > 0.0) {
+            return Err(OrganError::Config(format!(
+                "tolerance_mm must be finite and > 0, got {}",
+                self.tolerance_mm
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Mean distortion energies before and after the relaxation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DistortionReport {
+    /// Of the initial layout.
+    pub initial: maps::DistortionSummary,
+    /// Of the relaxed layout.
+    pub r#final: maps::DistortionSummary,
+}
+
+/// `report.json` of one valve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// Length of the annulus ring, mm.
+    pub annulus_length_mm: f64,
+    /// Extent of the annulus in u, mm (the length in straight mode; shorter
+    /// in the plane modes, where part of each segment goes into v).
+    pub u_extent_mm: f64,
+    /// Leaflet areas (3D), mm^2.
+    pub leaflet_area_mm2: maps::PerLeaflet,
+    /// Highest annulus point above the annulus plane, mm.
+    pub saddle_horn_height_mm: f64,
+    /// Leaflet area on the atrial side of the annulus plane, mm^2.
+    pub area_above_plane_mm2: f64,
+    /// Leaflet area on the ventricular side of the annulus plane, mm^2.
+    pub area_below_plane_mm2: f64,
+    /// Mean area, angle and length energies, before and after relaxing.
+    pub distortion: DistortionReport,
+    /// Triangles with non-positive area in the final 2D map (both leaflets).
+    pub flipped_triangles: usize,
+    /// The relaxation ("sd" or "spring").
+    pub relax: &'static str,
+    /// The initial layout used per leaflet ("longitudes" or "tutte").
+    pub init: [&'static str; 2],
+    /// The annulus mode.
+    pub annulus_mode: AnnulusMode,
+    /// Per leaflet relaxation reports.
+    pub relax_reports: [relax::RelaxReport; 2],
+    /// Vertices in the coaptation zone (within the threshold) and near it
+    /// (within twice the threshold), both leaflets.
+    pub coaptation_vertices: CoaptationCounts,
+    /// Vertices per Carpentier segment A1, A2, A3, P1, P2, P3.
+    pub carpentier_vertices: [usize; 6],
+    /// The commissures (anterolateral, posteromedial), mm.
+    pub commissures_mm: [[f64; 3]; 2],
+    /// The plane the annulus heights `v` of the 2D map are measured from
+    /// (point and normal towards the atrium); absent in straight mode.
+    pub layout_plane: Option<PlaneReport>,
+    /// The annulus' least-squares plane, from which tenting, the
+    /// saddle-horn height and the areas above / below are measured.
+    pub annulus_plane: PlaneReport,
+    /// Whether the posteromedial commissure was cut.
+    pub cut_posteromedial: bool,
+    /// Wall-clock seconds of the pipeline (no file I/O).
+    pub seconds: f64,
+    /// Seconds per step.
+    pub timings: Timings,
+}
+
+/// Seconds per step of [`run`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Timings {
+    /// The input contract.
+    pub contract: f64,
+    /// Annulus and initial layouts.
+    pub layout: f64,
+    /// Relaxation of both leaflets.
+    pub relax: f64,
+    /// Maps, measurements and output meshes.
+    pub maps: f64,
+}
+
+/// Coaptation counts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CoaptationCounts {
+    /// Within the threshold.
+    pub within: usize,
+    /// Within twice the threshold (but not the threshold).
+    pub near: usize,
+    /// The threshold, mm.
+    pub threshold_mm: f64,
+}
+
+/// A plane in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PlaneReport {
+    /// A point on the plane, mm.
+    pub point: [f64; 3],
+    /// Unit normal towards the atrium.
+    pub normal: [f64; 3],
+}
+
+/// Everything [`run`] produces.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The prepared valve (ordered ring, annulus vertices, ...).
+    pub valve: PreparedValve,
+    /// The annulus layout.
+    pub annulus: annulus::AnnulusMap,
+    /// Final 2D positions per leaflet.
+    pub uv: [Vec<[f64; 2]>; 2],
+    /// Both leaflets in 3D (anterior vertices first) with every map as a
+    /// point or cell array.
+    pub valve3d: TriMesh,
+    /// The same connectivity and arrays at `(u, v, 0)`.
+    pub valve2d: TriMesh,
+    /// Per leaflet maps.
+    pub maps: [maps::LeafletMaps; 2],
+    /// The report.
+    pub report: Report,
+}
+
+/// Signed areas of a 2D layout's triangles, with the orientation of the
+/// majority taken as positive; returns the number of the others.
+pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
+    let areas: Vec<f64> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| uv[v as usize]);
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        })
+        .collect();
+    let pos = areas.iter().filter(|&&a| a > 0.0).count();
+    let neg = areas.iter().filter(|&&a| a < 0.0).count();
+    let zero = areas.len() - pos - neg;
+    pos.min(neg) + zero
+}
+
+fn leaflet_fields(m: &maps::LeafletMaps, n: usize) -> (Vec<Field>, Vec<Field>) {
+    let point = vec![
+        Field::labels("leaflet", vec![m.leaflet; n]),
+        Field::vectors("u_gradient", &m.u_gradient),
+        Field::labels("u_interval", m.u_interval.clone()),
+        Field::labels("checker", m.checker.clone()),
+        Field::labels("carpentier", m.carpentier.clone()),
+        Field::scalars("length_energy", m.length_energy.clone()),
+        Field::labels("coaptation", m.coaptation.clone()),
+        Field::scalars("coaptation_distance_mm", m.coaptation_distance_mm.clone()),
+        Field::scalars("tenting_mm", m.tenting_mm.clone()),
+    ];
+    let cell = vec![
+        Field::scalars("area_energy", m.area_energy.clone()),
+        Field::scalars("angle_energy", m.angle_energy.clone()),
+    ];
+    (point, cell)
+}
+
+/// Concatenates two fields of the same name and layout.
+fn concat(a: &Field, b: &Field) -> Result<Field, OrganError> {
+    use unfold_mesh::FieldValues;
+    let values = match (a.values(), b.values()) {
+        (FieldValues::F64(x), FieldValues::F64(y)) => {
+            FieldValues::F64(x.iter().chain(y).copied().collect())
+        }
+        (FieldValues::I32(x), FieldValues::I32(y)) => {
+            FieldValues::I32(x.iter().chain(y).copied().collect())
+        }
+        _ => {
+            return Err(OrganError::Input(format!(
+                "field {} has different types per leaflet",
+                a.name()
+            )));
+        }
+    };
+    Ok(Field::new(a.name(), a.components(), values)?)
+}
+
+/// Both leaflets as one mesh (anterior first) with their maps and `uv`.
+fn merged(
+    valve: &PreparedValve,
+    uv: &[Vec<[f64; 2]>; 2],
+    maps: &[maps::LeafletMaps; 2],
+    flat: bool,
+) -> Result<TriMesh, OrganError> {
+    let [a, p] = [
+        &valve.leaflets[ANTERIOR].mesh,
+        &valve.leaflets[POSTERIOR].mesh,
+    ];
+    let offset = a.positions.len() as u32;
+    let position = |k: usize, i: usize, q: &Point3<f64>| {
+        if flat {
+            Point3::new(uv[k][i][0], uv[k][i][1], 0.0)
+        } else {
+            *q
+        }
+    };
+    let positions = a
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, q)| position(ANTERIOR, i, q))
+        .chain(
+            p.positions
+                .iter()
+                .enumerate()
+                .map(|(i, q)| position(POSTERIOR, i, q)),
+        )
+        .collect();
+    let triangles = a
+        .triangles
+        .iter()
+        .copied()
+        .chain(p.triangles.iter().map(|t| t.map(|v| v + offset)))
+        .collect();
+    let mut mesh = TriMesh::new(positions, triangles);
+    let (pa, ca) = leaflet_fields(&maps[ANTERIOR], a.positions.len());
+    let (pp, cp) = leaflet_fields(&maps[POSTERIOR], p.positions.len());
+    for (x, y) in pa.iter().zip(&pp) {
+        mesh.add_point_field(concat(x, y)?)?;
+    }
+    for (x, y) in ca.iter().zip(&cp) {
+        mesh.add_cell_field(concat(x, y)?)?;
+    }
+    let uv_all: Vec<f64> = uv[ANTERIOR]
+        .iter()
+        .chain(&uv[POSTERIOR])
+        .flat_map(|q| [q[0], q[1]])
+        .collect();
+    mesh.add_point_field(Field::new("uv", 2, unfold_mesh::FieldValues::F64(uv_all))?)?;
+    Ok(mesh)
+}
+
+/// Runs the whole pipeline on one valve (see the module docs).
+///
+/// # Errors
+/// `Config` for bad settings; `Input` / `Mesh` when the inputs do not fit
+/// the contract (leaflets not touching the ring, wrong number of
+/// commissures, non-disk leaflets, ...); `Param` when a solve fails.
+pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganError> {
+    let start = Instant::now();
+    config.validate()?;
+    let mut timings = Timings::default();
+    let t = Instant::now();
+    let valve = contract::prepare(input, config.tolerance_mm)?;
+    timings.contract = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let amap = annulus::parameterize(&valve, config.annulus_mode)?;
+    // Tenting, the saddle-horn height and the areas above / below are
+    // measured from the least-squares plane of the annulus whatever the
+    // layout mode: the landmark plane (through the two low commissures and
+    // the posterior barycentre) tilts towards the posterior, and would show
+    // a healthy anterior leaflet as prolapsing.
+    let plane = annulus::plane(&valve, AnnulusMode::LeastSquares)?
+        .ok_or_else(|| OrganError::Input("the annulus has no least-squares plane".into()))?;
+
+    let mut uv: [Vec<[f64; 2]>; 2] = [Vec::new(), Vec::new()];
+    let mut init = ["", ""];
+    for k in [ANTERIOR, POSTERIOR] {
+        let leaflet = &valve.leaflets[k];
+        let targets = layout::annulus_uv(leaflet, &amap);
+        let chains = match config.init {
+            InitMode::Tutte => None,
+            InitMode::Auto | InitMode::Longitudes => layout::longitudes(leaflet),
+        };
+        uv[k] = match (config.init, chains) {
+            (_, Some(chains)) => {
+                init[k] = "longitudes";
+                layout::longitude_layout(leaflet, &chains, &targets)?
+            }
+            (InitMode::Longitudes, None) => {
+                return Err(OrganError::Input(format!(
+                    "the {} leaflet has no longitudes (one vertex chain per annulus vertex down \
+                     to the free edge); use --init tutte or auto",
+                    if k == ANTERIOR {
+                        "anterior"
+                    } else {
+                        "posterior"
+                    }
+                )));
+            }
+            _ => {
+                init[k] = "tutte";
+                layout::tutte_layout(leaflet, &targets)?
+            }
+        };
+    }
+    timings.layout = t.elapsed().as_secs_f64();
+    let initial = maps::distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]])?;
+    let t = Instant::now();
+
+    // The leaflets relax independently (each with its annulus pinned): in
+    // parallel.
+    let relax_one = |k: usize, uv: &mut Vec<[f64; 2]>| -> Result<relax::RelaxReport, OrganError> {
+        let leaflet = &valve.leaflets[k];
+        let mut fixed = vec![false; leaflet.mesh.positions.len()];
+        for &v in &leaflet.annulus {
+            fixed[v as usize] = true;
+        }
+        match config.relax {
+            RelaxMode::Spring => relax::spring(&leaflet.mesh, uv, &fixed, &config.spring),
+            RelaxMode::Sd => relax::symmetric_dirichlet(&leaflet.mesh, uv, &fixed, &config.sd),
+        }
+    };
+    let [uv_a, uv_p] = &mut uv;
+    let (ra, rp) = rayon::join(|| relax_one(ANTERIOR, uv_a), || relax_one(POSTERIOR, uv_p));
+    let relax_reports = [ra?, rp?];
+    timings.relax = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    if config.cut_posteromedial {
+        for q in &mut uv[POSTERIOR] {
+            q[0] += config.cut_gap_mm;
+        }
+    }
+    let final_distortion = maps::distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]])?;
+    let leaflet_maps = maps::leaflet_maps(
+        &valve,
+        [&uv[ANTERIOR], &uv[POSTERIOR]],
+        &plane,
+        &config.maps,
+    )?;
+    let m = maps::measurements(&valve, &plane);
+    let valve3d = merged(&valve, &uv, &leaflet_maps, false)?;
+    let valve2d = merged(&valve, &uv, &leaflet_maps, true)?;
+
+    let flipped = [ANTERIOR, POSTERIOR]
+        .iter()
+        .map(|&k| flipped_triangles(&valve.leaflets[k].mesh, &uv[k]))
+        .sum();
+    let mut carpentier = [0usize; 6];
+    let (mut within, mut near) = (0, 0);
+    for lm in &leaflet_maps {
+        for &c in &lm.carpentier {
+            if (1..=6).contains(&c) {
+                carpentier[(c - 1) as usize] += 1;
+            }
+        }
+        within += lm.coaptation.iter().filter(|&&c| c == 2).count();
+        near += lm.coaptation.iter().filter(|&&c| c == 1).count();
+    }
+    timings.maps = t.elapsed().as_secs_f64();
+    let pt = |p: &Point3<f64>| [p.x, p.y, p.z];
+    let report = Report {
+        annulus_length_mm: m.annulus_length_mm,
+        u_extent_mm: amap.u_extent(),
+        leaflet_area_mm2: m.leaflet_area_mm2,
+        saddle_horn_height_mm: m.saddle_horn_height_mm,
+        area_above_plane_mm2: m.area_above_plane_mm2,
+        area_below_plane_mm2: m.area_below_plane_mm2,
+        distortion: DistortionReport {
+            initial,
+            r#final: final_distortion,
+        },
+        flipped_triangles: flipped,
+        relax: match config.relax {
+            RelaxMode::Spring => "spring",
+            RelaxMode::Sd => "sd",
+        },
+        init,
+        annulus_mode: config.annulus_mode,
+        relax_reports,
+        coaptation_vertices: CoaptationCounts {
+            within,
+            near,
+            threshold_mm: config.maps.coaptation_mm,
+        },
+        carpentier_vertices: carpentier,
+        commissures_mm: [pt(&valve.ring[0]), pt(&valve.ring[valve.posteromedial])],
+        layout_plane: amap.plane.map(|p| PlaneReport {
+            point: pt(&p.point),
+            normal: [p.normal.x, p.normal.y, p.normal.z],
+        }),
+        annulus_plane: PlaneReport {
+            point: pt(&plane.point),
+            normal: [plane.normal.x, plane.normal.y, plane.normal.z],
+        },
+        cut_posteromedial: config.cut_posteromedial,
+        seconds: start.elapsed().as_secs_f64(),
+        timings,
+    };
+    Ok(Outcome {
+        valve,
+        annulus: amap,
+        uv,
+        valve3d,
+        valve2d,
+        maps: leaflet_maps,
+        report,
+    })
+}
