@@ -164,4 +164,25 @@ if not np.allclose(flat_img.affine, np.array(entry["affine"]), rtol=1e-6, atol=1
 inside = int(np.count_nonzero(flat_data))
 if inside != entry["sampled"]:
     fail(f"{flat_img_path.name}: {inside} non-zero voxels, report.json says {entry['sampled']} sampled")
-print(f"{checked + 5} passed, 0 failed")
+# The mitral pipeline's outputs (VTP: meshio reads no POLYDATA, so the mesh
+# is converted to VTU by unfold and read back here).
+mi = pl.parent / "mitral"
+mreport = json.loads((mi / "report.json").read_text())
+for key in ["annulus_length_mm", "u_extent_mm", "leaflet_area_mm2", "saddle_horn_height_mm",
+            "area_above_plane_mm2", "distortion", "flipped_triangles", "relax", "seconds"]:
+    if key not in mreport:
+        fail(f"mitral/report.json: missing {key}")
+if mreport["flipped_triangles"] != 0:
+    fail(f"mitral/report.json: {mreport['flipped_triangles']} flipped triangles")
+flat_vtu = mi / "valve2d_check.vtu"
+unfold("convert", str(mi / "valve2d.vtp"), str(flat_vtu))
+m2 = meshio.read(flat_vtu)
+for name in ["leaflet", "carpentier", "coaptation", "tenting_mm", "uv"]:
+    if name not in m2.point_data:
+        fail(f"valve2d.vtp: no point array {name}")
+if not np.all(m2.points[:, 2] == 0):
+    fail("valve2d.vtp: z is not 0")
+if set(np.unique(m2.point_data["carpentier"]).tolist()) != {1, 2, 3, 4, 5, 6}:
+    fail(f"valve2d.vtp: carpentier labels {np.unique(m2.point_data['carpentier'])}")
+flat_vtu.unlink()
+print(f"{checked + 6} passed, 0 failed")

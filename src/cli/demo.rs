@@ -1,6 +1,7 @@
 //! `unfold demo [-o DIR]`: the built-in synthetic shapes, written with their
-//! info, and the placenta pipeline run on a built-in slab with the synthetic
-//! MRI (outputs in `DIR/placenta/`). Later issues add the other pipelines.
+//! info; the placenta pipeline run on a built-in slab with the synthetic
+//! MRI (outputs in `DIR/placenta/`) and the mitral pipeline on the built-in
+//! valve (outputs in `DIR/mitral/`). A later issue adds the ventricle.
 
 use super::CliError;
 use super::placenta::{ImageInput, PipelineInput, run_pipeline};
@@ -162,6 +163,27 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         progress: true,
     })?;
     println!("{summary}");
+
+    // The mitral pipeline, from the valve files written above.
+    let files = super::mitral::ValveFiles {
+        anterior: dir.join("valve_anterior.vtp"),
+        posterior: dir.join("valve_posterior.vtp"),
+        annulus: dir.join("valve_annulus.vtp"),
+    };
+    let mitral_dir = dir.join("mitral");
+    let outcome = super::mitral::run_valve(
+        &files,
+        &unfold::organs::mitral::Config::default(),
+        &mitral_dir,
+    )?;
+    println!(
+        "built-in mitral valve: {}",
+        super::mitral::summary(&outcome.report)
+    );
+    println!(
+        "wrote {} (valve3d.vtp, valve2d.vtp, report.json)",
+        mitral_dir.display()
+    );
     Ok(())
 }
 

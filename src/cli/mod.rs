@@ -4,6 +4,7 @@ mod convert;
 mod deform;
 mod demo;
 mod info;
+mod mitral;
 mod placenta;
 
 use clap::{Parser, Subcommand};
@@ -70,13 +71,16 @@ enum Command {
     /// Convert a mesh between formats (by file extension).
     Convert(convert::ConvertArgs),
     /// Write the built-in synthetic shapes (and their info) to a directory, and run the
-    /// placenta pipeline on a built-in slab.
+    /// placenta and mitral pipelines on them.
     Demo(demo::DemoArgs),
     /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
     Deform(deform::DeformArgs),
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
     /// single plane), pulling images into the template frame.
     Placenta(placenta::PlacentaArgs),
+    /// Lay a mitral valve out in 2D: annulus first, leaflets below, relaxed flip-free, with
+    /// clinical maps (coaptation, tenting, Carpentier segments) and measurements.
+    Mitral(mitral::MitralArgs),
 }
 
 /// Runs a parsed command line.
@@ -87,6 +91,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Demo(a) => demo::run(&a),
         Command::Deform(a) => deform::run(&a),
         Command::Placenta(a) => placenta::run(&a),
+        Command::Mitral(a) => mitral::run(&a),
     }
 }
 

@@ -1,0 +1,74 @@
+//! The whole mitral pipeline (issue 5): input contract, annulus layout
+//! (landmark plane), longitude layout, flip-free symmetric Dirichlet
+//! relaxation, maps and measurements; no file I/O.
+//!
+//! - `mitral/valve_2500`: one valve of about 2,500 vertices
+//!   (`annulus_segments = 120`, `depth_segments = 20`: 2,541 vertices);
+//! - `mitral/series_10`: a 10-step series of such valves (the generator's
+//!   coaptation gap and depth varied over the cycle).
+//!
+//! Targets: under 20 ms for the valve and under 200 ms for the series.
+//!
+//! Run with `cargo bench --bench mitral`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use unfold::mesh::TriMesh;
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{ValveParams, mitral_valve};
+use unfold::organs::mitral::{Config, ValveInput, run};
+
+struct Valve {
+    anterior: TriMesh,
+    posterior: TriMesh,
+    annulus: Vec<Point3<f64>>,
+}
+
+fn valve(step: usize) -> Valve {
+    let t = step as f64 / 10.0;
+    let s = mitral_valve(&ValveParams {
+        annulus_segments: 120,
+        depth_segments: 20,
+        coaptation_gap: 1.0 + 6.0 * (std::f64::consts::PI * t).sin(),
+        commissure_gap: 8.0 + 4.0 * (std::f64::consts::PI * t).sin(),
+        ..ValveParams::default()
+    })
+    .expect("valve");
+    Valve {
+        anterior: s.anterior,
+        posterior: s.posterior,
+        annulus: s.annulus,
+    }
+}
+
+fn solve(v: &Valve) -> f64 {
+    let out = run(
+        &ValveInput {
+            anterior: &v.anterior,
+            posterior: &v.posterior,
+            annulus: &v.annulus,
+        },
+        &Config::default(),
+    )
+    .expect("pipeline");
+    assert_eq!(out.report.flipped_triangles, 0);
+    out.report.distortion.r#final.angle
+}
+
+fn mitral(c: &mut Criterion) {
+    let one = valve(0);
+    let n = one.anterior.positions.len() + one.posterior.positions.len();
+    println!("valve: {n} vertices");
+    assert!((2_400..=2_700).contains(&n), "{n}");
+    let series: Vec<Valve> = (0..10).map(valve).collect();
+    let mut g = c.benchmark_group("mitral");
+    g.bench_function("valve_2500", |b| b.iter(|| black_box(solve(&one))));
+    g.bench_function("series_10", |b| {
+        b.iter(|| series.iter().map(solve).sum::<f64>())
+    });
+    g.finish();
+    println!("targets: valve < 20 ms, 10-step series < 200 ms");
+}
+
+criterion_group!(benches, mitral);
+criterion_main!(benches);

@@ -1,0 +1,611 @@
+//! `unfold mitral --anterior AL --posterior PL --annulus RING -o DIR`: the
+//! mitral valve laid out in 2D (ALGORITHMS 4): the annulus first (arc
+//! length and height above its plane), the leaflets below it, relaxed
+//! flip-free; clinical maps and measurements.
+//!
+//! Inputs: two leaflet surfaces (triangle meshes with disk topology, any
+//! surface format) and the annulus ring: a closed polyline in a mesh file
+//! (one polyline cell; `.vtp`, `.vtk`, `.obj`, ...), a file of points only
+//! (in ring order), or a text file (`.csv`, `.txt`, `.xyz`) with one
+//! `x,y,z` (or `x y z`) per line.
+//!
+//! Outputs in DIR: `valve3d.vtp` (both leaflets, anterior first, with every
+//! map as a point or cell array), `valve2d.vtp` (the same at `(u, v, 0)`)
+//! and `report.json`.
+//!
+//! `--series DIR`: every file in DIR whose name contains `anterior`,
+//! `posterior` or `annulus` (any case); each group sorted by name and
+//! paired by position, one output set per step in `OUT/<step>/` and a
+//! summary table `OUT/series.csv` (and `series.json`).
+
+use super::CliError;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use unfold::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::{CellMesh, CellType, TriMesh};
+use unfold::organs::OrganError;
+use unfold::organs::mitral::{
+    AnnulusMode, Config, InitMode, Outcome, RelaxMode, Report, ValveInput, run as run_mitral,
+};
+
+/// `--annulus-mode`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum AnnulusArg {
+    /// `v = 0`, `u` = 3D arc length.
+    Straight,
+    /// Heights above the least-squares plane of the annulus.
+    LeastSquares,
+    /// Heights above the plane through both commissures and the posterior
+    /// annulus' barycentre.
+    Landmark,
+}
+
+/// `--init`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum InitArg {
+    /// Longitudes when the leaflet has them, else Tutte.
+    Auto,
+    /// The longitude layout (error if a leaflet has none).
+    Longitudes,
+    /// Tutte embedding below the fixed annulus.
+    Tutte,
+}
+
+/// `--relax`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum RelaxArg {
+    /// Mass-spring (the source's method; may flip triangles).
+    Spring,
+    /// Symmetric Dirichlet, projected Newton, flip-free.
+    Sd,
+}
+
+/// Arguments of `unfold mitral`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Writes DIR/valve3d.vtp, DIR/valve2d.vtp (arrays: leaflet, u_gradient, \
+                  u_interval, checker, carpentier, area_energy, angle_energy, length_energy, \
+                  coaptation, coaptation_distance_mm, tenting_mm, uv) and DIR/report.json; with \
+                  --series, one such set per time step and DIR/series.csv."
+)]
+pub struct MitralArgs {
+    /// Anterior leaflet (triangle mesh, disk topology).
+    #[arg(long, value_name = "AL", required_unless_present = "series")]
+    anterior: Option<PathBuf>,
+    /// Posterior leaflet (triangle mesh, disk topology).
+    #[arg(long, value_name = "PL", required_unless_present = "series")]
+    posterior: Option<PathBuf>,
+    /// Annulus ring: a closed polyline (mesh file) or x,y,z lines (.csv .txt .xyz).
+    #[arg(long, value_name = "RING", required_unless_present = "series")]
+    annulus: Option<PathBuf>,
+    /// A directory of time steps: files named *anterior*, *posterior*,
+    /// *annulus*, paired by sorted name.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["anterior", "posterior", "annulus"])]
+    series: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// How the annulus is laid out.
+    #[arg(long, value_enum, default_value = "landmark")]
+    annulus_mode: AnnulusArg,
+    /// Initial leaflet layout.
+    #[arg(long, value_enum, default_value = "auto")]
+    init: InitArg,
+    /// Relaxation.
+    #[arg(long, value_enum, default_value = "sd")]
+    relax: RelaxArg,
+    /// Spring relaxation: number of explicit steps.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    iterations: usize,
+    /// Spring relaxation: step scale (smaller is safer).
+    #[arg(long, value_name = "S")]
+    step_scale: Option<f64>,
+    /// Coaptation threshold, mm (the zone: closer than this to the other leaflet).
+    #[arg(long, value_name = "MM", default_value_t = 2.0)]
+    coaptation_mm: f64,
+    /// Distance within which a leaflet boundary vertex lies on the ring, mm.
+    #[arg(long, value_name = "MM")]
+    tolerance_mm: Option<f64>,
+    /// Second cut at the posteromedial commissure (the leaflets drawn apart there).
+    #[arg(long)]
+    cut_posteromedial: bool,
+}
+
+/// A usage error naming `path`.
+fn at(path: &Path, msg: impl fmt::Display) -> CliError {
+    CliError::Usage(format!("{}: {msg}", path.display()))
+}
+
+fn organ(label: &str, source: OrganError) -> CliError {
+    match source {
+        OrganError::Config(_) => CliError::Usage(source.to_string()),
+        source => CliError::Organ {
+            path: label.to_string(),
+            source,
+        },
+    }
+}
+
+impl MitralArgs {
+    fn config(&self) -> Result<Config, CliError> {
+        let mut c = Config {
+            annulus_mode: match self.annulus_mode {
+                AnnulusArg::Straight => AnnulusMode::Straight,
+                AnnulusArg::LeastSquares => AnnulusMode::LeastSquares,
+                AnnulusArg::Landmark => AnnulusMode::Landmark,
+            },
+            init: match self.init {
+                InitArg::Auto => InitMode::Auto,
+                InitArg::Longitudes => InitMode::Longitudes,
+                InitArg::Tutte => InitMode::Tutte,
+            },
+            relax: match self.relax {
+                RelaxArg::Spring => RelaxMode::Spring,
+                RelaxArg::Sd => RelaxMode::Sd,
+            },
+            cut_posteromedial: self.cut_posteromedial,
+            ..Config::default()
+        };
+        c.spring.iterations = self.iterations;
+        if let Some(s) = self.step_scale {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(CliError::Usage(format!(
+                    "--step-scale must be a finite number > 0, got {s}"
+                )));
+            }
+            c.spring.step_scale = s;
+        }
+        if !(self.coaptation_mm.is_finite() && self.coaptation_mm > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--coaptation-mm must be a finite number > 0, got {}",
+                self.coaptation_mm
+            )));
+        }
+        c.maps.coaptation_mm = self.coaptation_mm;
+        if let Some(t) = self.tolerance_mm {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(CliError::Usage(format!(
+                    "--tolerance-mm must be a finite number > 0, got {t}"
+                )));
+            }
+            c.tolerance_mm = t;
+        }
+        c.validate().map_err(|e| CliError::Usage(e.to_string()))?;
+        Ok(c)
+    }
+}
+
+/// A leaflet file as a triangle mesh (surface cells only; lines and points
+/// are dropped, volume cells are an error).
+pub(crate) fn read_leaflet(path: &Path) -> Result<TriMesh, CliError> {
+    let cells = read_mesh(path)?;
+    let mut surface = CellMesh::from_points(cells.positions.clone());
+    let mut volume = 0;
+    for (t, vs) in cells.cells() {
+        match t.dimension() {
+            2 => surface.push_cell(t, vs),
+            3 => volume += 1,
+            _ => {}
+        }
+    }
+    if volume > 0 {
+        return Err(at(
+            path,
+            format!("has {volume} volume cell(s); a leaflet is a triangle surface"),
+        ));
+    }
+    if surface.num_cells() == 0 {
+        return Err(at(
+            path,
+            "has no triangles; a leaflet is a triangle surface",
+        ));
+    }
+    surface.point_data = cells.point_data.clone();
+    surface.to_tri_mesh().map_err(|e| at(path, e))
+}
+
+/// Parses `x,y,z` (or whitespace-separated) lines; blank lines, `#`
+/// comments and one non-numeric header line are skipped.
+fn parse_points(text: &str, path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
+    let mut points = Vec::new();
+    let mut header_allowed = true;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+            .filter(|f| !f.is_empty())
+            .collect();
+        let nums: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        match nums {
+            Ok(v) if v.len() == 3 => {
+                if !v.iter().all(|x| x.is_finite()) {
+                    return Err(at(
+                        path,
+                        format!("line {}: a coordinate is not finite", i + 1),
+                    ));
+                }
+                points.push(Point3::new(v[0], v[1], v[2]));
+            }
+            Ok(v) => {
+                return Err(at(
+                    path,
+                    format!("line {}: expected 3 coordinates, found {}", i + 1, v.len()),
+                ));
+            }
+            Err(_) if header_allowed => {}
+            Err(_) => {
+                return Err(at(
+                    path,
+                    format!("line {}: not three numbers: {line:?}", i + 1),
+                ));
+            }
+        }
+        header_allowed = false;
+    }
+    Ok(points)
+}
+
+/// The annulus ring's points in ring order.
+pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if matches!(ext.as_str(), "csv" | "txt" | "xyz") {
+        let text = std::fs::read_to_string(path).map_err(|source| CliError::Fs {
+            path: path.display().to_string(),
+            source,
+        })?;
+        return parse_points(&text, path);
+    }
+    let cells = read_mesh(path)?;
+    let lines = cells.polylines();
+    match lines.len() {
+        1 => Ok(lines[0]
+            .iter()
+            .map(|&v| cells.positions[v as usize])
+            .collect()),
+        0 => {
+            let only_points = cells
+                .cells()
+                .all(|(t, _)| t == CellType::Vertex || t == CellType::PolyVertex);
+            if only_points {
+                Ok(cells.positions.clone())
+            } else {
+                Err(at(
+                    path,
+                    "has no polyline; the annulus ring is one closed polyline (or its points in order)",
+                ))
+            }
+        }
+        n => Err(at(
+            path,
+            format!("has {n} polylines; the annulus ring is one closed polyline"),
+        )),
+    }
+}
+
+/// One valve's input files.
+#[derive(Debug, Clone)]
+pub(crate) struct ValveFiles {
+    pub anterior: PathBuf,
+    pub posterior: PathBuf,
+    pub annulus: PathBuf,
+}
+
+/// Reads one valve and runs the pipeline; writes `valve3d.vtp`,
+/// `valve2d.vtp` and `report.json` into `dir`.
+pub(crate) fn run_valve(
+    files: &ValveFiles,
+    config: &Config,
+    dir: &Path,
+) -> Result<Outcome, CliError> {
+    let anterior = read_leaflet(&files.anterior)?;
+    let posterior = read_leaflet(&files.posterior)?;
+    let ring = read_ring(&files.annulus)?;
+    let label = format!(
+        "{} + {} + {}",
+        files.anterior.display(),
+        files.posterior.display(),
+        files.annulus.display()
+    );
+    let outcome = run_mitral(
+        &ValveInput {
+            anterior: &anterior,
+            posterior: &posterior,
+            annulus: &ring,
+        },
+        config,
+    )
+    .map_err(|e| organ(&label, e))?;
+    write_outcome(&outcome, dir, &label)?;
+    Ok(outcome)
+}
+
+/// `report.json` with the inputs named.
+#[derive(Serialize)]
+struct FullReport<'a> {
+    inputs: &'a str,
+    #[serde(flatten)]
+    report: &'a Report,
+}
+
+/// Writes one outcome's files into `dir` (created if missing).
+pub(crate) fn write_outcome(outcome: &Outcome, dir: &Path, label: &str) -> Result<(), CliError> {
+    super::ensure_dir(dir)?;
+    let opts = WriteOptions::default();
+    write_mesh(
+        dir.join("valve3d.vtp"),
+        &CellMesh::from(&outcome.valve3d),
+        &opts,
+    )?;
+    write_mesh(
+        dir.join("valve2d.vtp"),
+        &CellMesh::from(&outcome.valve2d),
+        &opts,
+    )?;
+    let path = dir.join("report.json");
+    let json = serde_json::to_string_pretty(&FullReport {
+        inputs: label,
+        report: &outcome.report,
+    })
+    .map_err(|e| at(&path, format!("cannot serialize the report: {e}")))?;
+    atomic_write(&path, format!("{json}\n").as_bytes())?;
+    Ok(())
+}
+
+/// A one-paragraph summary of a report.
+pub(crate) fn summary(r: &Report) -> String {
+    format!(
+        "annulus {:.1} mm (u extent {:.1} mm), saddle horn {:.2} mm, leaflets {:.0} + {:.0} mm^2 \
+         ({:.0} mm^2 above the annulus plane); relax {} from {}/{}: mean energies area {:.3} -> \
+         {:.3}, angle {:.3} -> {:.3}, length {:.3} -> {:.3}; {} flipped triangles; coaptation \
+         {} vertices; {:.3} s",
+        r.annulus_length_mm,
+        r.u_extent_mm,
+        r.saddle_horn_height_mm,
+        r.leaflet_area_mm2.anterior,
+        r.leaflet_area_mm2.posterior,
+        r.area_above_plane_mm2,
+        r.relax,
+        r.init[0],
+        r.init[1],
+        r.distortion.initial.area,
+        r.distortion.r#final.area,
+        r.distortion.initial.angle,
+        r.distortion.r#final.angle,
+        r.distortion.initial.length,
+        r.distortion.r#final.length,
+        r.flipped_triangles,
+        r.coaptation_vertices.within,
+        r.seconds
+    )
+}
+
+/// The files of a series directory, paired by sorted name.
+fn series_files(dir: &Path) -> Result<Vec<(String, ValveFiles)>, CliError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| CliError::Fs {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let mut groups: [Vec<PathBuf>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    for e in entries {
+        let e = e.map_err(|source| CliError::Fs {
+            path: dir.display().to_string(),
+            source,
+        })?;
+        let p = e.path();
+        if !p.is_file() {
+            continue;
+        }
+        let name = e.file_name().to_string_lossy().to_ascii_lowercase();
+        let kinds: Vec<usize> = ["anterior", "posterior", "annulus"]
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| name.contains(*k))
+            .map(|(i, _)| i)
+            .collect();
+        match kinds.as_slice() {
+            [] => {}
+            [k] => groups[*k].push(p),
+            _ => {
+                return Err(at(
+                    &p,
+                    "names more than one of anterior / posterior / annulus",
+                ));
+            }
+        }
+    }
+    for g in &mut groups {
+        g.sort();
+    }
+    let [a, p, r] = &groups;
+    if a.is_empty() {
+        return Err(at(
+            dir,
+            "no files named *anterior*, *posterior*, *annulus* in this series directory",
+        ));
+    }
+    if a.len() != p.len() || a.len() != r.len() {
+        return Err(at(
+            dir,
+            format!(
+                "{} anterior, {} posterior and {} annulus files; a series needs one of each per \
+                 time step",
+                a.len(),
+                p.len(),
+                r.len()
+            ),
+        ));
+    }
+    Ok(a.iter()
+        .zip(p)
+        .zip(r)
+        .enumerate()
+        .map(|(i, ((a, p), r))| {
+            (
+                format!("step_{i:03}"),
+                ValveFiles {
+                    anterior: a.clone(),
+                    posterior: p.clone(),
+                    annulus: r.clone(),
+                },
+            )
+        })
+        .collect())
+}
+
+/// One row of the series table.
+#[derive(Serialize)]
+struct SeriesRow {
+    step: String,
+    anterior: String,
+    annulus_length_mm: f64,
+    u_extent_mm: f64,
+    anterior_area_mm2: f64,
+    posterior_area_mm2: f64,
+    saddle_horn_height_mm: f64,
+    area_above_plane_mm2: f64,
+    coaptation_vertices: usize,
+    angle_energy: f64,
+    area_energy: f64,
+    length_energy: f64,
+    flipped_triangles: usize,
+    seconds: f64,
+}
+
+/// Runs `unfold mitral`.
+pub fn run(a: &MitralArgs) -> Result<(), CliError> {
+    let config = a.config()?;
+    let out = a.output.as_path();
+    if out.exists() && !out.is_dir() {
+        return Err(at(
+            out,
+            "exists and is not a directory; -o needs a directory",
+        ));
+    }
+    let Some(series) = &a.series else {
+        let (Some(anterior), Some(posterior), Some(annulus)) =
+            (&a.anterior, &a.posterior, &a.annulus)
+        else {
+            return Err(CliError::Usage(
+                "give --anterior, --posterior and --annulus (or --series DIR)".into(),
+            ));
+        };
+        let files = ValveFiles {
+            anterior: anterior.clone(),
+            posterior: posterior.clone(),
+            annulus: annulus.clone(),
+        };
+        check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
+        let outcome = run_valve(&files, &config, out)?;
+        println!("{}", summary(&outcome.report));
+        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+            println!("wrote {}", out.join(f).display());
+        }
+        return Ok(());
+    };
+    let steps = series_files(series)?;
+    let mut rows = Vec::with_capacity(steps.len());
+    for (name, files) in &steps {
+        let dir = out.join(name);
+        check_not_inputs(&dir, &[&files.anterior, &files.posterior, &files.annulus])?;
+        let outcome = run_valve(files, &config, &dir)?;
+        let r = &outcome.report;
+        println!("{name}: {}", summary(r));
+        rows.push(SeriesRow {
+            step: name.clone(),
+            anterior: files.anterior.display().to_string(),
+            annulus_length_mm: r.annulus_length_mm,
+            u_extent_mm: r.u_extent_mm,
+            anterior_area_mm2: r.leaflet_area_mm2.anterior,
+            posterior_area_mm2: r.leaflet_area_mm2.posterior,
+            saddle_horn_height_mm: r.saddle_horn_height_mm,
+            area_above_plane_mm2: r.area_above_plane_mm2,
+            coaptation_vertices: r.coaptation_vertices.within,
+            angle_energy: r.distortion.r#final.angle,
+            area_energy: r.distortion.r#final.area,
+            length_energy: r.distortion.r#final.length,
+            flipped_triangles: r.flipped_triangles,
+            seconds: r.seconds,
+        });
+    }
+    let mut csv = String::from(
+        "step,anterior_file,annulus_length_mm,u_extent_mm,anterior_area_mm2,posterior_area_mm2,\
+         saddle_horn_height_mm,area_above_plane_mm2,coaptation_vertices,angle_energy,\
+         area_energy,length_energy,flipped_triangles,seconds\n",
+    );
+    for r in &rows {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.step,
+            r.anterior.replace(',', "_"),
+            r.annulus_length_mm,
+            r.u_extent_mm,
+            r.anterior_area_mm2,
+            r.posterior_area_mm2,
+            r.saddle_horn_height_mm,
+            r.area_above_plane_mm2,
+            r.coaptation_vertices,
+            r.angle_energy,
+            r.area_energy,
+            r.length_energy,
+            r.flipped_triangles,
+            r.seconds
+        ));
+    }
+    atomic_write(out.join("series.csv"), csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(&rows)
+        .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
+    atomic_write(out.join("series.json"), format!("{json}\n").as_bytes())?;
+    println!(
+        "wrote {} steps into {} and the table {}",
+        rows.len(),
+        out.display(),
+        out.join("series.csv").display()
+    );
+    Ok(())
+}
+
+/// Refuses an output directory whose files would overwrite an input.
+fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
+    let d = super::canonical(dir);
+    for input in inputs {
+        let c = super::canonical(input);
+        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+            if d.join(f) == c {
+                return Err(at(
+                    input,
+                    format!("is an input and would be overwritten by the output {f}"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ring_text_accepts_commas_spaces_comments_and_a_header() {
+        let p = Path::new("ring.csv");
+        let pts = parse_points("# ring\nx,y,z\n1,2,3\n4 5 6\n\n7;8;9\n", p).unwrap();
+        assert_eq!(pts.len(), 3);
+        assert_eq!(pts[1], Point3::new(4.0, 5.0, 6.0));
+        let e = parse_points("1,2,3\n4,5\n", p).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("3 coordinates"), "{e}");
+        let e = parse_points("1,2,3\nx,y,z\n", p).unwrap_err().to_string();
+        assert!(e.contains("line 2"), "{e}");
+        let e = parse_points("1,2,nan\n", p).unwrap_err().to_string();
+        assert!(e.contains("not finite"), "{e}");
+    }
+}

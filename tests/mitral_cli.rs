@@ -1,0 +1,340 @@
+//! `unfold mitral` through the binary: outputs, a time series, and one-line
+//! errors for inputs that do not fit the contract.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use unfold::io::{WriteOptions, read_mesh, write_mesh};
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{ValveParams, ValveShape, mitral_valve};
+use unfold::mesh::{CellMesh, CellType, TriMesh};
+
+fn unfold(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unfold"))
+        .args(args)
+        .output()
+        .expect("the unfold binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// Fails with a single stderr line naming `needle`.
+fn assert_one_line_error(o: &Output, needle: &str) {
+    assert!(!o.status.success(), "expected failure");
+    let err = stderr(o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("unfold: error: "), "{err}");
+    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
+}
+
+fn ring_mesh(points: &[Point3<f64>]) -> CellMesh {
+    let mut m = CellMesh::from_points(points.to_vec());
+    let mut ids: Vec<u32> = (0..points.len() as u32).collect();
+    ids.push(0);
+    m.push_cell(CellType::PolyLine, &ids);
+    m
+}
+
+/// Writes a valve's three files into `dir` with `prefix`; returns their
+/// paths (anterior, posterior, annulus).
+fn write_valve(
+    dir: &Path,
+    prefix: &str,
+    anterior: &TriMesh,
+    posterior: &TriMesh,
+    ring: &[Point3<f64>],
+) -> [PathBuf; 3] {
+    let a = dir.join(format!("{prefix}anterior.vtp"));
+    let p = dir.join(format!("{prefix}posterior.vtp"));
+    let r = dir.join(format!("{prefix}annulus.vtp"));
+    let opts = WriteOptions::default();
+    write_mesh(&a, &CellMesh::from(anterior), &opts).unwrap();
+    write_mesh(&p, &CellMesh::from(posterior), &opts).unwrap();
+    write_mesh(&r, &ring_mesh(ring), &opts).unwrap();
+    [a, p, r]
+}
+
+fn small_valve() -> ValveShape {
+    mitral_valve(&ValveParams {
+        annulus_segments: 40,
+        depth_segments: 8,
+        ..ValveParams::default()
+    })
+    .unwrap()
+}
+
+fn run_files(files: &[PathBuf; 3], out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "mitral".to_string(),
+        "--anterior".into(),
+        s(&files[0]),
+        "--posterior".into(),
+        s(&files[1]),
+        "--annulus".into(),
+        s(&files[2]),
+        "-o".into(),
+        s(out),
+    ];
+    args.extend(extra.iter().map(|x| x.to_string()));
+    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    unfold(&refs)
+}
+
+#[test]
+fn a_valve_gives_both_maps_and_a_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = small_valve();
+    let files = write_valve(dir.path(), "", &v.anterior, &v.posterior, &v.annulus);
+    let out = dir.path().join("out");
+    let o = run_files(&files, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let n = v.anterior.positions.len() + v.posterior.positions.len();
+    for name in ["valve3d.vtp", "valve2d.vtp"] {
+        let m = read_mesh(out.join(name)).unwrap();
+        assert_eq!(m.positions.len(), n, "{name}");
+        for array in [
+            "leaflet",
+            "u_gradient",
+            "u_interval",
+            "checker",
+            "carpentier",
+            "length_energy",
+            "coaptation",
+            "tenting_mm",
+            "uv",
+        ] {
+            assert!(m.point_data.get(array).is_some(), "{name}: {array}");
+        }
+        for array in ["area_energy", "angle_energy"] {
+            assert!(m.cell_data.get(array).is_some(), "{name}: {array}");
+        }
+    }
+    let flat = read_mesh(out.join("valve2d.vtp")).unwrap();
+    assert!(flat.positions.iter().all(|p| p.z == 0.0));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    for key in [
+        "annulus_length_mm",
+        "u_extent_mm",
+        "saddle_horn_height_mm",
+        "area_above_plane_mm2",
+        "flipped_triangles",
+        "relax",
+        "seconds",
+    ] {
+        assert!(r.get(key).is_some(), "{key}");
+    }
+    assert_eq!(r["flipped_triangles"], 0);
+    assert_eq!(r["relax"], "sd");
+    for k in ["anterior", "posterior"] {
+        assert!(r["leaflet_area_mm2"][k].as_f64().unwrap() > 0.0);
+    }
+    for stage in ["initial", "final"] {
+        for e in ["area", "angle", "length"] {
+            assert!(r["distortion"][stage][e].is_f64(), "{stage}.{e}");
+        }
+    }
+    // Straight mode: the u extent is the annulus length.
+    let out2 = dir.path().join("straight");
+    let o = run_files(
+        &files,
+        &out2,
+        &["--annulus-mode", "straight", "--relax", "spring"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out2.join("report.json")).unwrap()).unwrap();
+    let (u, l) = (
+        r["u_extent_mm"].as_f64().unwrap(),
+        r["annulus_length_mm"].as_f64().unwrap(),
+    );
+    assert!((u - l).abs() < 1e-9 * l, "{u} {l}");
+    assert_eq!(r["relax"], "spring");
+}
+
+#[test]
+fn the_ring_may_be_a_text_file_in_any_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = small_valve();
+    let files = write_valve(dir.path(), "", &v.anterior, &v.posterior, &v.annulus);
+    let n = v.annulus.len();
+    let mut text = String::from("x,y,z\n");
+    for i in (0..n).rev() {
+        let p = v.annulus[(i + 7) % n];
+        text.push_str(&format!("{:?},{:?},{:?}\n", p.x, p.y, p.z));
+    }
+    let ring = dir.path().join("ring.csv");
+    std::fs::write(&ring, text).unwrap();
+    let out = dir.path().join("out");
+    let o = run_files(&[files[0].clone(), files[1].clone(), ring], &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    // The anterolateral commissure found from the geometry alone.
+    let c = &r["commissures_mm"][0];
+    let al = v.annulus[0];
+    let d = ((c[0].as_f64().unwrap() - al.x).powi(2)
+        + (c[1].as_f64().unwrap() - al.y).powi(2)
+        + (c[2].as_f64().unwrap() - al.z).powi(2))
+    .sqrt();
+    assert!(d < 1e-9, "{d}");
+}
+
+#[test]
+fn a_series_gives_one_set_per_step_and_a_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = dir.path().join("series");
+    std::fs::create_dir(&series).unwrap();
+    for step in 0..3 {
+        let v = mitral_valve(&ValveParams {
+            annulus_segments: 32,
+            depth_segments: 6,
+            coaptation_gap: 1.0 + 3.0 * step as f64,
+            commissure_gap: 8.0 + step as f64,
+            ..ValveParams::default()
+        })
+        .unwrap();
+        write_valve(
+            &series,
+            &format!("t{step:02}_"),
+            &v.anterior,
+            &v.posterior,
+            &v.annulus,
+        );
+    }
+    let out = dir.path().join("out");
+    let o = unfold(&["mitral", "--series", &s(&series), "-o", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for step in 0..3 {
+        let d = out.join(format!("step_{step:03}"));
+        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+            assert!(d.join(f).is_file(), "{}", d.join(f).display());
+        }
+    }
+    let csv = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 4, "{csv}");
+    assert!(lines[0].starts_with("step,"));
+    assert!(lines[1].contains("t00_anterior"));
+    // The coaptation zone shrinks as the valve opens.
+    let col = lines[0]
+        .split(',')
+        .position(|h| h == "coaptation_vertices")
+        .unwrap();
+    let counts: Vec<usize> = lines[1..]
+        .iter()
+        .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+        .collect();
+    assert!(counts[0] > counts[2], "{counts:?}");
+
+    // A step missing its annulus file is a clear error.
+    std::fs::remove_file(series.join("t01_annulus.vtp")).unwrap();
+    let o = unfold(&["mitral", "--series", &s(&series), "-o", &s(&out)]);
+    assert_one_line_error(&o, "3 anterior, 3 posterior and 2 annulus");
+}
+
+#[test]
+fn inputs_that_do_not_fit_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = small_valve();
+    let out = dir.path().join("out");
+
+    // A leaflet that does not touch the ring.
+    let mut far = v.posterior.clone();
+    for p in &mut far.positions {
+        *p -= v.atrium_direction * 6.0;
+    }
+    let files = write_valve(dir.path(), "far_", &v.anterior, &far, &v.annulus);
+    let o = run_files(&files, &out, &[]);
+    assert_one_line_error(&o, "does not touch the annulus ring");
+
+    // A ring with only one junction: the posterior leaflet loses the
+    // triangles along one end of its annulus, so the arcs meet once.
+    let mut short = v.posterior.clone();
+    let strip: Vec<u32> = v.posterior_longitudes[..2]
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    short
+        .triangles
+        .retain(|t| !t.iter().any(|x| strip.contains(x)));
+    let short = compact(&short);
+    let files = write_valve(dir.path(), "short_", &v.anterior, &short, &v.annulus);
+    let o = run_files(&files, &out, &[]);
+    assert_one_line_error(&o, "commissures");
+
+    // A leaflet with a hole (not a disk).
+    let mut holed = v.anterior.clone();
+    let centre = v.anterior_longitudes[v.anterior_longitudes.len() / 2][4];
+    holed.triangles.retain(|t| !t.contains(&centre));
+    let holed = compact(&holed);
+    let files = write_valve(dir.path(), "holed_", &holed, &v.posterior, &v.annulus);
+    let o = run_files(&files, &out, &[]);
+    assert_one_line_error(&o, "boundary loops");
+
+    // Bad options.
+    let files = write_valve(dir.path(), "ok_", &v.anterior, &v.posterior, &v.annulus);
+    for (flag, value) in [
+        ("--coaptation-mm", "0"),
+        ("--tolerance-mm", "nan"),
+        ("--step-scale", "0"),
+    ] {
+        let o = run_files(&files, &out, &[flag, value]);
+        assert_one_line_error(&o, flag);
+    }
+    let o = run_files(&files, &out, &["--init", "sideways"]);
+    assert_one_line_error(&o, "--init");
+    // A ring file with two polylines.
+    let mut two = ring_mesh(&v.annulus);
+    two.push_cell(CellType::PolyLine, &[0, 1, 2]);
+    let ring2 = dir.path().join("two.vtp");
+    write_mesh(&ring2, &two, &WriteOptions::default()).unwrap();
+    let o = run_files(&[files[0].clone(), files[1].clone(), ring2], &out, &[]);
+    assert_one_line_error(&o, "2 polylines");
+}
+
+/// Drops the vertices no triangle uses (keeping the order of the rest).
+fn compact(m: &TriMesh) -> TriMesh {
+    let mut used = vec![false; m.positions.len()];
+    for t in &m.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    let mut map = vec![u32::MAX; m.positions.len()];
+    let mut positions = Vec::new();
+    for (i, p) in m.positions.iter().enumerate() {
+        if used[i] {
+            map[i] = positions.len() as u32;
+            positions.push(*p);
+        }
+    }
+    TriMesh::new(
+        positions,
+        m.triangles
+            .iter()
+            .map(|t| t.map(|v| map[v as usize]))
+            .collect(),
+    )
+}
+
+#[test]
+fn the_demo_runs_the_mitral_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = unfold(&["demo", "-o", &s(dir.path())]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+        assert!(dir.path().join("mitral").join(f).is_file(), "{f}");
+    }
+    let r: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("mitral/report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(r["flipped_triangles"], 0);
+}
