@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::repair::compact_vertices;
 use unfold::mesh::shapes::{ValveParams, ValveShape, mitral_valve};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 
@@ -301,27 +302,8 @@ fn inputs_that_do_not_fit_are_one_line_errors() {
 
 /// Drops the vertices no triangle uses (keeping the order of the rest).
 fn compact(m: &TriMesh) -> TriMesh {
-    let mut used = vec![false; m.positions.len()];
-    for t in &m.triangles {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    let mut map = vec![u32::MAX; m.positions.len()];
-    let mut positions = Vec::new();
-    for (i, p) in m.positions.iter().enumerate() {
-        if used[i] {
-            map[i] = positions.len() as u32;
-            positions.push(*p);
-        }
-    }
-    TriMesh::new(
-        positions,
-        m.triangles
-            .iter()
-            .map(|t| t.map(|v| map[v as usize]))
-            .collect(),
-    )
+    let c = compact_vertices(&m.positions, &m.point_data, &m.triangles).unwrap();
+    TriMesh::new(c.positions, c.elements)
 }
 
 #[test]

@@ -674,18 +674,7 @@ struct Energies {
 /// docs).
 fn energies(mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<Energies, OrganError> {
     let rest = ParamMesh::from_triangles(mesh)?;
-    let areas: Vec<f64> = mesh
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| uv[v as usize]);
-            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        })
-        .collect();
-    let pos = areas.iter().filter(|&&a| a > 0.0).count();
-    let neg = areas.iter().filter(|&&a| a < 0.0).count();
-    let clockwise = neg > pos || (neg == pos && areas.iter().sum::<f64>() < 0.0);
-    let sign = if clockwise { -1.0 } else { 1.0 };
+    let sign = super::majority_sign(&super::signed_areas(mesh, uv));
     let x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
     let angle = angle_energy(&rest, &x)
         .ok_or_else(|| OrganError::Input("the leaflet is not a triangle mesh".into()))?;
@@ -699,6 +688,7 @@ fn energies(mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<Energies, OrganError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mitral::annulus::tests::prepared;
     use unfold_mesh::shapes::Pose;
     use unfold_mesh::shapes::{ValveParams, ValveShape, mitral_valve};
 
@@ -722,54 +712,6 @@ mod tests {
             &shape.anterior_longitudes
         } else {
             &shape.posterior_longitudes
-        }
-    }
-
-    /// Unwrapped ring positions (the posterior's last is `n`, at `s = L`).
-    fn ring_positions(shape: &ValveShape, k: usize) -> Vec<usize> {
-        let pm = shape.commissures[1];
-        let cols = longitudes(shape, k).len();
-        if k == ANTERIOR {
-            (0..cols).collect()
-        } else {
-            (pm..pm + cols).collect()
-        }
-    }
-
-    fn prepared(shape: &ValveShape) -> PreparedValve {
-        let s = ring_arc(&shape.annulus);
-        let leaflet = |k: usize| {
-            let cols = longitudes(shape, k);
-            let mesh = if k == ANTERIOR {
-                shape.anterior.clone()
-            } else {
-                shape.posterior.clone()
-            };
-            let annulus: Vec<u32> = cols.iter().map(|c| c[0]).collect();
-            let annulus_s = ring_positions(shape, k).iter().map(|&r| s[r]).collect();
-            // From the vertex after the last annulus vertex (down the last
-            // column, back along the free edge, up the first column) to the
-            // vertex before the first.
-            let rows = cols[0].len() - 1;
-            let last = &cols[cols.len() - 1];
-            let mut free_edge: Vec<u32> = last[1..].to_vec();
-            for c in cols[1..cols.len() - 1].iter().rev() {
-                free_edge.push(c[rows]);
-            }
-            free_edge.extend(cols[0][1..].iter().rev());
-            Leaflet {
-                mesh,
-                annulus,
-                annulus_s,
-                free_edge,
-            }
-        };
-        PreparedValve {
-            ring: shape.annulus.clone(),
-            posteromedial: shape.commissures[1],
-            atrium: shape.atrium_direction,
-            leaflets: [leaflet(ANTERIOR), leaflet(POSTERIOR)],
-            tolerance_mm: 1e-6,
         }
     }
 

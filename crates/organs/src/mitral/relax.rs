@@ -33,6 +33,7 @@
 //! `unfold_mesh::shapes::mitral_valve` (u increasing along the annulus,
 //! v decreasing down the columns) is counter-clockwise, needing no mirror.
 
+use super::{flipped, majority_sign, signed_areas};
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -182,40 +183,6 @@ pub struct RelaxReport {
     pub flipped_triangles: usize,
     /// Wall-clock seconds, input checks included.
     pub seconds: f64,
-}
-
-/// Twice the signed area `(q1 - q0) x (q2 - q0)` of every uv triangle.
-fn signed_areas(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<f64> {
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| uv[v as usize]);
-            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        })
-        .collect()
-}
-
-/// The majority orientation of `areas` (`+1` counter-clockwise, `-1`
-/// clockwise; a tie goes to the sign of the sum, then to `+1`).
-fn majority_sign(areas: &[f64]) -> f64 {
-    let pos = areas.iter().filter(|&&a| a > 0.0).count();
-    let neg = areas.iter().filter(|&&a| a < 0.0).count();
-    if pos > neg || (pos == neg && areas.iter().sum::<f64>() >= 0.0) {
-        1.0
-    } else {
-        -1.0
-    }
-}
-
-/// Indices of the triangles that are not strictly of orientation `sign`
-/// (NaN areas included).
-fn flipped(areas: &[f64], sign: f64) -> Vec<usize> {
-    areas
-        .iter()
-        .enumerate()
-        .filter(|&(_, &a)| (sign * a).is_nan() || sign * a <= 0.0)
-        .map(|(t, _)| t)
-        .collect()
 }
 
 /// Checks the lengths of `uv` and `fixed` against the mesh and that `uv` is
