@@ -64,7 +64,9 @@ impl<F: FnMut(&Iteration)> Observer for F {
 pub struct Stopping {
     /// Stop when `|grad phi|_F < grad_tol` (1e-4, as the source).
     pub grad_tol: f64,
-    /// Newton: stop when the decrement `-g·d / 2 < decrement_tol * |phi|`.
+    /// Newton: stop when the decrement `-g·d / 2 < decrement_tol * |phi|`
+    /// (and, whatever this is, when a line search fails with a decrement
+    /// below [`ROUNDOFF_DECREMENT`]` * |phi|`).
     pub decrement_tol: f64,
     /// Iteration limit.
     pub max_iterations: usize,
@@ -383,6 +385,13 @@ impl Solver for GradientDescent {
     }
 }
 
+/// Relative Newton decrement below which a failed line search means
+/// convergence to machine precision ([`StopReason::NewtonDecrement`]): the
+/// predicted decrease `-g·d / 2 <= ROUNDOFF_DECREMENT |phi|` is within the
+/// rounding error of evaluating `phi` (a sum over all elements), so no step
+/// can show an Armijo decrease.
+pub const ROUNDOFF_DECREMENT: f64 = 64.0 * f64::EPSILON;
+
 /// Projected Newton (the default): solve `H d = -g` with `H` the sum of the
 /// PSD-projected element Hessians and the template Hessian (sparse
 /// Cholesky; the symbolic analysis is done once, a diagonal shift is added
@@ -435,6 +444,8 @@ impl Solver for ProjectedNewton {
         let mut d = vec![0.0; n];
         let mut buf = Vec::with_capacity(n);
         let mut values = Vec::new();
+        // The factor's storage, reused by every factorization.
+        let mut storage: Option<crate::sparse::SpdFactor> = None;
         let (mut step, mut a_max, mut shift) = (0.0, f64::INFINITY, 0.0);
         let mut try_exact = self.exact_first;
         let mut it = 0;
@@ -469,13 +480,16 @@ impl Solver for ProjectedNewton {
             for &mode in modes {
                 let projected = mode == HessianMode::Projected;
                 let block = objective.hessian_with(x, theta, &mut values, mode)?;
-                let factored = objective.pattern()?.factorize(
+                let pattern = objective.pattern()?;
+                let factor = storage.get_or_insert_with(|| pattern.new_factor());
+                let factored = pattern.refactorize(
+                    factor,
                     &values,
                     self.shift,
                     if projected { 16 } else { 0 },
                 );
-                let (factor, used) = match factored {
-                    Ok(f) => f,
+                let used = match factored {
+                    Ok(used) => used,
                     Err(e) if projected => return Err(e),
                     Err(_) => {
                         // Not positive definite here: do not pay for the
@@ -492,7 +506,7 @@ impl Solver for ProjectedNewton {
                 dtheta.clear();
                 theta_slope = 0.0;
                 if let Some(tb) = &block {
-                    dtheta = eliminate_theta(&factor, tb, &mut d)?;
+                    dtheta = eliminate_theta(factor, tb, &mut d)?;
                     theta_slope = tb.g.iter().zip(&dtheta).map(|(a, b)| a * b).sum();
                 }
                 slope = g.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>() + theta_slope;
@@ -525,6 +539,11 @@ impl Solver for ProjectedNewton {
                 1.0,
             );
             if !r.success {
+                // A decrease below the rounding of phi cannot be seen by
+                // any line search: at machine precision, not a failure.
+                if -slope / 2.0 <= ROUNDOFF_DECREMENT * f.abs() {
+                    return done(StopReason::NewtonDecrement);
+                }
                 return done(StopReason::LineSearchFailed);
             }
             step = r.step;
