@@ -211,10 +211,13 @@ pub fn leaflet_maps(
              anterior leaflet's first"
         )));
     }
-    let queries = [
-        ClosestPointQuery::new(&valve.leaflets[ANTERIOR].mesh),
-        ClosestPointQuery::new(&valve.leaflets[POSTERIOR].mesh),
-    ];
+    let queries = {
+        let (a, p) = rayon::join(
+            || ClosestPointQuery::new(&valve.leaflets[ANTERIOR].mesh),
+            || ClosestPointQuery::new(&valve.leaflets[POSTERIOR].mesh),
+        );
+        [a, p]
+    };
     let one = |k: usize| -> Result<LeafletMaps, OrganError> {
         let leaflet = &valve.leaflets[k];
         let q = uv[k];
@@ -295,7 +298,9 @@ pub fn leaflet_maps(
             tenting_mm,
         })
     };
-    Ok([one(ANTERIOR)?, one(POSTERIOR)?])
+    // The leaflets are independent: in parallel.
+    let (a, p) = rayon::join(|| one(ANTERIOR), || one(POSTERIOR));
+    Ok([a?, p?])
 }
 
 /// The Carpentier segment of a point of leaflet `leaflet` (ALGORITHMS 4.5,
@@ -494,27 +499,54 @@ pub fn distortion(
     valve: &PreparedValve,
     uv: [&[[f64; 2]]; 2],
 ) -> Result<DistortionSummary, OrganError> {
+    let e = [
+        leaflet_energies(&valve.leaflets[ANTERIOR].mesh, ANTERIOR, uv[ANTERIOR])?,
+        leaflet_energies(&valve.leaflets[POSTERIOR].mesh, POSTERIOR, uv[POSTERIOR])?,
+    ];
+    Ok(summarize(e.iter().map(|[a, m, l]| [&a[..], m, l])))
+}
+
+/// The area, angle and length energies of leaflet `k`'s layout `uv`
+/// (checked), as in its [`LeafletMaps`].
+pub(crate) fn leaflet_energies(
+    mesh: &TriMesh,
+    k: usize,
+    uv: &[[f64; 2]],
+) -> Result<[Vec<f64>; 3], OrganError> {
+    check_uv(k, mesh, uv)?;
+    let e = energies(mesh, uv)?;
+    Ok([e.area, e.angle, e.length])
+}
+
+/// The [`DistortionSummary`] of the energy maps of both leaflets (as
+/// [`distortion`] of the layout they were computed from).
+pub fn summary(maps: &[LeafletMaps; 2]) -> DistortionSummary {
+    summarize(
+        maps.iter()
+            .map(|m| [&m.area_energy[..], &m.angle_energy, &m.length_energy]),
+    )
+}
+
+/// Plain means of per-leaflet energies `[area, angle, length]` (see
+/// [`DistortionSummary`]).
+pub(crate) fn summarize<'a>(leaflets: impl Iterator<Item = [&'a [f64]; 3]>) -> DistortionSummary {
     let (mut area, mut angle, mut length) = (0.0, 0.0, 0.0);
     let (mut triangles, mut vertices) = (0usize, 0usize);
-    for k in [ANTERIOR, POSTERIOR] {
-        let mesh = &valve.leaflets[k].mesh;
-        check_uv(k, mesh, uv[k])?;
-        let e = energies(mesh, uv[k])?;
-        area += e.area.iter().sum::<f64>();
-        angle += e.angle.iter().sum::<f64>();
-        triangles += e.area.len();
-        for l in e.length.iter().filter(|l| !l.is_nan()) {
+    for [a, m, l] in leaflets {
+        area += a.iter().sum::<f64>();
+        angle += m.iter().sum::<f64>();
+        triangles += a.len();
+        for l in l.iter().filter(|l| !l.is_nan()) {
             length += l;
             vertices += 1;
         }
     }
-    // `energies` succeeded, so every leaflet has a triangle and its
-    // vertices: both counts are positive.
-    Ok(DistortionSummary {
-        area: area / triangles as f64,
-        angle: angle / triangles as f64,
-        length: length / vertices as f64,
-    })
+    let mean = |sum: f64, n: usize| if n == 0 { f64::NAN } else { sum / n as f64 };
+    DistortionSummary {
+        area: mean(area, triangles),
+        angle: mean(angle, triangles),
+        length: mean(length, vertices),
+    }
 }
 
 // ---------------------------------------------------------------------------

@@ -502,25 +502,33 @@ pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganErro
         };
     }
     timings.layout = t.elapsed().as_secs_f64();
-    let initial = maps::distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]])?;
     let t = Instant::now();
 
     // The leaflets relax independently (each with its annulus pinned): in
-    // parallel.
-    let relax_one = |k: usize, uv: &mut Vec<[f64; 2]>| -> Result<relax::RelaxReport, OrganError> {
+    // parallel, each with the energies of its initial layout.
+    type Relaxed = (relax::RelaxReport, [Vec<f64>; 3]);
+    let relax_one = |k: usize, uv: &mut Vec<[f64; 2]>| -> Result<Relaxed, OrganError> {
         let leaflet = &valve.leaflets[k];
+        let initial = maps::leaflet_energies(&leaflet.mesh, k, uv)?;
         let mut fixed = vec![false; leaflet.mesh.positions.len()];
         for &v in &leaflet.annulus {
             fixed[v as usize] = true;
         }
-        match config.relax {
+        let report = match config.relax {
             RelaxMode::Spring => relax::spring(&leaflet.mesh, uv, &fixed, &config.spring),
             RelaxMode::Sd => relax::symmetric_dirichlet(&leaflet.mesh, uv, &fixed, &config.sd),
-        }
+        }?;
+        Ok((report, initial))
     };
     let [uv_a, uv_p] = &mut uv;
     let (ra, rp) = rayon::join(|| relax_one(ANTERIOR, uv_a), || relax_one(POSTERIOR, uv_p));
-    let relax_reports = [ra?, rp?];
+    let ((report_a, initial_a), (report_p, initial_p)) = (ra?, rp?);
+    let relax_reports = [report_a, report_p];
+    let initial = maps::summarize(
+        [&initial_a, &initial_p]
+            .into_iter()
+            .map(|[a, m, l]| [&a[..], m, l]),
+    );
     timings.relax = t.elapsed().as_secs_f64();
     let t = Instant::now();
     if config.cut_posteromedial {
@@ -528,13 +536,13 @@ pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganErro
             q[0] += config.cut_gap_mm;
         }
     }
-    let final_distortion = maps::distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]])?;
     let leaflet_maps = maps::leaflet_maps(
         &valve,
         [&uv[ANTERIOR], &uv[POSTERIOR]],
         &plane,
         &config.maps,
     )?;
+    let final_distortion = maps::summary(&leaflet_maps);
     let m = maps::measurements(&valve, &plane);
     let valve3d = merged(&valve, &uv, &leaflet_maps, false)?;
     let valve2d = merged(&valve, &uv, &leaflet_maps, true)?;
