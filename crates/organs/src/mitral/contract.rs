@@ -138,26 +138,14 @@ pub fn prepare(input: &ValveInput<'_>, tolerance_mm: f64) -> Result<PreparedValv
     let ring = Ring::new(ring_points(input.annulus)?)?;
     let frame = ring_frame(&ring)?;
     let meshes = [input.anterior, input.posterior];
-    let mut loops = Vec::with_capacity(2);
-    for (k, mesh) in meshes.iter().enumerate() {
-        loops.push(disk_boundary(NAMES[k], mesh)?);
-    }
-    let att = [
-        attach(
-            NAMES[ANTERIOR],
-            meshes[ANTERIOR],
-            &loops[ANTERIOR],
-            &ring,
-            tol,
-        )?,
-        attach(
-            NAMES[POSTERIOR],
-            meshes[POSTERIOR],
-            &loops[POSTERIOR],
-            &ring,
-            tol,
-        )?,
-    ];
+    // Each leaflet's checks and attachment to the ring, in parallel (the
+    // anterior leaflet's error first when both fail).
+    let one = |k: usize| -> Result<Attachment, OrganError> {
+        let lp = disk_boundary(NAMES[k], meshes[k])?;
+        attach(NAMES[k], meshes[k], &lp, &ring, tol)
+    };
+    let (a, p) = rayon::join(|| one(ANTERIOR), || one(POSTERIOR));
+    let att = [a?, p?];
     let [c1, c2] = commissures(&att, &ring, tol)?;
     let (atrium, clockwise) = atrial_side(&ring, &frame, &meshes, &att)?;
 
