@@ -350,7 +350,13 @@ impl<'a> Objective<'a> {
                 col_ptr.push(row_idx.len());
             }
         }
-        let pattern = SpdPattern::from_upper_csc(n, d, col_ptr.clone(), row_idx)?;
+        // Triangles: vertex-block AMD with a supernodal factor (on a
+        // 2,310-unknown mitral leaflet 0.84 ms per factorization against
+        // 1.5 ms for scalar AMD, where faer picks the simplicial factor).
+        // Tets: scalar AMD and faer's choice (on the 60k-tet placenta bench
+        // 2.10 s against 2.95 s for the vertex blocks).
+        let block = if d == 2 { 2 } else { 1 };
+        let pattern = SpdPattern::from_upper_csc(n, block, col_ptr.clone(), row_idx)?;
         // Element slot maps: per element, the position of each vertex in
         // the adjacency of each other (3 x 3 or 4 x 4 searches), expanded
         // to the (d (d + 1))^2 local DOF pairs.

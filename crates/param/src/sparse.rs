@@ -193,7 +193,7 @@ impl SpdPattern {
         // Rows are sorted and >= the column, so the diagonal comes first.
         let diagonal = (0..n).map(|i| lower.col_ptr()[inv[i]]).collect();
         let factor_scratch =
-            cholesky.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+            cholesky.factorize_numeric_llt_scratch::<f64>(parallelism(), Default::default());
         Ok(SpdPattern {
             n,
             lower,
@@ -345,7 +345,7 @@ impl SpdPattern {
                 mat,
                 Side::Lower,
                 LltRegularization::default(),
-                Par::Seq,
+                parallelism(),
                 MemStack::new(&mut factor.scratch),
                 Default::default(),
             );
@@ -372,6 +372,13 @@ impl SpdPattern {
         }
         Err(ParamError::Factorization("no attempt made".into()))
     }
+}
+
+/// faer's global parallelism (rayon unless changed): the supernodal
+/// kernels split large dense blocks across threads and run small ones
+/// inline.
+fn parallelism() -> Par {
+    faer::get_global_parallelism()
 }
 
 /// Compressed columns of the entries `(rows[e], cols[e])` (each once) with
@@ -508,7 +515,7 @@ impl SpdFactor {
                 "solve with a factor whose factorization failed or never ran".into(),
             ));
         }
-        let par = Par::Seq;
+        let par = parallelism();
         let mut y: Vec<f64> = self.fwd.iter().map(|&i| b[i]).collect();
         let mut scratch = vec![
             MaybeUninit::uninit();
