@@ -971,6 +971,11 @@ mod tests {
             assert!((e - 2.5).abs() < 1e-9, "{e}");
         }
         assert!(maps[ANTERIOR].length_energy.iter().all(|&e| e > 2.0));
+        // The report's final distortion is summarized from the maps: the
+        // same means as `distortion` of the layout.
+        let d = distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]]).unwrap();
+        assert_eq!(summary(&maps), d);
+        assert!(d.area > 2.0 && d.area < 2.5, "{d:?}");
         // Flip one triangle of the posterior layout: move the centre out.
         uv[POSTERIOR][0] = [60.0, 0.0];
         let d = distortion(&valve, [&uv[ANTERIOR], &uv[POSTERIOR]]).unwrap();

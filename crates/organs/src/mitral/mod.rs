@@ -266,7 +266,7 @@ pub struct Timings {
     pub contract: f64,
     /// Annulus and initial layouts.
     pub layout: f64,
-    /// Relaxation of both leaflets.
+    /// Relaxation of both leaflets (with their initial layouts' energies).
     pub relax: f64,
     /// Maps, measurements and output meshes.
     pub maps: f64,
