@@ -29,3 +29,16 @@ pub enum OrganError {
     #[error("image: {0}")]
     Image(String),
 }
+
+impl OrganError {
+    /// [`OrganError::Config`] for the first `(name, value)` that is not
+    /// finite and `> 0`: "`name` must be finite and > 0, got `value`".
+    pub(crate) fn check_positive(values: &[(&str, f64)]) -> Result<(), OrganError> {
+        match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            Some((name, value)) => Err(OrganError::Config(format!(
+                "{name} must be finite and > 0, got {value}"
+            ))),
+            None => Ok(()),
+        }
+    }
+}

@@ -104,17 +104,10 @@ impl MapsConfig {
     /// # Errors
     /// [`OrganError::Config`] naming the offending value.
     pub fn validate(&self) -> Result<(), OrganError> {
-        for (name, value) in [
+        OrganError::check_positive(&[
             ("coaptation_mm", self.coaptation_mm),
             ("checker_mm", self.checker_mm),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(OrganError::Config(format!(
-                    "{name} must be finite and > 0, got {value}"
-                )));
-            }
-        }
-        Ok(())
+        ])
     }
 }
 

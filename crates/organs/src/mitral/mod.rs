@@ -191,13 +191,7 @@ impl Config {
                 self.cut_gap_mm
             )));
         }
-        if !(self.tolerance_mm.is_finite() && self.tolerance_mm > 0.0) {
-            return Err(OrganError::Config(format!(
-                "tolerance_mm must be finite and > 0, got {}",
-                self.tolerance_mm
-            )));
-        }
-        Ok(())
+        OrganError::check_positive(&[("tolerance_mm", self.tolerance_mm)])
     }
 }
 

@@ -104,17 +104,10 @@ impl SpringConfig {
     /// # Errors
     /// [`OrganError::Config`] naming the offending value.
     pub fn validate(&self) -> Result<(), OrganError> {
-        for (name, value) in [
+        OrganError::check_positive(&[
             ("spring step_scale", self.step_scale),
             ("spring stiffness", self.stiffness),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(OrganError::Config(format!(
-                    "{name} must be finite and > 0, got {value}"
-                )));
-            }
-        }
-        Ok(())
+        ])
     }
 }
 
@@ -154,13 +147,7 @@ impl SdConfig {
     /// # Errors
     /// [`OrganError::Config`] naming the offending value.
     pub fn validate(&self) -> Result<(), OrganError> {
-        if !(self.grad_tol.is_finite() && self.grad_tol > 0.0) {
-            return Err(OrganError::Config(format!(
-                "sd grad_tol must be finite and > 0, got {}",
-                self.grad_tol
-            )));
-        }
-        Ok(())
+        OrganError::check_positive(&[("sd grad_tol", self.grad_tol)])
     }
 }
 

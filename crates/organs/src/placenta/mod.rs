@@ -142,18 +142,7 @@ impl Default for Config {
 impl Config {
     /// Checks every value; the error names the offending one.
     pub fn validate(&self) -> Result<(), OrganError> {
-        if !(self.lambda.is_finite() && self.lambda > 0.0) {
-            return Err(OrganError::Config(format!(
-                "lambda must be finite and > 0, got {}",
-                self.lambda
-            )));
-        }
-        if !(self.grad_tol.is_finite() && self.grad_tol > 0.0) {
-            return Err(OrganError::Config(format!(
-                "grad_tol must be finite and > 0, got {}",
-                self.grad_tol
-            )));
-        }
+        OrganError::check_positive(&[("lambda", self.lambda), ("grad_tol", self.grad_tol)])?;
         if self.max_iterations == Some(0) {
             return Err(OrganError::Config("max_iterations must be >= 1".into()));
         }
