@@ -114,6 +114,16 @@ pub trait DistortionEnergy: Send + Sync + Debug {
             flip[k] = self.flip_eigenvalue(s, i, j);
         }
     }
+    /// `psi(F)` of a 2x2 `F` in closed form, and `dpsi/dF` into `grad` when
+    /// given, for energies with a formula in the entries of `F`: no SVD for
+    /// values and gradients (line searches, stopping tests). `None` (the
+    /// default) lets the framework go through the singular values. Must
+    /// agree with [`value`](Self::value) / [`gradient`](Self::gradient)
+    /// through the SVD to rounding, and be `f64::INFINITY` (gradient
+    /// unspecified) wherever that value is not finite.
+    fn closed_form2(&self, _f: &Matrix2<f64>, _grad: Option<&mut Matrix2<f64>>) -> Option<f64> {
+        None
+    }
     /// The minimum value (at rotations) in dimension `dim`.
     fn minimum(&self, dim: usize) -> f64;
     /// Whether the energy is infinite at `det J -> 0` (a barrier against
@@ -198,6 +208,32 @@ impl DistortionEnergy for SymmetricDirichlet {
         let (a, b) = (s[i], s[j]);
         let ab = a * b;
         2.0 - 2.0 * (a * a - ab + b * b) / (ab * ab * ab)
+    }
+    /// With `I2 = |F|_F^2`, `I3 = det F`: `psi = I2 (1 + I3^-2)` and
+    /// `dpsi/dF = 2 (1 + I3^-2) F - 2 I2 I3^-3 cof F`,
+    /// `cof F = [[f22, -f21], [-f12, f11]]`; infinite for `I3 <= 0`.
+    fn closed_form2(&self, f: &Matrix2<f64>, grad: Option<&mut Matrix2<f64>>) -> Option<f64> {
+        let det = f.m11 * f.m22 - f.m12 * f.m21;
+        if det.is_nan() || det <= 0.0 {
+            return Some(f64::INFINITY);
+        }
+        let i2 = f.m11 * f.m11 + f.m12 * f.m12 + f.m21 * f.m21 + f.m22 * f.m22;
+        let r = 1.0 / (det * det);
+        let value = i2 * (1.0 + r);
+        if !value.is_finite() {
+            return Some(f64::INFINITY);
+        }
+        if let Some(g) = grad {
+            let k = 2.0 * (1.0 + r);
+            let c = 2.0 * i2 * r / det;
+            *g = Matrix2::new(
+                k * f.m11 - c * f.m22,
+                k * f.m12 + c * f.m21,
+                k * f.m21 + c * f.m12,
+                k * f.m22 - c * f.m11,
+            );
+        }
+        Some(value)
     }
     fn minimum(&self, dim: usize) -> f64 {
         2.0 * dim as f64
@@ -732,37 +768,6 @@ pub struct Eval3 {
     pub hess: Option<SMatrix<f64, 9, 9>>,
 }
 
-/// PSD projection of a symmetric 2x2 matrix (eigenvalues clamped at 0), in
-/// closed form.
-fn project_sym2(h: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
-    let (a, b, c) = (h[0][0], 0.5 * (h[0][1] + h[1][0]), h[1][1]);
-    let mean = 0.5 * (a + c);
-    let rad = norm2(0.5 * (a - c), b);
-    let (l1, l2) = (mean + rad, mean - rad);
-    if l2 >= 0.0 || l2.is_nan() {
-        // PSD already (or NaN: leave it for the caller to notice).
-        return [[a, b], [b, c]];
-    }
-    if l1 <= 0.0 {
-        return [[0.0; 2]; 2];
-    }
-    // Eigenvector of l1: the better conditioned of (b, l1 - a), (l1 - c, b).
-    let (x1, y1) = (b, l1 - a);
-    let (x2, y2) = (l1 - c, b);
-    let (x, y) = if x1 * x1 + y1 * y1 >= x2 * x2 + y2 * y2 {
-        (x1, y1)
-    } else {
-        (x2, y2)
-    };
-    let n2 = x * x + y * y;
-    if n2 == 0.0 {
-        // a == c, b == 0 with l1 > 0 > l2 is impossible; be safe.
-        return [[a.max(0.0), 0.0], [0.0, c.max(0.0)]];
-    }
-    let k = l1 / n2;
-    [[k * x * x, k * x * y], [k * x * y, k * y * y]]
-}
-
 /// PSD projection of a symmetric 3x3 matrix: unchanged when diagonal
 /// (clamped) or positive definite (Cholesky succeeds), else eigenvalues
 /// clamped at 0 through [`sym_eigen3`].
@@ -929,41 +934,170 @@ fn assemble_hessian<const N: usize, const M: usize>(
     out
 }
 
+/// The Hessian `d2psi/dF2` of a 2D element as its eigensystem:
+///
+/// ```text
+/// d2psi/dF2 = sum_k values[k] vec(modes[k]) vec(modes[k])^T
+/// ```
+///
+/// with four Frobenius-orthonormal 2x2 `modes` (signed SVD
+/// `F = U diag(s) V^T`): the two scaling modes `U diag(w) V^T` (`w` the unit
+/// eigenvectors of `d2psi/ds2`, whose eigenvalues they carry), the twist
+/// `U [[0, -1], [1, 0]] V^T / sqrt 2` and the flip
+/// `U [[0, 1], [1, 0]] V^T / sqrt 2` (module docs). Projected, every
+/// eigenvalue is clamped at 0.
+///
+/// A rank-one sum is what a vertex Hessian wants: with `C` the map from the
+/// 6 vertex coordinates to `vec(F)`, `C^T H C = sum_k l_k (C^T m_k)(C^T m_k)^T`,
+/// four 6-vectors instead of a 4x4 product on each side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Eigen2 {
+    /// The eigenvalues `l_k` (clamped at 0 when projected).
+    pub values: [f64; 4],
+    /// The unit eigenvectors `m_k` as 2x2 matrices.
+    pub modes: [Matrix2<f64>; 4],
+}
+
+impl Eigen2 {
+    /// `sum_k l_k vec(m_k) vec(m_k)^T` (4x4 over column-major `vec(F)`).
+    pub fn matrix(&self) -> Matrix4<f64> {
+        let mut h = Matrix4::zeros();
+        for (l, m) in self.values.iter().zip(&self.modes) {
+            let v = [m[(0, 0)], m[(1, 0)], m[(0, 1)], m[(1, 1)]];
+            for c in 0..4 {
+                for r in 0..4 {
+                    h[(r, c)] += l * v[r] * v[c];
+                }
+            }
+        }
+        h
+    }
+}
+
+/// Value, gradient and Hessian eigensystem of `psi` at a 2x2 `F`: the
+/// common part of [`eval2`] (value and gradient from the closed form where
+/// the energy has one), for callers that want the Hessian as a sum of
+/// rank-one terms ([`Eigen2`]). `mode` is `Exact` or `Projected` (`None`
+/// is taken as `Projected`). `None` when `psi(F)` is not finite. No heap
+/// allocation.
+pub fn eval2_eigen(
+    e: &dyn DistortionEnergy,
+    f: &Matrix2<f64>,
+    mode: HessianMode,
+) -> Option<(f64, Matrix2<f64>, Eigen2)> {
+    let mut grad = Matrix2::zeros();
+    let closed = e.closed_form2(f, Some(&mut grad));
+    match closed {
+        Some(x) if !x.is_finite() => return None,
+        None if e.is_barrier() && nonpositive_or_nan(f.determinant()) => return None,
+        _ => {}
+    }
+    let (u, sv, v) = signed_svd2(f);
+    let s = [sv[0], sv[1]];
+    let value = match closed {
+        Some(x) => x,
+        None => {
+            let x = e.value(&s);
+            if !x.is_finite() {
+                return None;
+            }
+            let mut g = [0.0; 2];
+            e.gradient(&s, &mut g);
+            grad = grad2(&u, &g, &v);
+            x
+        }
+    };
+    let (u0, u1) = (u.column(0), u.column(1));
+    let (v0, v1) = (v.column(0), v.column(1));
+    let project = mode != HessianMode::Exact;
+    // Scaling block: a Jacobi rotation diagonalizes the symmetric 2x2
+    // d2psi/ds2 = [[a, b], [b, c]] (t = tan of the angle, the smaller root
+    // of t^2 + 2 z t - 1 = 0, z = (c - a) / 2b).
+    let mut h = [0.0; 4];
+    e.hessian(&s, &mut h);
+    let (a, b, c) = (h[0], 0.5 * (h[1] + h[2]), h[3]);
+    let (l0, l1, cs, sn) = if b == 0.0 {
+        (a, c, 1.0, 0.0)
+    } else {
+        let z = (c - a) / (2.0 * b);
+        let t = (1.0f64).copysign(z) / (z.abs() + norm2(1.0, z));
+        let cs = 1.0 / norm2(1.0, t);
+        (a - t * b, c + t * b, cs, t * cs)
+    };
+    let mut twist = [0.0; 1];
+    let mut flip = [0.0; 1];
+    e.pair_eigenvalues(&s, &mut twist, &mut flip);
+    let mut values = [l0, l1, twist[0], flip[0]];
+    if project {
+        for l in &mut values {
+            *l = l.max(0.0);
+        }
+    }
+    // Eigenvectors (cs, -sn) and (sn, cs) of the scaling block.
+    let p0 = u0 * v0.transpose();
+    let p1 = u1 * v1.transpose();
+    let x = u0 * v1.transpose();
+    let y = u1 * v0.transpose();
+    let modes = [
+        p0 * cs - p1 * sn,
+        p0 * sn + p1 * cs,
+        (y - x) * FRAC_1_SQRT_2,
+        (x + y) * FRAC_1_SQRT_2,
+    ];
+    Some((value, grad, Eigen2 { values, modes }))
+}
+
+/// `dpsi/dF = U diag(g) V^T` from `g = dpsi/ds`.
+#[inline]
+fn grad2(u: &Matrix2<f64>, g: &[f64; 2], v: &Matrix2<f64>) -> Matrix2<f64> {
+    Matrix2::from_fn(|r, c| u[(r, 0)] * g[0] * v[(c, 0)] + u[(r, 1)] * g[1] * v[(c, 1)])
+}
+
 /// Value, gradient and (optionally) Hessian of `psi` at a 2x2 `F`.
 ///
 /// `None` when `psi(F)` is not finite (barrier energies at `det F <= 0`,
 /// non-finite `F`). Otherwise, with the signed SVD `F = U diag(s) V^T`
-/// ([`signed_svd2`]): value `psi(s)`, gradient `U diag(dpsi/ds) V^T`, and the
-/// Hessian from the analytic eigensystem (module docs): 2 scaling modes from
-/// the 2x2 `d2psi/ds2`, one twist and one flip mode; [`HessianMode::Projected`]
-/// clamps their eigenvalues at 0. No heap allocation.
+/// ([`signed_svd2`]): value `psi(s)`, gradient `U diag(dpsi/ds) V^T` (or
+/// both from the energy's [`closed_form2`](DistortionEnergy::closed_form2),
+/// without the SVD when no Hessian is asked for), and the
+/// Hessian from the analytic eigensystem ([`eval2_eigen`]): 2 scaling modes
+/// from the 2x2 `d2psi/ds2`, one twist and one flip mode;
+/// [`HessianMode::Projected`] clamps their eigenvalues at 0. No heap
+/// allocation.
 pub fn eval2(e: &dyn DistortionEnergy, f: &Matrix2<f64>, mode: HessianMode) -> Option<Eval2> {
-    if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
-        return None;
-    }
-    let (u, sv, v) = signed_svd2(f);
-    let s = [sv[0], sv[1]];
-    let value = e.value(&s);
-    if !value.is_finite() {
-        return None;
-    }
-    let mut g = [0.0; 2];
-    e.gradient(&s, &mut g);
-    let grad = Matrix2::from_fn(|r, c| u[(r, 0)] * g[0] * v[(c, 0)] + u[(r, 1)] * g[1] * v[(c, 1)]);
-    let hess = match mode {
-        HessianMode::None => None,
-        HessianMode::Exact | HessianMode::Projected => {
-            let project = mode == HessianMode::Projected;
-            let mut h = [0.0; 4];
-            e.hessian(&s, &mut h);
-            let mut hs = [[h[0], 0.5 * (h[1] + h[2])], [0.5 * (h[1] + h[2]), h[3]]];
-            if project {
-                hs = project_sym2(hs);
-            }
-            Some(assemble_hessian::<2, 4>(e, &u, &s, &v, &hs, project))
+    if mode == HessianMode::None {
+        let mut grad = Matrix2::zeros();
+        if let Some(value) = e.closed_form2(f, Some(&mut grad)) {
+            return value.is_finite().then_some(Eval2 {
+                value,
+                grad,
+                hess: None,
+            });
         }
-    };
-    Some(Eval2 { value, grad, hess })
+        if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
+            return None;
+        }
+        let (u, sv, v) = signed_svd2(f);
+        let s = [sv[0], sv[1]];
+        let value = e.value(&s);
+        if !value.is_finite() {
+            return None;
+        }
+        let mut g = [0.0; 2];
+        e.gradient(&s, &mut g);
+        let grad = grad2(&u, &g, &v);
+        return Some(Eval2 {
+            value,
+            grad,
+            hess: None,
+        });
+    }
+    let (value, grad, eigen) = eval2_eigen(e, f, mode)?;
+    Some(Eval2 {
+        value,
+        grad,
+        hess: Some(eigen.matrix()),
+    })
 }
 
 /// Value, gradient and (optionally) Hessian of `psi` at a 3x3 `F`.
@@ -1012,11 +1146,15 @@ pub fn eval3(e: &dyn DistortionEnergy, f: &Matrix3<f64>, mode: HessianMode) -> O
     Some(Eval3 { value, grad, hess })
 }
 
-/// `psi(F)` for a 2x2 `F` (value only, no gradient or Hessian): `psi(s)` of
-/// the signed singular values, `f64::INFINITY` when not admissible (barrier
-/// energies at `det F <= 0`, which skip the SVD) or not finite. Equal to
-/// `eval2(e, f, _).value` where that is `Some`.
+/// `psi(F)` for a 2x2 `F` (value only, no gradient or Hessian): the
+/// energy's closed form ([`DistortionEnergy::closed_form2`]) where it has
+/// one, else `psi(s)` of the signed singular values; `f64::INFINITY` when
+/// not admissible (barrier energies at `det F <= 0`, which skip the SVD) or
+/// not finite. Equal to `eval2(e, f, _).value` where that is `Some`.
 pub fn density2(e: &dyn DistortionEnergy, f: &Matrix2<f64>) -> f64 {
+    if let Some(x) = e.closed_form2(f, None) {
+        return if x.is_finite() { x } else { f64::INFINITY };
+    }
     if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
         return f64::INFINITY;
     }
@@ -1630,6 +1768,35 @@ mod tests {
         let arap = eval3(&Arap, &refl, HessianMode::Projected).unwrap();
         assert_eq!(arap.value, 4.0);
         assert!(arap.hess.unwrap().iter().all(|x| x.is_finite()));
+    }
+
+    proptest! {
+        /// The symmetric Dirichlet closed form in `F` (no SVD) agrees with
+        /// the singular-value path, and is infinite for `det F <= 0`.
+        #[test]
+        fn symmetric_dirichlet_closed_form_matches_the_svd_path(
+            a in -3.0..3.0f64, b in -3.0..3.0f64, c in -3.0..3.0f64, d in -3.0..3.0f64,
+        ) {
+            let f = Matrix2::new(a, b, c, d);
+            let mut g = Matrix2::zeros();
+            let x = SymmetricDirichlet.closed_form2(&f, Some(&mut g)).unwrap();
+            prop_assert_eq!(SymmetricDirichlet.closed_form2(&f, None), Some(x));
+            if f.determinant() <= 1e-3 {
+                if f.determinant() <= 0.0 {
+                    prop_assert_eq!(x, f64::INFINITY);
+                }
+                return Ok(());
+            }
+            let (u, sv, v) = signed_svd2(&f);
+            let s = [sv[0], sv[1]];
+            let y = SymmetricDirichlet.value(&s);
+            let mut gs = [0.0; 2];
+            SymmetricDirichlet.gradient(&s, &mut gs);
+            let gy = grad2(&u, &gs, &v);
+            prop_assert!((x - y).abs() <= 1e-12 * y, "{} vs {}", x, y);
+            let scale = gy.norm().max(1.0);
+            prop_assert!((g - gy).norm() <= 1e-11 * scale, "{} vs {}", g, gy);
+        }
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! PSD-projected Hessian assembled in parallel into a fixed sparsity pattern
 //! (ALGORITHMS 1.1, 1.2, 2.1).
 
-use crate::energy::{Eval2, HessianMode, density2, density3, eval2, eval3};
+use crate::energy::{Eigen2, HessianMode, density2, density3, eval2, eval2_eigen, eval3};
 use crate::sparse::SpdPattern;
 use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
 use nalgebra::{Matrix2, Matrix3};
@@ -482,11 +482,11 @@ impl<'a> Objective<'a> {
                 let energy = self.energy;
                 local.par_iter_mut().enumerate().for_each(|(k, h)| {
                     let f = jacobian2(x, &tris[k], &dm_inv[k]);
-                    match eval2(energy, &f, mode) {
-                        Some(Eval2 { hess: Some(hf), .. }) => {
-                            vertex_hessian2(&hf, &dm_inv[k], lambda * m.weight[k], h)
+                    match eval2_eigen(energy, &f, mode) {
+                        Some((_, _, eigen)) => {
+                            vertex_hessian2(&eigen, &dm_inv[k], lambda * m.weight[k], h)
                         }
-                        _ => *h = [0.0; 36],
+                        None => *h = [0.0; 36],
                     }
                 });
                 for (k, h) in local.iter().enumerate() {
@@ -707,29 +707,36 @@ fn vertex_hessian3(
     }
 }
 
+/// `H_x = w sum_k l_k (C^T m_k)(C^T m_k)^T` (6x6, row-major local DOF
+/// `2 v + i`) from the element's Hessian eigensystem ([`Eigen2`]), with
+/// `(C^T m)[2 v + i] = sum_j P[v][j] m_ij` the vertex form of a 2x2 mode
+/// (the chain rule through `F = [x1 - x0, x2 - x0] Dm^-1`). Modes with a zero
+/// eigenvalue (clamped ones) are skipped.
 #[inline]
-fn vertex_hessian2(
-    hf: &nalgebra::Matrix4<f64>,
-    dm_inv: &Matrix2<f64>,
-    w: f64,
-    out: &mut [f64; 36],
-) {
+fn vertex_hessian2(eigen: &Eigen2, dm_inv: &Matrix2<f64>, w: f64, out: &mut [f64; 36]) {
     let p = corner_map2(dm_inv);
-    for v in 0..3 {
-        for i in 0..2 {
-            let r = 2 * v + i;
-            for u in 0..3 {
-                for k in 0..2 {
-                    let c = 2 * u + k;
-                    let mut s = 0.0;
-                    for j in 0..2 {
-                        for l in 0..2 {
-                            s += p[v][j] * p[u][l] * hf[(i + 2 * j, k + 2 * l)];
-                        }
-                    }
-                    out[6 * r + c] = w * s;
-                }
+    *out = [0.0; 36];
+    for (&l, m) in eigen.values.iter().zip(&eigen.modes) {
+        if l == 0.0 {
+            continue;
+        }
+        let mut c = [0.0; 6];
+        for v in 0..3 {
+            for i in 0..2 {
+                c[2 * v + i] = p[v][0] * m[(i, 0)] + p[v][1] * m[(i, 1)];
             }
+        }
+        let lw = l * w;
+        for r in 0..6 {
+            let x = lw * c[r];
+            for k in r..6 {
+                out[6 * r + k] += x * c[k];
+            }
+        }
+    }
+    for r in 0..6 {
+        for k in 0..r {
+            out[6 * r + k] = out[6 * k + r];
         }
     }
 }
