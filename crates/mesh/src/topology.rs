@@ -108,9 +108,50 @@ pub fn edges<const K: usize>(elements: &[[u32; K]]) -> Vec<[u32; 2]> {
             }
         }
     }
-    out.sort_unstable();
-    out.dedup();
+    sort_dedup_pairs(&mut out);
     out
+}
+
+/// Sorts `pairs` lexicographically and removes repeats, in `O(n + m)` for
+/// `m` the largest first entry: a counting sort by the first entry, then
+/// each bucket's few second entries sorted in place (mesh edges have a
+/// handful per vertex). Falls back to a comparison sort when the first
+/// entries are sparse (`m > 4 n + 1024`). Same result as
+/// `sort_unstable(); dedup()`.
+pub fn sort_dedup_pairs(pairs: &mut Vec<[u32; 2]>) {
+    let n = pairs.len();
+    let m = pairs.iter().map(|p| p[0] as usize + 1).max().unwrap_or(0);
+    if n < 64 || m > 4 * n + 1024 {
+        pairs.sort_unstable();
+        pairs.dedup();
+        return;
+    }
+    let mut start = vec![0usize; m + 1];
+    for p in pairs.iter() {
+        start[p[0] as usize + 1] += 1;
+    }
+    for k in 0..m {
+        start[k + 1] += start[k];
+    }
+    let mut next = start.clone();
+    let mut seconds = vec![0u32; n];
+    for p in pairs.iter() {
+        let a = p[0] as usize;
+        seconds[next[a]] = p[1];
+        next[a] += 1;
+    }
+    pairs.clear();
+    for a in 0..m {
+        let bucket = &mut seconds[start[a]..start[a + 1]];
+        bucket.sort_unstable();
+        let mut last = None;
+        for &b in bucket.iter() {
+            if last != Some(b) {
+                pairs.push([a as u32, b]);
+                last = Some(b);
+            }
+        }
+    }
 }
 
 /// The vertices at most `k` edges away from `v`, excluding `v` itself
@@ -408,10 +449,19 @@ pub fn connected_components<const K: usize>(
 /// [`edges`]) and the triangles (`F`). A closed orientable surface of genus
 /// `g` has `χ = 2 - 2g`; a disk has `χ = 1`.
 pub fn euler_characteristic(mesh: &TriMesh) -> i64 {
-    let mut used: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    used.sort_unstable();
-    used.dedup();
-    used.len() as i64 - edges(&mesh.triangles).len() as i64 + mesh.triangles.len() as i64
+    let mut used = vec![false; mesh.positions.len()];
+    let mut extra = Vec::new();
+    for &v in mesh.triangles.iter().flatten() {
+        match used.get_mut(v as usize) {
+            Some(u) => *u = true,
+            // Out of range (an invalid mesh): counted apart.
+            None => extra.push(v),
+        }
+    }
+    extra.sort_unstable();
+    extra.dedup();
+    let nv = used.iter().filter(|&&u| u).count() + extra.len();
+    nv as i64 - edges(&mesh.triangles).len() as i64 + mesh.triangles.len() as i64
 }
 
 /// Breadth-first hop distance from `v` (`usize::MAX` where unreachable).
@@ -638,6 +688,40 @@ mod tests {
             let b = tet_boundary(&m).unwrap();
             // 2 (2·3 + 3·2 + 2·2) squares, 2 triangles each.
             assert_eq!(b.surface.num_triangles(), 2 * 2 * (6 + 6 + 4));
+        }
+    }
+
+    proptest! {
+        /// The counting sort equals `sort_unstable` + `dedup`, dense (mesh
+        /// edges) or sparse (the comparison-sort fallback) first entries.
+        #[test]
+        fn sort_dedup_pairs_matches_sort_and_dedup(
+            raw in prop::collection::vec((0u32..300, 0u32..300), 0..2000),
+            sparse in any::<bool>(),
+        ) {
+            let mut pairs: Vec<[u32; 2]> = raw
+                .iter()
+                .map(|&(a, b)| [if sparse { a.wrapping_mul(9_999_991) } else { a }, b])
+                .collect();
+            let mut expect = pairs.clone();
+            expect.sort_unstable();
+            expect.dedup();
+            sort_dedup_pairs(&mut pairs);
+            prop_assert_eq!(pairs, expect);
+        }
+
+        /// The Euler characteristic counts used vertices, edges and faces.
+        #[test]
+        fn euler_characteristic_counts_used_vertices(
+            tris in prop::collection::vec((0u32..40, 0u32..40, 0u32..40), 1..60),
+        ) {
+            let triangles: Vec<[u32; 3]> = tris.iter().map(|&(a, b, c)| [a, b, c]).collect();
+            let mesh = TriMesh::new(vec![nalgebra::Point3::origin(); 30], triangles.clone());
+            let mut used: Vec<u32> = triangles.iter().flatten().copied().collect();
+            used.sort_unstable();
+            used.dedup();
+            let expect = used.len() as i64 - edges(&triangles).len() as i64 + triangles.len() as i64;
+            prop_assert_eq!(euler_characteristic(&mesh), expect);
         }
     }
 

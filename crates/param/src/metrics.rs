@@ -425,8 +425,7 @@ pub fn unique_edges(mesh: &ParamMesh) -> Vec<[u32; 2]> {
             }
         }
     }
-    edges.sort_unstable();
-    edges.dedup();
+    unfold_mesh::topology::sort_dedup_pairs(&mut edges);
     edges
 }
 
