@@ -13,6 +13,10 @@ use std::hint::black_box;
 use std::time::Duration;
 use unfold::mesh::{geodesic::EdgeGraph, shapes::uv_sphere};
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn geodesic(c: &mut Criterion) {
     // 49 rings of 61 vertices + 2 poles = 2,991 vertices.
     let mesh = uv_sphere(50, 61, 50.0);

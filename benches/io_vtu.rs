@@ -7,6 +7,10 @@ use std::hint::black_box;
 use unfold::io::{MeshFormat, WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::{CellMesh, Field, TetMesh};
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// A structured grid of `n[0] x n[1] x n[2]` boxes, 6 Kuhn tets each, with a
 /// cell label and a point scalar.
 fn kuhn_grid(n: [usize; 3]) -> TetMesh {

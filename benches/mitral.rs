@@ -18,6 +18,10 @@ use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{ValveParams, mitral_valve};
 use unfold::organs::mitral::{Config, ValveInput, run};
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 struct Valve {
     anterior: TriMesh,
     posterior: TriMesh,

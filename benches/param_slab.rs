@@ -40,6 +40,10 @@ use unfold::param::{
     GradientDescent, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver, TemplateTerm,
 };
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The slab problem: rest data, labels (the slab's sides) and normalized
 /// barycentric boundary vertex areas.
 struct Slab {

@@ -23,6 +23,10 @@ use unfold::mesh::TetMesh;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::organs::placenta::{Config, Outcome, flatten};
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn slab(cells_radial: usize) -> TetMesh {
     placenta_slab(&PlacentaParams {
         cells_radial,

@@ -9,6 +9,10 @@ use unfold::mesh::shapes::{kuhn_grid, uv_sphere};
 use unfold::mesh::spatial::{ClosestPointQuery, TetLocator};
 use unfold::mesh::{TetMesh, TriMesh};
 
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// `n^3` unit cubes, 6 Kuhn tets each (`6 n^3` tets).
 fn tet_grid(n: usize) -> TetMesh {
     kuhn_grid([n; 3], [1.0; 3])
