@@ -307,6 +307,9 @@ impl<'a> Objective<'a> {
     }
 
     fn build_pattern(&mut self) -> Result<(), ParamError> {
+        if self.dim() == 2 {
+            return self.build_pattern_tris();
+        }
         let d = self.dim();
         let nv = self.mesh.num_vertices();
         let n = d * nv;
@@ -350,13 +353,12 @@ impl<'a> Objective<'a> {
                 col_ptr.push(row_idx.len());
             }
         }
-        // Triangles: vertex-block AMD with a supernodal factor (on a
-        // 2,310-unknown mitral leaflet 0.84 ms per factorization against
-        // 1.5 ms for scalar AMD, where faer picks the simplicial factor).
         // Tets: scalar AMD and faer's choice (on the 60k-tet placenta bench
-        // 2.10 s against 2.95 s for the vertex blocks).
-        let block = if d == 2 { 2 } else { 1 };
-        let pattern = SpdPattern::from_upper_csc(n, block, col_ptr.clone(), row_idx)?;
+        // 2.10 s against 2.95 s for vertex blocks). Triangles take
+        // `build_pattern_tris`: vertex-block AMD with a supernodal factor (on
+        // a 2,310-unknown mitral leaflet 0.84 ms per factorization against
+        // 1.5 ms for scalar AMD, where faer picks the simplicial factor).
+        let pattern = SpdPattern::from_upper_csc(n, 1, col_ptr.clone(), row_idx)?;
         // Element slot maps: per element, the position of each vertex in
         // the adjacency of each other (3 x 3 or 4 x 4 searches), expanded
         // to the (d (d + 1))^2 local DOF pairs.
@@ -393,10 +395,20 @@ impl<'a> Objective<'a> {
                 }
             }
         }
+        self.vertex_slots = self.template_slots(&pattern);
+        self.element_slots = slots;
+        self.pattern = Some(pattern);
+        Ok(())
+    }
+
+    /// The slots of each free template vertex's `d x d` block (upper
+    /// triangle; the rest `NONE`).
+    fn template_slots(&self, pattern: &SpdPattern) -> Vec<(u32, Vec<u32>)> {
+        let d = self.dim();
         let mut vertex_slots = Vec::new();
         if let Some(t) = &self.template {
             for v in 0..self.mesh.num_vertices() as u32 {
-                if t.weights[v as usize] > 0.0 && free(v) {
+                if t.weights[v as usize] > 0.0 && !self.fixed[v as usize] {
                     let mut s = Vec::with_capacity(d * d);
                     for i in 0..d {
                         for j in 0..d {
@@ -412,10 +424,7 @@ impl<'a> Objective<'a> {
                 }
             }
         }
-        self.element_slots = slots;
-        self.vertex_slots = vertex_slots;
-        self.pattern = Some(pattern);
-        Ok(())
+        vertex_slots
     }
 
     /// The PSD-projected Hessian of `phi` in `x` as values in
@@ -582,6 +591,77 @@ impl<'a> Objective<'a> {
             }
         }
         Ok(block)
+    }
+
+    /// The triangle Hessian's pattern at the vertex level
+    /// ([`SpdPattern::from_vertex_graph`], 2x2 blocks): the graph of the
+    /// free vertices sharing a triangle (each fixed vertex alone on the
+    /// diagonal), built from the sorted unique vertex pairs; each triangle's
+    /// 36 local entries get their slots through [`SpdPattern::block_slot`]
+    /// (the entries of a vertex pair `a <= b` only, the rest `NONE`).
+    fn build_pattern_tris(&mut self) -> Result<(), ParamError> {
+        const D: usize = 2;
+        let nv = self.mesh.num_vertices();
+        let fixed = &self.fixed;
+        let free = |v: u32| !fixed[v as usize];
+        // (column b, row a) pairs, a <= b, both free; every diagonal.
+        let mut pairs: Vec<[u32; 2]> = (0..nv as u32).map(|v| [v, v]).collect();
+        for e in 0..self.mesh.num_elements() {
+            let vs = self.mesh.element(e);
+            for &b in vs {
+                for &a in vs {
+                    if a < b && free(a) && free(b) {
+                        pairs.push([b, a]);
+                    }
+                }
+            }
+        }
+        unfold_mesh::topology::sort_dedup_pairs(&mut pairs);
+        let mut col_ptr = vec![0usize; nv + 1];
+        for p in &pairs {
+            col_ptr[p[0] as usize + 1] += 1;
+        }
+        for v in 0..nv {
+            col_ptr[v + 1] += col_ptr[v];
+        }
+        let row_idx: Vec<usize> = pairs.iter().map(|p| p[1] as usize).collect();
+        let pattern = SpdPattern::from_vertex_graph(nv, D, col_ptr.clone(), row_idx.clone())?;
+        let nve = D + 1;
+        let ld = D * nve;
+        let mut slots = Vec::with_capacity(self.mesh.num_elements() * ld * ld);
+        let mut entry = [[usize::MAX; 3]; 3];
+        for e in 0..self.mesh.num_elements() {
+            let vs = self.mesh.element(e);
+            for (ra, &va) in vs.iter().enumerate() {
+                for (rb, &vb) in vs.iter().enumerate() {
+                    entry[ra][rb] = if va <= vb && free(va) && free(vb) {
+                        let (lo, hi) = (col_ptr[vb as usize], col_ptr[vb as usize + 1]);
+                        row_idx[lo..hi]
+                            .binary_search(&(va as usize))
+                            .map_or(usize::MAX, |k| lo + k)
+                    } else {
+                        usize::MAX
+                    };
+                }
+            }
+            for r in 0..ld {
+                for c in 0..ld {
+                    let (la, lb) = (r / D, c / D);
+                    let (i, j) = (r % D, c % D);
+                    let k = entry[la][lb];
+                    let s = if k == usize::MAX || (vs[la] == vs[lb] && i > j) {
+                        NONE
+                    } else {
+                        pattern.block_slot(k, i, j).map_or(NONE, |s| s as u32)
+                    };
+                    slots.push(s);
+                }
+            }
+        }
+        self.vertex_slots = self.template_slots(&pattern);
+        self.element_slots = slots;
+        self.pattern = Some(pattern);
+        Ok(())
     }
 
     /// Lets the template improve its parameters for fixed `x`

@@ -52,8 +52,10 @@ pub struct SpdPattern {
     /// Slot of `A[i][i]`, per unknown `i`.
     diagonal: Vec<usize>,
     /// Slot of each entry of the compressed pattern given to
-    /// [`SpdPattern::from_upper_csc`].
+    /// [`SpdPattern::from_upper_csc`] (empty for a vertex-graph pattern).
     input_slots: Vec<usize>,
+    /// Where the blocks of a [`SpdPattern::from_vertex_graph`] pattern went.
+    blocks: Option<VertexBlocks>,
     /// Workspace of a numeric factorization.
     factor_scratch: StackReq,
 }
@@ -124,35 +126,12 @@ impl SpdPattern {
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
     ) -> Result<Self, ParamError> {
-        let bad = |why: String| {
-            Err(ParamError::InvalidArgument(format!(
-                "sparse pattern: {why}"
-            )))
-        };
         if block == 0 || !n.is_multiple_of(block) {
-            return bad(format!(
-                "block size {block} does not divide the matrix size {n}"
-            ));
+            return Err(ParamError::InvalidArgument(format!(
+                "sparse pattern: block size {block} does not divide the matrix size {n}"
+            )));
         }
-        if col_ptr.len() != n + 1 || col_ptr[0] != 0 || col_ptr[n] != row_idx.len() {
-            return bad(format!(
-                "{} column pointers for {n} columns and {} rows",
-                col_ptr.len(),
-                row_idx.len()
-            ));
-        }
-        for c in 0..n {
-            let (start, end) = (col_ptr[c], col_ptr[c + 1]);
-            if start >= end || end > row_idx.len() || row_idx[end - 1] != c {
-                return bad(format!("column {c} does not end with its diagonal"));
-            }
-            if row_idx[start..end].windows(2).any(|w| w[0] >= w[1]) {
-                return bad(format!(
-                    "the rows of column {c} are not strictly increasing"
-                ));
-            }
-        }
-        let upper = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        let upper = validated_upper(n, col_ptr, row_idx)?;
         let (fwd, inv) = if block == 1 {
             scalar_amd(&upper)?
         } else {
@@ -175,6 +154,123 @@ impl SpdPattern {
         }
         let (lower, input_slots) = compress(n, &hi, &lo);
         let (ordered_upper, _) = compress(n, &lo, &hi);
+        Self::finish(block, lower, ordered_upper, fwd, inv, input_slots, None)
+    }
+
+    /// The pattern of a matrix of `nv` vertices with `block` unknowns each
+    /// (vertex `v` owns the unknowns `block v .. block v + block`) whose
+    /// nonzero blocks are the vertex pairs of a graph, given as its upper
+    /// triangle in compressed columns: column `b` holds the vertices
+    /// `row_idx[col_ptr[b] .. col_ptr[b + 1]]`, strictly increasing, all
+    /// `<= b`, ending with `b` itself. Every block is full (`block x block`;
+    /// a diagonal block stores its upper triangle).
+    ///
+    /// Ordered by AMD on the graph, each vertex's unknowns consecutive, and
+    /// factorized supernodally, as [`SpdPattern::with_blocks`]; the same
+    /// matrix as [`SpdPattern::from_upper_csc`] with every block expanded,
+    /// but built at the vertex level (`block^2` times fewer entries to sort).
+    /// [`SpdPattern::block_slot`] gives the value slots.
+    pub fn from_vertex_graph(
+        nv: usize,
+        block: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+    ) -> Result<Self, ParamError> {
+        if block == 0 {
+            return Err(ParamError::InvalidArgument(
+                "sparse pattern: block size 0".into(),
+            ));
+        }
+        let graph = validated_upper(nv, col_ptr, row_idx)?;
+        let (vfwd, vinv) = scalar_amd(&graph)?;
+        // The ordered graph: lower triangle with the entry positions, and
+        // upper triangle for the symbolic analysis.
+        let (ptr, rows) = (graph.col_ptr(), graph.row_idx());
+        let (mut lo, mut hi) = (
+            Vec::with_capacity(rows.len()),
+            Vec::with_capacity(rows.len()),
+        );
+        let mut flipped = Vec::with_capacity(rows.len());
+        for c in 0..nv {
+            let fc = vinv[c];
+            for &r in &rows[ptr[c]..ptr[c + 1]] {
+                let fr = vinv[r];
+                hi.push(fr.max(fc));
+                lo.push(fr.min(fc));
+                flipped.push(fr < fc);
+            }
+        }
+        let (vlower, vslots) = compress(nv, &hi, &lo);
+        let (vupper, _) = compress(nv, &lo, &hi);
+        let n = nv * block;
+        let lower = expand_lower(&vlower, block);
+        let upper = expand_upper(&vupper, block);
+        let vptr = vlower.col_ptr();
+        let entries = vslots
+            .iter()
+            .zip(&flipped)
+            .map(|(&vs, &flip)| {
+                // The ordered column K holding the entry (vs in [vptr[K],
+                // vptr[K + 1])) and the entry's position in it.
+                let k = vptr.partition_point(|&q| q <= vs) - 1;
+                BlockEntry {
+                    column: k as u32,
+                    position: (vs - vptr[k]) as u32,
+                    flipped: flip,
+                }
+            })
+            .collect();
+        let mut fwd = vec![0usize; n];
+        let mut inv = vec![0usize; n];
+        for (k, &v) in vfwd.iter().enumerate() {
+            for d in 0..block {
+                fwd[block * k + d] = block * v + d;
+                inv[block * v + d] = block * k + d;
+            }
+        }
+        let blocks = VertexBlocks { block, entries };
+        Self::finish(block, lower, upper, fwd, inv, Vec::new(), Some(blocks))
+    }
+
+    /// The value slot of entry `(block a + i, block b + j)` of `A` for the
+    /// `e`-th entry `(a, b)` (`a <= b`) of the graph given to
+    /// [`SpdPattern::from_vertex_graph`]; `None` for other patterns or out
+    /// of range. On a diagonal block `(i, j)` and `(j, i)` share a slot.
+    ///
+    /// ```text
+    /// K, p = ordered column of the entry's block and its position there
+    /// diagonal (p = 0):   col = block K + min(i, j), slot = ptr[col] + |i - j|
+    /// a after b:          col = block K + j, slot = ptr[col] + (block - j) + block (p - 1) + i
+    /// a before b:         the same with i and j swapped
+    /// ```
+    pub fn block_slot(&self, e: usize, i: usize, j: usize) -> Option<usize> {
+        let blocks = self.blocks.as_ref()?;
+        let b = blocks.block;
+        let entry = blocks.entries.get(e)?;
+        if i >= b || j >= b {
+            return None;
+        }
+        let (k, p) = (entry.column as usize, entry.position as usize);
+        let ptr = self.lower.col_ptr();
+        Some(if p == 0 {
+            ptr[b * k + i.min(j)] + i.abs_diff(j)
+        } else {
+            let (i, j) = if entry.flipped { (j, i) } else { (i, j) };
+            ptr[b * k + j] + (b - j) + b * (p - 1) + i
+        })
+    }
+
+    /// Symbolic analysis of the ordered pattern and the remaining fields.
+    fn finish(
+        block: usize,
+        lower: SymbolicSparseColMat<usize>,
+        ordered_upper: SymbolicSparseColMat<usize>,
+        fwd: Vec<usize>,
+        inv: Vec<usize>,
+        input_slots: Vec<usize>,
+        blocks: Option<VertexBlocks>,
+    ) -> Result<Self, ParamError> {
+        let n = lower.nrows();
         let threshold = if block == 1 {
             SupernodalThreshold::AUTO
         } else {
@@ -202,6 +298,7 @@ impl SpdPattern {
             cholesky: Arc::new(cholesky),
             diagonal,
             input_slots,
+            blocks,
             factor_scratch,
         })
     }
@@ -487,6 +584,103 @@ fn block_amd(
     Ok((fwd, inv))
 }
 
+/// Where each graph entry of a [`SpdPattern::from_vertex_graph`] pattern
+/// went: its block's ordered column and position in the ordered graph, and
+/// whether its row vertex comes before its column vertex in the ordering
+/// (so that the block lands transposed in the lower triangle).
+#[derive(Debug, Clone)]
+struct VertexBlocks {
+    block: usize,
+    entries: Vec<BlockEntry>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct BlockEntry {
+    column: u32,
+    position: u32,
+    flipped: bool,
+}
+
+/// The checks of [`SpdPattern::from_upper_csc`] on a compressed upper
+/// triangle: pointer lengths, strictly increasing rows, each column ending
+/// with its diagonal.
+fn validated_upper(
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+) -> Result<SymbolicSparseColMat<usize>, ParamError> {
+    let bad = |why: String| {
+        Err(ParamError::InvalidArgument(format!(
+            "sparse pattern: {why}"
+        )))
+    };
+    if col_ptr.len() != n + 1 || col_ptr[0] != 0 || col_ptr[n] != row_idx.len() {
+        return bad(format!(
+            "{} column pointers for {n} columns and {} rows",
+            col_ptr.len(),
+            row_idx.len()
+        ));
+    }
+    for c in 0..n {
+        let (start, end) = (col_ptr[c], col_ptr[c + 1]);
+        if start >= end || end > row_idx.len() || row_idx[end - 1] != c {
+            return bad(format!("column {c} does not end with its diagonal"));
+        }
+        if row_idx[start..end].windows(2).any(|w| w[0] >= w[1]) {
+            return bad(format!(
+                "the rows of column {c} are not strictly increasing"
+            ));
+        }
+    }
+    Ok(SymbolicSparseColMat::new_checked(
+        n, n, col_ptr, None, row_idx,
+    ))
+}
+
+/// The lower triangle of a block matrix from the lower triangle of its
+/// vertex graph (rows sorted, diagonal first): unknown column `b K + j`
+/// holds the rows `b K + j .. b K + b` of the diagonal block, then all `b`
+/// rows of each lower vertex `R` of column `K`.
+fn expand_lower(g: &SymbolicSparseColMat<usize>, b: usize) -> SymbolicSparseColMat<usize> {
+    let nv = g.nrows();
+    let (ptr, rows) = (g.col_ptr(), g.row_idx());
+    let mut col_ptr = Vec::with_capacity(nv * b + 1);
+    let mut row_idx = Vec::with_capacity(rows.len() * b * b);
+    col_ptr.push(0);
+    for k in 0..nv {
+        for j in 0..b {
+            row_idx.extend(b * k + j..b * k + b);
+            for &r in &rows[ptr[k] + 1..ptr[k + 1]] {
+                row_idx.extend(b * r..b * r + b);
+            }
+            col_ptr.push(row_idx.len());
+        }
+    }
+    SymbolicSparseColMat::new_checked(nv * b, nv * b, col_ptr, None, row_idx)
+}
+
+/// The upper triangle of a block matrix from the upper triangle of its
+/// vertex graph (rows sorted, diagonal last): unknown column `b K + j`
+/// holds all `b` rows of each upper vertex `R` of column `K`, then the rows
+/// `b K .. b K + j` of the diagonal block.
+fn expand_upper(g: &SymbolicSparseColMat<usize>, b: usize) -> SymbolicSparseColMat<usize> {
+    let nv = g.nrows();
+    let (ptr, rows) = (g.col_ptr(), g.row_idx());
+    let mut col_ptr = Vec::with_capacity(nv * b + 1);
+    let mut row_idx = Vec::with_capacity(rows.len() * b * b);
+    col_ptr.push(0);
+    for k in 0..nv {
+        for j in 0..b {
+            for &r in &rows[ptr[k]..ptr[k + 1] - 1] {
+                row_idx.extend(b * r..b * r + b);
+            }
+            row_idx.extend(b * k..=b * k + j);
+            col_ptr.push(row_idx.len());
+        }
+    }
+    SymbolicSparseColMat::new_checked(nv * b, nv * b, col_ptr, None, row_idx)
+}
+
 /// A numeric Cholesky factor `P A P^T = L L^T`.
 #[derive(Debug, Clone)]
 pub struct SpdFactor {
@@ -652,6 +846,111 @@ mod tests {
             }
         }
         (2 * nv, t)
+    }
+
+    /// A random vertex graph's upper triangle in compressed columns (each
+    /// column ending with its diagonal).
+    fn random_graph(nv: usize, edges: &[(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+        let mut cols: Vec<Vec<usize>> = (0..nv).map(|b| vec![b]).collect();
+        for &(a, b) in edges {
+            let (a, b) = (a % nv, b % nv);
+            cols[a.max(b)].push(a.min(b));
+        }
+        let mut col_ptr = vec![0];
+        let mut row_idx = Vec::new();
+        for c in &mut cols {
+            c.sort_unstable();
+            c.dedup();
+            row_idx.extend_from_slice(c);
+            col_ptr.push(row_idx.len());
+        }
+        (col_ptr, row_idx)
+    }
+
+    proptest! {
+        /// A vertex-graph pattern is the block-expanded scalar pattern:
+        /// `block_slot` is `slot` of the expanded entry, the matrices agree
+        /// (products with a random vector) and its factorization solves.
+        #[test]
+        fn vertex_graph_pattern_is_the_expanded_pattern(
+            nv in 1usize..40,
+            block in 1usize..4,
+            edges in prop::collection::vec((0usize..40, 0usize..40), 0..120),
+            vals in prop::collection::vec(-1.0..1.0f64, 64),
+            x in prop::collection::vec(-3.0..3.0f64, 120),
+        ) {
+            let (col_ptr, row_idx) = random_graph(nv, &edges);
+            let n = nv * block;
+            let p = SpdPattern::from_vertex_graph(nv, block, col_ptr.clone(), row_idx.clone()).unwrap();
+            prop_assert_eq!(p.n(), n);
+            // The scalar reference: every block expanded, diagonally dominant.
+            let mut t = Vec::new();
+            let mut k = 0;
+            for b in 0..nv {
+                for (e, &a) in row_idx.iter().enumerate().take(col_ptr[b + 1]).skip(col_ptr[b]) {
+                    for i in 0..block {
+                        for j in 0..block {
+                            if a == b && i > j {
+                                continue;
+                            }
+                            let (r, c) = ((block * a + i) as u32, (block * b + j) as u32);
+                            let v = if r == c { 2.0 * block as f64 * 40.0 } else { vals[k % vals.len()] };
+                            k += 1;
+                            t.push((e, i, j, r, c, v));
+                        }
+                    }
+                }
+            }
+            let scalar = SpdPattern::new(n, t.iter().map(|q| (q.3, q.4))).unwrap();
+            prop_assert_eq!(p.nnz(), scalar.nnz());
+            let (mut vp, mut vs) = (vec![0.0; p.nnz()], vec![0.0; scalar.nnz()]);
+            for &(e, i, j, r, c, v) in &t {
+                let slot = p.block_slot(e, i, j).unwrap();
+                prop_assert_eq!(Some(slot), p.slot(r, c));
+                vp[slot] += v;
+                vs[scalar.slot(r, c).unwrap()] += v;
+            }
+            prop_assert_eq!(p.block_slot(e_end(&col_ptr), 0, 0), None);
+            prop_assert_eq!(p.block_slot(0, block, 0), None);
+            let x = &x[..n];
+            let (yp, ys) = (p.multiply(&vp, x), scalar.multiply(&vs, x));
+            for i in 0..n {
+                prop_assert!((yp[i] - ys[i]).abs() <= 1e-12 * (1.0 + ys[i].abs()));
+            }
+            let (f, shift) = p.factorize(&vp, 0.0, 0).unwrap();
+            prop_assert_eq!(shift, 0.0);
+            let mut z = ys.clone();
+            f.solve_in_place(&mut z).unwrap();
+            for i in 0..n {
+                prop_assert!((z[i] - x[i]).abs() < 1e-9, "{} vs {}", z[i], x[i]);
+            }
+        }
+    }
+
+    fn e_end(col_ptr: &[usize]) -> usize {
+        col_ptr[col_ptr.len() - 1]
+    }
+
+    #[test]
+    fn vertex_graph_patterns_refuse_malformed_graphs() {
+        let bad = |nv: usize, block: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>| {
+            match SpdPattern::from_vertex_graph(nv, block, col_ptr, row_idx) {
+                Err(ParamError::InvalidArgument(m)) => m,
+                other => panic!("expected an error, got {other:?}"),
+            }
+        };
+        assert!(bad(2, 0, vec![0, 1, 3], vec![0, 0, 1]).contains("block size 0"));
+        assert!(bad(2, 2, vec![0, 1], vec![0]).contains("column pointers"));
+        assert!(
+            bad(2, 2, vec![0, 1, 2], vec![0, 0])
+                .contains("column 1 does not end with its diagonal")
+        );
+        assert!(
+            bad(3, 1, vec![0, 1, 2, 5], vec![0, 1, 1, 0, 2]).contains("not strictly increasing")
+        );
+        // Scalar patterns have no block slots.
+        let p = SpdPattern::new(2, [(0, 1)]).unwrap();
+        assert_eq!(p.block_slot(0, 0, 0), None);
     }
 
     proptest! {
