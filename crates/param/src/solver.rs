@@ -64,9 +64,11 @@ impl<F: FnMut(&Iteration)> Observer for F {
 pub struct Stopping {
     /// Stop when `|grad phi|_F < grad_tol` (1e-4, as the source).
     pub grad_tol: f64,
-    /// Newton: stop when the decrement `-g·d / 2 < decrement_tol * |phi|`
-    /// (and, whatever this is, when a line search fails with a decrement
-    /// below [`ROUNDOFF_DECREMENT`]` * |phi|`).
+    /// Newton: when the decrement `-g·d / 2 < decrement_tol * |phi|`, take
+    /// that last step (its line search costs a few objective values, the
+    /// Newton direction is already paid for) and stop; and, whatever this
+    /// is, stop when a line search fails with a decrement below
+    /// [`ROUNDOFF_DECREMENT`]` * |phi|`.
     pub decrement_tol: f64,
     /// Iteration limit.
     pub max_iterations: usize,
@@ -449,6 +451,8 @@ impl Solver for ProjectedNewton {
         let (mut step, mut a_max, mut shift) = (0.0, f64::INFINITY, 0.0);
         let mut try_exact = self.exact_first;
         let mut it = 0;
+        // Set when the decrement test passed: the step is taken, then stop.
+        let mut last_step = false;
         loop {
             let c = Checkpoint::new(
                 objective,
@@ -463,6 +467,9 @@ impl Solver for ProjectedNewton {
             let done = |reason: StopReason| Ok(c.report(it, reason));
             if let Some(reason) = c.stop {
                 return done(reason);
+            }
+            if last_step {
+                return done(StopReason::NewtonDecrement);
             }
             let f = c.value;
             // The exact Hessian first (quadratic convergence near the
@@ -526,7 +533,7 @@ impl Solver for ProjectedNewton {
                 dtheta.clear();
                 theta_slope = 0.0;
             } else if -slope / 2.0 < self.stopping.decrement_tol * f.abs() {
-                return done(StopReason::NewtonDecrement);
+                last_step = true;
             }
             let slope: f64 = g.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>() + theta_slope;
             a_max = objective.max_step(x, &d);
@@ -541,7 +548,7 @@ impl Solver for ProjectedNewton {
             if !r.success {
                 // A decrease below the rounding of phi cannot be seen by
                 // any line search: at machine precision, not a failure.
-                if -slope / 2.0 <= ROUNDOFF_DECREMENT * f.abs() {
+                if last_step || -slope / 2.0 <= ROUNDOFF_DECREMENT * f.abs() {
                     return done(StopReason::NewtonDecrement);
                 }
                 return done(StopReason::LineSearchFailed);

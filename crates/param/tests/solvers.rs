@@ -199,3 +199,24 @@ fn newton_and_gradient_descent_reach_the_same_optimum() {
         hg.0.len() - 1
     );
 }
+
+/// A passed decrement test still takes its (already computed) Newton step:
+/// with a tolerance every direction passes, Newton stops after exactly one
+/// step, lower than the start, and reports it as converged.
+#[test]
+fn the_decrement_stop_takes_its_newton_step() {
+    let (mesh, labels, weights) = slab(3, 2);
+    let newton = ProjectedNewton {
+        stopping: Stopping {
+            grad_tol: 1e-12,
+            decrement_tol: f64::INFINITY,
+            ..Stopping::default()
+        },
+        ..ProjectedNewton::default()
+    };
+    let (_, _, h, converged) = solve(&newton, &mesh, &labels, &weights);
+    assert!(converged);
+    assert_eq!(h.0.len(), 2, "start and one step: {:?}", h.0);
+    assert!(h.0[1].step > 0.0);
+    assert!(h.0[1].value < h.0[0].value, "{:?}", h.0);
+}

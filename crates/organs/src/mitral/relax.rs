@@ -124,9 +124,15 @@ pub struct SdConfig {
     /// `phi` is dimensionless and its gradient scales as `1 / length` and
     /// (for a given distortion) does not grow with the number of vertices,
     /// so this test is independent of units and resolution. Finite and
-    /// `> 0`; default 1e-6. Newton also stops on a tiny decrement
-    /// (`-g.d / 2 < 1e-12 phi`), which counts as converged too.
+    /// `> 0`; default 1e-6.
     pub grad_tol: f64,
+    /// Newton also stops (converged) once a step's predicted decrease, the
+    /// decrement `-g.d / 2`, is below `decrement_tol * phi`: that step is
+    /// taken and the solve ends. Finite and `> 0`; default 1e-7. On the
+    /// generator's valves (bench, default and open) this saves one
+    /// factorization per leaflet against 1e-12 and moves no vertex by more
+    /// than 1.4e-4 mm (per-triangle energies within 1.6e-5 relative).
+    pub decrement_tol: f64,
     /// Largest number of Newton iterations (default 100; 0 only evaluates
     /// the start). Expect about 10-30.
     pub max_iterations: usize,
@@ -136,18 +142,22 @@ impl Default for SdConfig {
     fn default() -> Self {
         SdConfig {
             grad_tol: 1e-6,
+            decrement_tol: 1e-7,
             max_iterations: 100,
         }
     }
 }
 
 impl SdConfig {
-    /// Checks the values: `grad_tol` finite and `> 0`.
+    /// Checks the values: `grad_tol` and `decrement_tol` finite and `> 0`.
     ///
     /// # Errors
     /// [`OrganError::Config`] naming the offending value.
     pub fn validate(&self) -> Result<(), OrganError> {
-        OrganError::check_positive(&[("sd grad_tol", self.grad_tol)])
+        OrganError::check_positive(&[
+            ("sd grad_tol", self.grad_tol),
+            ("sd decrement_tol", self.decrement_tol),
+        ])
     }
 }
 
@@ -394,6 +404,7 @@ pub fn symmetric_dirichlet(
         stopping: Stopping {
             grad_tol: config.grad_tol / total_area.sqrt(),
             max_iterations: config.max_iterations,
+            decrement_tol: config.decrement_tol,
             ..Stopping::default()
         },
         // The unprojected Hessian does not pay here: on the generator's
@@ -1062,6 +1073,13 @@ mod tests {
             let e = symmetric_dirichlet(&c.mesh, &mut uv, &c.fixed, &config).unwrap_err();
             assert!(matches!(e, OrganError::Config(_)), "{e:?}");
             assert!(e.to_string().contains("grad_tol"), "{e}");
+            let config = SdConfig {
+                decrement_tol: grad_tol,
+                ..SdConfig::default()
+            };
+            let e = symmetric_dirichlet(&c.mesh, &mut uv, &c.fixed, &config).unwrap_err();
+            assert!(matches!(e, OrganError::Config(_)), "{e:?}");
+            assert!(e.to_string().contains("decrement_tol"), "{e}");
         }
         assert_eq!(flat(&uv), flat(&c.uv));
         assert!(SpringConfig::default().validate().is_ok());
