@@ -113,45 +113,46 @@ pub fn edges<const K: usize>(elements: &[[u32; K]]) -> Vec<[u32; 2]> {
 }
 
 /// Sorts `pairs` lexicographically and removes repeats, in `O(n + m)` for
-/// `m` the largest first entry: a counting sort by the first entry, then
-/// each bucket's few second entries sorted in place (mesh edges have a
-/// handful per vertex). Falls back to a comparison sort when the first
-/// entries are sparse (`m > 4 n + 1024`). Same result as
-/// `sort_unstable(); dedup()`.
+/// `m` the largest first entry ([`bucket_sort`] by the first entry). Same
+/// result as `sort_unstable(); dedup()`.
 pub fn sort_dedup_pairs(pairs: &mut Vec<[u32; 2]>) {
-    let n = pairs.len();
-    let m = pairs.iter().map(|p| p[0] as usize + 1).max().unwrap_or(0);
+    bucket_sort(pairs, |p| p[0]);
+    pairs.dedup();
+}
+
+/// Sorts `items` (ascending, as `sort_unstable`) when `key` is the leading
+/// part of their order (`key(a) < key(b)` implies `a < b`), such as a
+/// vertex index first in a tuple: a counting sort by `key` into buckets,
+/// then each bucket sorted in place (mesh items have a handful per
+/// vertex). `O(n + m)` for `m` the largest key; falls back to
+/// `sort_unstable` when the keys are sparse (`m > 4 n + 1024`) or `n < 64`.
+pub fn bucket_sort<T: Ord + Copy>(items: &mut [T], key: impl Fn(&T) -> u32) {
+    let n = items.len();
+    let m = items.iter().map(|t| key(t) as usize + 1).max().unwrap_or(0);
     if n < 64 || m > 4 * n + 1024 {
-        pairs.sort_unstable();
-        pairs.dedup();
+        items.sort_unstable();
         return;
     }
     let mut start = vec![0usize; m + 1];
-    for p in pairs.iter() {
-        start[p[0] as usize + 1] += 1;
+    for t in items.iter() {
+        start[key(t) as usize + 1] += 1;
     }
     for k in 0..m {
         start[k + 1] += start[k];
     }
     let mut next = start.clone();
-    let mut seconds = vec![0u32; n];
-    for p in pairs.iter() {
-        let a = p[0] as usize;
-        seconds[next[a]] = p[1];
-        next[a] += 1;
+    let mut sorted: Vec<T> = Vec::with_capacity(n);
+    // Fill with a placeholder, then place each item at its bucket slot.
+    sorted.resize(n, items[0]);
+    for t in items.iter() {
+        let k = key(t) as usize;
+        sorted[next[k]] = *t;
+        next[k] += 1;
     }
-    pairs.clear();
-    for a in 0..m {
-        let bucket = &mut seconds[start[a]..start[a + 1]];
-        bucket.sort_unstable();
-        let mut last = None;
-        for &b in bucket.iter() {
-            if last != Some(b) {
-                pairs.push([a as u32, b]);
-                last = Some(b);
-            }
-        }
+    for k in 0..m {
+        sorted[start[k]..start[k + 1]].sort_unstable();
     }
+    items.copy_from_slice(&sorted);
 }
 
 /// The vertices at most `k` edges away from `v`, excluding `v` itself
@@ -312,7 +313,7 @@ pub fn boundary_loops(mesh: &TriMesh) -> Result<Vec<Vec<u32>>, MeshError> {
             }
         }
     }
-    all.sort_unstable();
+    bucket_sort(&mut all, |e| e.0[0]);
     let mut bnd: Vec<[u32; 2]> = Vec::new();
     let mut i = 0;
     while i < all.len() {
@@ -328,7 +329,7 @@ pub fn boundary_loops(mesh: &TriMesh) -> Result<Vec<Vec<u32>>, MeshError> {
     if bnd.is_empty() {
         return Ok(Vec::new());
     }
-    bnd.sort_unstable();
+    bucket_sort(&mut bnd, |e| e[0]);
     for w in bnd.windows(2) {
         if w[0][0] == w[1][0] {
             let v = w[0][0];
@@ -708,6 +709,22 @@ mod tests {
             expect.dedup();
             sort_dedup_pairs(&mut pairs);
             prop_assert_eq!(pairs, expect);
+        }
+
+        /// The bucket sort equals `sort_unstable` on tuples led by the key.
+        #[test]
+        fn bucket_sort_matches_sort_unstable(
+            raw in prop::collection::vec((0u32..200, 0u32..5, any::<bool>()), 0..1500),
+            sparse in any::<bool>(),
+        ) {
+            let mut items: Vec<(u32, u32, bool)> = raw
+                .iter()
+                .map(|&(a, b, c)| (if sparse { a.wrapping_mul(9_999_991) } else { a }, b, c))
+                .collect();
+            let mut expect = items.clone();
+            expect.sort_unstable();
+            bucket_sort(&mut items, |t| t.0);
+            prop_assert_eq!(items, expect);
         }
 
         /// The Euler characteristic counts used vertices, edges and faces.

@@ -362,7 +362,7 @@ fn triangle_edge_problems(tris: &[[u32; 3]], good: &[usize]) -> (Acc, Acc) {
             half.push((a.min(b), a.max(b), t, a < b));
         }
     }
-    half.sort_unstable();
+    crate::topology::bucket_sort(&mut half, |h| h.0);
     let mut non_manifold = Acc::default();
     let mut inconsistent = Acc::default();
     let mut i = 0;

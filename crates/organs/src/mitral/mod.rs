@@ -464,37 +464,35 @@ pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganErro
     let plane = annulus::plane(&valve, AnnulusMode::LeastSquares)?
         .ok_or_else(|| OrganError::Input("the annulus has no least-squares plane".into()))?;
 
-    let mut uv: [Vec<[f64; 2]>; 2] = [Vec::new(), Vec::new()];
-    let mut init = ["", ""];
-    for k in [ANTERIOR, POSTERIOR] {
+    // Each leaflet's layout below the annulus, in parallel.
+    let layout_one = |k: usize| -> Result<(Vec<[f64; 2]>, &'static str), OrganError> {
         let leaflet = &valve.leaflets[k];
         let targets = layout::annulus_uv(leaflet, &amap);
         let chains = match config.init {
             InitMode::Tutte => None,
             InitMode::Auto | InitMode::Longitudes => layout::longitudes(leaflet),
         };
-        uv[k] = match (config.init, chains) {
-            (_, Some(chains)) => {
-                init[k] = "longitudes";
-                layout::longitude_layout(leaflet, &chains, &targets)?
-            }
-            (InitMode::Longitudes, None) => {
-                return Err(OrganError::Input(format!(
-                    "the {} leaflet has no longitudes (one vertex chain per annulus vertex down \
-                     to the free edge); use --init tutte or auto",
-                    if k == ANTERIOR {
-                        "anterior"
-                    } else {
-                        "posterior"
-                    }
-                )));
-            }
-            _ => {
-                init[k] = "tutte";
-                layout::tutte_layout(leaflet, &targets)?
-            }
-        };
-    }
+        match (config.init, chains) {
+            (_, Some(chains)) => Ok((
+                layout::longitude_layout(leaflet, &chains, &targets)?,
+                "longitudes",
+            )),
+            (InitMode::Longitudes, None) => Err(OrganError::Input(format!(
+                "the {} leaflet has no longitudes (one vertex chain per annulus vertex down to \
+                 the free edge); use --init tutte or auto",
+                if k == ANTERIOR {
+                    "anterior"
+                } else {
+                    "posterior"
+                }
+            ))),
+            _ => Ok((layout::tutte_layout(leaflet, &targets)?, "tutte")),
+        }
+    };
+    let (la, lp) = rayon::join(|| layout_one(ANTERIOR), || layout_one(POSTERIOR));
+    let ((uv_a, init_a), (uv_p, init_p)) = (la?, lp?);
+    let mut uv: [Vec<[f64; 2]>; 2] = [uv_a, uv_p];
+    let init = [init_a, init_p];
     timings.layout = t.elapsed().as_secs_f64();
     let t = Instant::now();
 
@@ -537,9 +535,16 @@ pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganErro
         &config.maps,
     )?;
     let final_distortion = maps::summary(&leaflet_maps);
-    let m = maps::measurements(&valve, &plane);
-    let valve3d = merged(&valve, &uv, &leaflet_maps, false)?;
-    let valve2d = merged(&valve, &uv, &leaflet_maps, true)?;
+    let (m, (valve3d, valve2d)) = rayon::join(
+        || maps::measurements(&valve, &plane),
+        || {
+            rayon::join(
+                || merged(&valve, &uv, &leaflet_maps, false),
+                || merged(&valve, &uv, &leaflet_maps, true),
+            )
+        },
+    );
+    let (valve3d, valve2d) = (valve3d?, valve2d?);
 
     let flipped = [ANTERIOR, POSTERIOR]
         .iter()
