@@ -29,6 +29,7 @@ use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::OrganError;
 use unfold::organs::mitral::{
     AnnulusMode, Config, InitMode, Outcome, RelaxMode, Report, ValveInput, run as run_mitral,
+    run_series,
 };
 
 /// `--annulus-mode`.
@@ -300,6 +301,19 @@ pub(crate) struct ValveFiles {
     pub annulus: PathBuf,
 }
 
+impl ValveFiles {
+    /// `anterior + posterior + annulus`, naming the inputs in errors and
+    /// reports.
+    fn label(&self) -> String {
+        format!(
+            "{} + {} + {}",
+            self.anterior.display(),
+            self.posterior.display(),
+            self.annulus.display()
+        )
+    }
+}
+
 /// Reads one valve and runs the pipeline; writes `valve3d.vtp`,
 /// `valve2d.vtp` and `report.json` into `dir`.
 pub(crate) fn run_valve(
@@ -310,12 +324,7 @@ pub(crate) fn run_valve(
     let anterior = read_leaflet(&files.anterior)?;
     let posterior = read_leaflet(&files.posterior)?;
     let ring = read_ring(&files.annulus)?;
-    let label = format!(
-        "{} + {} + {}",
-        files.anterior.display(),
-        files.posterior.display(),
-        files.annulus.display()
-    );
+    let label = files.label();
     let outcome = run_mitral(
         &ValveInput {
             anterior: &anterior,
@@ -513,11 +522,37 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         return Ok(());
     };
     let steps = series_files(series)?;
-    let mut rows = Vec::with_capacity(steps.len());
+    // Every step read first (the first unreadable file is the error), then
+    // the steps run in parallel sharing their Newton layouts
+    // (`run_series`), then written in order, stopping at the first failed
+    // step.
+    let mut loaded = Vec::with_capacity(steps.len());
     for (name, files) in &steps {
+        check_not_inputs(
+            &out.join(name),
+            &[&files.anterior, &files.posterior, &files.annulus],
+        )?;
+        loaded.push((
+            read_leaflet(&files.anterior)?,
+            read_leaflet(&files.posterior)?,
+            read_ring(&files.annulus)?,
+        ));
+    }
+    let inputs: Vec<ValveInput<'_>> = loaded
+        .iter()
+        .map(|(anterior, posterior, annulus)| ValveInput {
+            anterior,
+            posterior,
+            annulus,
+        })
+        .collect();
+    let outcomes = run_series(&inputs, &config);
+    let mut rows = Vec::with_capacity(steps.len());
+    for ((name, files), outcome) in steps.iter().zip(outcomes) {
         let dir = out.join(name);
-        check_not_inputs(&dir, &[&files.anterior, &files.posterior, &files.annulus])?;
-        let outcome = run_valve(files, &config, &dir)?;
+        let label = files.label();
+        let outcome = outcome.map_err(|e| organ(&label, e))?;
+        write_outcome(&outcome, &dir, &label)?;
         let r = &outcome.report;
         println!("{name}: {}", summary(r));
         rows.push(SeriesRow {

@@ -7,7 +7,7 @@ use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::shapes::{Pose, ValveParams, ValveShape, mitral_valve};
 use unfold_organs::mitral::{
-    ANTERIOR, AnnulusMode, Config, Outcome, POSTERIOR, RelaxMode, ValveInput, run,
+    ANTERIOR, AnnulusMode, Config, Outcome, POSTERIOR, RelaxMode, ValveInput, run, run_series,
 };
 
 /// Splits every `every`-th triangle at its centroid: the leaflet keeps its
@@ -446,4 +446,58 @@ fn sd_beats_the_spring_in_both_plane_modes() {
             assert!(a.area <= b.area, "{mode:?} {}", c.name);
         }
     }
+}
+
+/// A series runs its steps in parallel and shares Hessian layouts between
+/// steps of the same connectivity, yet every step comes out exactly as a
+/// single run of it, in order; a bad step fails alone.
+#[test]
+fn a_series_gives_each_step_exactly_its_single_run() {
+    let shapes: Vec<ValveShape> = [1.0, 4.0, 7.0]
+        .iter()
+        .map(|&gap| {
+            mitral_valve(&ValveParams {
+                coaptation_gap: gap,
+                ..ValveParams::default()
+            })
+            .unwrap()
+        })
+        .collect();
+    let far: Vec<Point3<f64>> = shapes[0]
+        .annulus
+        .iter()
+        .map(|p| p + Vector3::new(0.0, 0.0, 50.0))
+        .collect();
+    let mut inputs: Vec<ValveInput<'_>> = shapes
+        .iter()
+        .map(|s| ValveInput {
+            anterior: &s.anterior,
+            posterior: &s.posterior,
+            annulus: &s.annulus,
+        })
+        .collect();
+    // A ring the leaflets do not touch.
+    inputs.push(ValveInput {
+        anterior: &shapes[0].anterior,
+        posterior: &shapes[0].posterior,
+        annulus: &far,
+    });
+    let config = Config::default();
+    let series = run_series(&inputs, &config);
+    assert_eq!(series.len(), inputs.len());
+    for (input, got) in inputs.iter().zip(&series).take(3) {
+        let single = run(input, &config).unwrap();
+        let got = got.as_ref().unwrap();
+        for k in [ANTERIOR, POSTERIOR] {
+            assert_eq!(got.uv[k], single.uv[k]);
+        }
+        assert_eq!(got.report.distortion, single.report.distortion);
+        assert_eq!(
+            got.report.relax_reports[0].iterations,
+            single.report.relax_reports[0].iterations
+        );
+    }
+    let e = series[3].as_ref().unwrap_err().to_string();
+    let single = run(&inputs[3], &config).unwrap_err().to_string();
+    assert_eq!(e, single);
 }

@@ -31,7 +31,7 @@ pub use energy::DistortionEnergy;
 pub use error::ParamError;
 pub use initializer::Initializer;
 pub use linesearch::{Backtracking, LineSearch, LineSearchResult};
-pub use objective::{Objective, TemplateTerm};
+pub use objective::{HessianLayout, Objective, TemplateTerm};
 pub use rest::{ParamMesh, RestElements};
 pub use solver::{
     GradientDescent, History, Iteration, Observer, ProjectedNewton, SolveReport, Solver,

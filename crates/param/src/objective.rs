@@ -8,6 +8,7 @@ use crate::sparse::SpdPattern;
 use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
 use nalgebra::{Matrix2, Matrix3};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The template part of the objective: `sum_m weights[m] T(m, labels[m],
 /// x_m, theta)`; vertices with weight 0 carry no term.
@@ -51,14 +52,58 @@ pub struct Objective<'a> {
     lambda: f64,
     template: Option<TemplateTerm<'a>>,
     fixed: Vec<bool>,
-    pattern: Option<SpdPattern>,
-    /// Per element, `(dim * nv)^2` slots (row-major local DOF pairs; only
-    /// pairs with global row <= column and both DOFs free are stored).
-    element_slots: Vec<u32>,
+    /// The Hessian's pattern and element slots (built on first use, or
+    /// shared through [`Objective::with_layout`]).
+    layout: Option<Arc<HessianLayout>>,
     /// Per-triangle local Hessians of the last assembly (reused storage).
     local2: Vec<[f64; 36]>,
     /// Per template vertex (weight > 0), `dim^2` slots.
     vertex_slots: Vec<(u32, Vec<u32>)>,
+}
+
+/// The Hessian's assembly plan: the analysed sparsity pattern
+/// ([`SpdPattern`]: ordering and symbolic factorization) and every
+/// element's value slots. It depends only on the element connectivity and
+/// the fixed vertices, not on positions, rest shapes or the energy, so
+/// objectives over meshes with the same connectivity (the steps of a time
+/// series) can share one: [`Objective::layout`] hands it out,
+/// [`Objective::with_layout`] takes it.
+#[derive(Debug)]
+pub struct HessianLayout {
+    pattern: SpdPattern,
+    /// Per element, `(dim * nv)^2` slots (row-major local DOF pairs; only
+    /// pairs with global row <= column and both DOFs free are stored).
+    element_slots: Vec<u32>,
+    /// What it was built for: mapped dimension, element corners, fixed flags.
+    dim: usize,
+    elements: Vec<u32>,
+    fixed: Vec<bool>,
+}
+
+impl HessianLayout {
+    /// The analysed sparsity pattern.
+    pub fn pattern(&self) -> &SpdPattern {
+        &self.pattern
+    }
+
+    /// Whether this layout serves an objective over `mesh` with these
+    /// `fixed` flags (empty = none): the same dimension, the same element
+    /// corners in the same order, the same fixed vertices.
+    pub fn fits(&self, mesh: &ParamMesh, fixed: &[bool]) -> bool {
+        let n = mesh.num_vertices();
+        let same_fixed = if fixed.is_empty() {
+            self.fixed.len() == n && self.fixed.iter().all(|&f| !f)
+        } else {
+            self.fixed == fixed
+        };
+        self.dim == mesh.dim()
+            && same_fixed
+            && self.elements.len() == mesh.num_elements() * (mesh.dim() + 1)
+            && (0..mesh.num_elements()).all(|e| {
+                let k = e * (self.dim + 1);
+                self.elements[k..k + self.dim + 1] == *mesh.element(e)
+            })
+    }
 }
 
 impl<'a> Objective<'a> {
@@ -115,8 +160,7 @@ impl<'a> Objective<'a> {
             lambda,
             template,
             fixed,
-            pattern: None,
-            element_slots: Vec::new(),
+            layout: None,
             local2: Vec::new(),
             vertex_slots: Vec::new(),
         })
@@ -298,12 +342,56 @@ impl<'a> Objective<'a> {
 
     /// The Hessian's sparsity pattern (built and analysed on first use).
     pub fn pattern(&mut self) -> Result<&SpdPattern, ParamError> {
-        if self.pattern.is_none() {
+        Ok(&self.built_layout()?.pattern)
+    }
+
+    /// The Hessian's assembly plan (built on first use), to share with
+    /// objectives over the same connectivity ([`Objective::with_layout`]).
+    pub fn layout(&mut self) -> Result<Arc<HessianLayout>, ParamError> {
+        Ok(Arc::clone(self.built_layout()?))
+    }
+
+    /// This objective with a layout built by another one over the same
+    /// connectivity and fixed vertices, skipping the ordering and symbolic
+    /// analysis.
+    ///
+    /// # Errors
+    /// [`ParamError::InvalidArgument`] when `layout` does not
+    /// [`fit`](HessianLayout::fits) this mesh and fixed set.
+    pub fn with_layout(mut self, layout: Arc<HessianLayout>) -> Result<Self, ParamError> {
+        if !layout.fits(self.mesh, &self.fixed) {
+            return Err(ParamError::InvalidArgument(
+                "the Hessian layout was built for another connectivity or fixed set".into(),
+            ));
+        }
+        self.vertex_slots = self.template_slots(&layout.pattern);
+        self.layout = Some(layout);
+        Ok(self)
+    }
+
+    fn built_layout(&mut self) -> Result<&Arc<HessianLayout>, ParamError> {
+        if self.layout.is_none() {
             self.build_pattern()?;
         }
-        self.pattern
+        self.layout
             .as_ref()
             .ok_or_else(|| ParamError::Factorization("no pattern".into()))
+    }
+
+    /// Stores a freshly built pattern and slots as this objective's layout.
+    fn set_layout(&mut self, pattern: SpdPattern, element_slots: Vec<u32>) {
+        self.vertex_slots = self.template_slots(&pattern);
+        let dim = self.dim();
+        let elements = (0..self.mesh.num_elements())
+            .flat_map(|e| self.mesh.element(e).iter().copied())
+            .collect();
+        self.layout = Some(Arc::new(HessianLayout {
+            pattern,
+            element_slots,
+            dim,
+            elements,
+            fixed: self.fixed.clone(),
+        }));
     }
 
     fn build_pattern(&mut self) -> Result<(), ParamError> {
@@ -395,9 +483,7 @@ impl<'a> Objective<'a> {
                 }
             }
         }
-        self.vertex_slots = self.template_slots(&pattern);
-        self.element_slots = slots;
-        self.pattern = Some(pattern);
+        self.set_layout(pattern, slots);
         Ok(())
     }
 
@@ -451,11 +537,8 @@ impl<'a> Objective<'a> {
         values: &mut Vec<f64>,
         mode: HessianMode,
     ) -> Result<Option<ThetaBlock>, ParamError> {
-        self.pattern()?;
-        let pattern = self
-            .pattern
-            .as_ref()
-            .ok_or_else(|| ParamError::Factorization("no pattern".into()))?;
+        let layout = Arc::clone(self.built_layout()?);
+        let pattern = &layout.pattern;
         values.clear();
         values.resize(pattern.nnz(), 0.0);
         let d = self.dim();
@@ -477,7 +560,7 @@ impl<'a> Objective<'a> {
                     })
                     .collect();
                 for (k, h) in local.iter().enumerate() {
-                    let s = &self.element_slots[k * 144..(k + 1) * 144];
+                    let s = &layout.element_slots[k * 144..(k + 1) * 144];
                     for (slot, v) in s.iter().zip(h) {
                         if *slot != NONE {
                             values[*slot as usize] += v;
@@ -499,7 +582,7 @@ impl<'a> Objective<'a> {
                     }
                 });
                 for (k, h) in local.iter().enumerate() {
-                    let s = &self.element_slots[k * 36..(k + 1) * 36];
+                    let s = &layout.element_slots[k * 36..(k + 1) * 36];
                     for (slot, v) in s.iter().zip(h) {
                         if *slot != NONE {
                             values[*slot as usize] += v;
@@ -658,9 +741,7 @@ impl<'a> Objective<'a> {
                 }
             }
         }
-        self.vertex_slots = self.template_slots(&pattern);
-        self.element_slots = slots;
-        self.pattern = Some(pattern);
+        self.set_layout(pattern, slots);
         Ok(())
     }
 
@@ -938,5 +1019,77 @@ mod tests {
                 }
             }
         }
+
+        /// A layout shared with an objective over the same connectivity
+        /// (another rest shape: a time step) assembles exactly the values
+        /// that objective would build itself.
+        #[test]
+        fn a_shared_layout_assembles_the_same_hessian(
+            w in 2usize..7,
+            h in 2usize..7,
+            jitter in prop::collection::vec(-1.0..1.0f64, 16),
+            fixed_bits in any::<u64>(),
+        ) {
+            let (mesh, x) = grid(w, h, &jitter);
+            let mut moved = mesh.clone();
+            for p in &mut moved.positions {
+                p.z += 0.2 * p.x;
+            }
+            let (pm, pm2) = (
+                ParamMesh::from_triangles(&mesh).unwrap(),
+                ParamMesh::from_triangles(&moved).unwrap(),
+            );
+            let nv = w * h;
+            let fixed: Vec<bool> = (0..nv).map(|v| fixed_bits >> (v % 64) & 1 == 1).collect();
+            let mut first = Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &fixed).unwrap();
+            let layout = first.layout().unwrap();
+            let mut shared = Objective::new(&pm2, &SymmetricDirichlet, 1.0, None, &fixed)
+                .unwrap()
+                .with_layout(layout)
+                .unwrap();
+            let mut own = Objective::new(&pm2, &SymmetricDirichlet, 1.0, None, &fixed).unwrap();
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            shared.hessian_with(&x, &[], &mut a, HessianMode::Projected).unwrap();
+            own.hessian_with(&x, &[], &mut b, HessianMode::Projected).unwrap();
+            prop_assert_eq!(a, b);
+        }
+    }
+
+    #[test]
+    fn a_layout_refuses_another_connectivity_or_fixed_set() {
+        let (mesh, _) = grid(4, 3, &[0.1, -0.2, 0.3]);
+        let pm = ParamMesh::from_triangles(&mesh).unwrap();
+        let mut fixed = vec![false; 12];
+        fixed[0] = true;
+        let layout = Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &fixed)
+            .unwrap()
+            .layout()
+            .unwrap();
+        assert!(layout.fits(&pm, &fixed));
+        assert!(!layout.fits(&pm, &[]));
+        let err = |o: Result<Objective<'_>, ParamError>| match o {
+            Err(ParamError::InvalidArgument(m)) => m,
+            other => panic!("expected an error, got {other:?}"),
+        };
+        // Another fixed set.
+        let m = err(Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &[])
+            .unwrap()
+            .with_layout(layout.clone()));
+        assert!(m.contains("another connectivity or fixed set"), "{m}");
+        // Another connectivity: one triangle's corners rotated.
+        let mut other = mesh.clone();
+        other.triangles[2].rotate_left(1);
+        let pm2 = ParamMesh::from_triangles(&other).unwrap();
+        err(Objective::new(&pm2, &SymmetricDirichlet, 1.0, None, &fixed)
+            .unwrap()
+            .with_layout(layout.clone()));
+        // Another size.
+        let (small, _) = grid(3, 3, &[0.0]);
+        let pm3 = ParamMesh::from_triangles(&small).unwrap();
+        err(
+            Objective::new(&pm3, &SymmetricDirichlet, 1.0, None, &fixed[..9])
+                .unwrap()
+                .with_layout(layout),
+        );
     }
 }

@@ -448,6 +448,30 @@ fn merged(
 /// the contract (leaflets not touching the ring, wrong number of
 /// commissures, non-disk leaflets, ...); `Param` when a solve fails.
 pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganError> {
+    run_cached(input, config, None)
+}
+
+/// Runs the pipeline on every step of a time series (ALGORITHMS 4.6), in
+/// parallel, each step exactly as [`run`] would (the same result, bit for
+/// bit); the results come in the order of `inputs`. Steps whose leaflets
+/// have the connectivity and annulus of an earlier one share its Newton
+/// Hessian layout ([`relax::LayoutCache`]: the ordering and symbolic
+/// analysis are done once per distinct leaflet), as the steps of one
+/// recording often do.
+pub fn run_series(inputs: &[ValveInput<'_>], config: &Config) -> Vec<Result<Outcome, OrganError>> {
+    use rayon::prelude::*;
+    let cache = relax::LayoutCache::default();
+    inputs
+        .par_iter()
+        .map(|input| run_cached(input, config, Some(&cache)))
+        .collect()
+}
+
+fn run_cached(
+    input: &ValveInput<'_>,
+    config: &Config,
+    cache: Option<&relax::LayoutCache>,
+) -> Result<Outcome, OrganError> {
     let start = Instant::now();
     config.validate()?;
     let mut timings = Timings::default();
@@ -508,7 +532,9 @@ pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganErro
         }
         let report = match config.relax {
             RelaxMode::Spring => relax::spring(&leaflet.mesh, uv, &fixed, &config.spring),
-            RelaxMode::Sd => relax::symmetric_dirichlet(&leaflet.mesh, uv, &fixed, &config.sd),
+            RelaxMode::Sd => {
+                relax::symmetric_dirichlet_cached(&leaflet.mesh, uv, &fixed, &config.sd, cache)
+            }
         }?;
         Ok((report, initial))
     };

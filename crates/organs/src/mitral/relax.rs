@@ -36,12 +36,15 @@
 use super::{flipped, majority_sign, signed_areas};
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
 use unfold_param::solver::NoObserver;
-use unfold_param::{Objective, ParamMesh, ProjectedNewton, SolveReport, Solver, Stopping};
+use unfold_param::{
+    HessianLayout, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver, Stopping,
+};
 
 /// Largest move of a vertex in one [`spring`] step, as a fraction of its
 /// shortest incident 2D edge (before the step): the global step `h` is
@@ -365,6 +368,58 @@ pub fn symmetric_dirichlet(
     fixed: &[bool],
     config: &SdConfig,
 ) -> Result<RelaxReport, OrganError> {
+    symmetric_dirichlet_cached(mesh, uv, fixed, config, None)
+}
+
+/// Hessian layouts ([`HessianLayout`]: the sparsity pattern's ordering and
+/// symbolic analysis, and the element slots) kept across the relaxations
+/// of a series: a leaflet whose connectivity and annulus were seen before
+/// reuses them. Safe to share between threads.
+#[derive(Debug, Default)]
+pub struct LayoutCache(Mutex<Vec<Arc<HessianLayout>>>);
+
+impl LayoutCache {
+    /// Number of layouts kept.
+    pub fn len(&self) -> usize {
+        self.lock().len()
+    }
+
+    /// Whether no layout is kept.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Arc<HessianLayout>>> {
+        // A panic elsewhere cannot leave the list half-written.
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn find(&self, mesh: &ParamMesh, fixed: &[bool]) -> Option<Arc<HessianLayout>> {
+        self.lock().iter().find(|l| l.fits(mesh, fixed)).cloned()
+    }
+
+    fn insert(&self, layout: Arc<HessianLayout>) {
+        let mut list = self.lock();
+        if !list.iter().any(|l| Arc::ptr_eq(l, &layout)) {
+            list.push(layout);
+        }
+    }
+}
+
+/// [`symmetric_dirichlet`] with a [`LayoutCache`]: the Hessian layout is
+/// taken from `cache` when one fits this leaflet (same triangles, same
+/// fixed vertices) and added to it otherwise. The result is the same as
+/// without the cache, bit for bit.
+///
+/// # Errors
+/// As [`symmetric_dirichlet`].
+pub fn symmetric_dirichlet_cached(
+    mesh: &TriMesh,
+    uv: &mut [[f64; 2]],
+    fixed: &[bool],
+    config: &SdConfig,
+    cache: Option<&LayoutCache>,
+) -> Result<RelaxReport, OrganError> {
     let t0 = Instant::now();
     config.validate()?;
     let pm = check_inputs(mesh, uv, fixed)?;
@@ -400,6 +455,15 @@ pub fn symmetric_dirichlet(
     let mut x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
     let total_area: f64 = pm.measure.iter().sum();
     let mut objective = Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &pinned)?;
+    if let Some(cache) = cache {
+        objective = match cache.find(&pm, &pinned) {
+            Some(layout) => objective.with_layout(layout)?,
+            None => {
+                cache.insert(objective.layout()?);
+                objective
+            }
+        };
+    }
     let solver = ProjectedNewton {
         stopping: Stopping {
             grad_tol: config.grad_tol / total_area.sqrt(),
@@ -664,6 +728,57 @@ mod tests {
         for (a, b) in uv.iter().zip(&uvm) {
             assert!((a[0] + b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn sd_with_a_layout_cache_is_bitwise_the_same_and_shares_layouts() {
+        let cache = LayoutCache::default();
+        assert!(cache.is_empty());
+        let c = leaflet(&coarse(), true);
+        let (plain, rp) = sd(&c);
+        let mut first = c.uv.clone();
+        let r1 = symmetric_dirichlet_cached(
+            &c.mesh,
+            &mut first,
+            &c.fixed,
+            &SdConfig::default(),
+            Some(&cache),
+        )
+        .unwrap();
+        assert_eq!(cache.len(), 1);
+        // Another time step: the same triangles and annulus, moved in 3D.
+        let mut moved = c.clone();
+        for p in &mut moved.mesh.positions {
+            p.z += 0.1 * p.x;
+        }
+        let (plain_moved, _) = sd(&moved);
+        let mut second = moved.uv.clone();
+        symmetric_dirichlet_cached(
+            &moved.mesh,
+            &mut second,
+            &moved.fixed,
+            &SdConfig::default(),
+            Some(&cache),
+        )
+        .unwrap();
+        assert_eq!(cache.len(), 1, "the second step reuses the layout");
+        assert_eq!(flat(&first), flat(&plain));
+        assert_eq!(flat(&second), flat(&plain_moved));
+        assert_eq!(r1.iterations, rp.iterations);
+        // Another fixed set: a layout of its own.
+        let mut fixed = c.fixed.clone();
+        let v = fixed.iter().position(|&f| !f).unwrap();
+        fixed[v] = true;
+        let mut third = c.uv.clone();
+        symmetric_dirichlet_cached(
+            &c.mesh,
+            &mut third,
+            &fixed,
+            &SdConfig::default(),
+            Some(&cache),
+        )
+        .unwrap();
+        assert_eq!(cache.len(), 2);
     }
 
     // --- symmetric Dirichlet -----------------------------------------------
