@@ -1007,6 +1007,38 @@ pub fn eval2_eigen(
             x
         }
     };
+    Some((value, grad, eigen_from_svd(e, &u, &s, &v, mode)))
+}
+
+/// The Hessian eigensystem alone ([`Eigen2`]), for assemblies that take
+/// value and gradient elsewhere: `None` exactly where [`eval2_eigen`] is
+/// (`psi(F)` not finite), the same eigensystem otherwise.
+pub fn hessian2_eigen(
+    e: &dyn DistortionEnergy,
+    f: &Matrix2<f64>,
+    mode: HessianMode,
+) -> Option<Eigen2> {
+    if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
+        return None;
+    }
+    let (u, sv, v) = signed_svd2(f);
+    let s = [sv[0], sv[1]];
+    let admissible = match e.closed_form2(f, None) {
+        Some(x) => x.is_finite(),
+        None => e.value(&s).is_finite(),
+    };
+    admissible.then(|| eigen_from_svd(e, &u, &s, &v, mode))
+}
+
+/// The eigensystem of [`Eigen2`] from the signed SVD.
+#[inline]
+fn eigen_from_svd(
+    e: &dyn DistortionEnergy,
+    u: &Matrix2<f64>,
+    s: &[f64; 2],
+    v: &Matrix2<f64>,
+    mode: HessianMode,
+) -> Eigen2 {
     let (u0, u1) = (u.column(0), u.column(1));
     let (v0, v1) = (v.column(0), v.column(1));
     let project = mode != HessianMode::Exact;
@@ -1014,7 +1046,7 @@ pub fn eval2_eigen(
     // d2psi/ds2 = [[a, b], [b, c]] (t = tan of the angle, the smaller root
     // of t^2 + 2 z t - 1 = 0, z = (c - a) / 2b).
     let mut h = [0.0; 4];
-    e.hessian(&s, &mut h);
+    e.hessian(s, &mut h);
     let (a, b, c) = (h[0], 0.5 * (h[1] + h[2]), h[3]);
     let (l0, l1, cs, sn) = if b == 0.0 {
         (a, c, 1.0, 0.0)
@@ -1026,7 +1058,7 @@ pub fn eval2_eigen(
     };
     let mut twist = [0.0; 1];
     let mut flip = [0.0; 1];
-    e.pair_eigenvalues(&s, &mut twist, &mut flip);
+    e.pair_eigenvalues(s, &mut twist, &mut flip);
     let mut values = [l0, l1, twist[0], flip[0]];
     if project {
         for l in &mut values {
@@ -1044,7 +1076,7 @@ pub fn eval2_eigen(
         (y - x) * FRAC_1_SQRT_2,
         (x + y) * FRAC_1_SQRT_2,
     ];
-    Some((value, grad, Eigen2 { values, modes }))
+    Eigen2 { values, modes }
 }
 
 /// `dpsi/dF = U diag(g) V^T` from `g = dpsi/ds`.
@@ -1796,6 +1828,29 @@ mod tests {
             prop_assert!((x - y).abs() <= 1e-12 * y, "{} vs {}", x, y);
             let scale = gy.norm().max(1.0);
             prop_assert!((g - gy).norm() <= 1e-11 * scale, "{} vs {}", g, gy);
+        }
+    }
+
+    #[test]
+    fn the_hessian_eigensystem_alone_is_eval2_eigens() {
+        let fs = [
+            Matrix2::new(1.2, 0.3, -0.2, 0.7),
+            Matrix2::new(0.4, -0.9, 0.8, 0.3),
+            Matrix2::new(-1.0, 0.0, 0.0, 1.0),
+            Matrix2::new(1.0, 2.0, 0.5, 1.0),
+            Matrix2::from_element(f64::NAN),
+        ];
+        for e in ENERGIES {
+            for f in &fs {
+                for mode in [HessianMode::Exact, HessianMode::Projected] {
+                    assert_eq!(
+                        hessian2_eigen(e, f, mode),
+                        eval2_eigen(e, f, mode).map(|x| x.2),
+                        "{} at {f}",
+                        e.name()
+                    );
+                }
+            }
         }
     }
 

@@ -3,7 +3,7 @@
 //! PSD-projected Hessian assembled in parallel into a fixed sparsity pattern
 //! (ALGORITHMS 1.1, 1.2, 2.1).
 
-use crate::energy::{Eigen2, HessianMode, density2, density3, eval2, eval2_eigen, eval3};
+use crate::energy::{Eigen2, HessianMode, density2, density3, eval2, eval3, hessian2_eigen};
 use crate::sparse::SpdPattern;
 use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
 use nalgebra::{Matrix2, Matrix3};
@@ -41,6 +41,9 @@ pub struct ThetaBlock {
 /// Slot marking "not stored" in the element slot maps.
 const NONE: u32 = u32::MAX;
 
+/// Stored entries of a triangle's symmetric 6x6 local Hessian (`r <= c`).
+const TRI_SLOTS: usize = 21;
+
 /// The objective of a parameterization problem. Construction precomputes
 /// the Hessian sparsity pattern (with its symbolic Cholesky analysis) and the
 /// element -> value-slot maps, so every Newton iteration only evaluates and
@@ -56,7 +59,7 @@ pub struct Objective<'a> {
     /// shared through [`Objective::with_layout`]).
     layout: Option<Arc<HessianLayout>>,
     /// Per-triangle local Hessians of the last assembly (reused storage).
-    local2: Vec<[f64; 36]>,
+    local2: Vec<[f64; TRI_SLOTS]>,
     /// Per template vertex (weight > 0), `dim^2` slots.
     vertex_slots: Vec<(u32, Vec<u32>)>,
 }
@@ -71,8 +74,9 @@ pub struct Objective<'a> {
 #[derive(Debug)]
 pub struct HessianLayout {
     pattern: SpdPattern,
-    /// Per element, `(dim * nv)^2` slots (row-major local DOF pairs; only
-    /// pairs with global row <= column and both DOFs free are stored).
+    /// Per tet, 144 slots (row-major local DOF pairs; only pairs with
+    /// global row <= column and both DOFs free are stored); per triangle,
+    /// 21 (the local pairs `r <= c` in row-major order, each stored once).
     element_slots: Vec<u32>,
     /// What it was built for: mapped dimension, element corners, fixed flags.
     dim: usize,
@@ -570,19 +574,17 @@ impl<'a> Objective<'a> {
             }
             RestElements::Tris { tris, dm_inv } => {
                 let mut local = std::mem::take(&mut self.local2);
-                local.resize(tris.len(), [0.0; 36]);
+                local.resize(tris.len(), [0.0; TRI_SLOTS]);
                 let energy = self.energy;
                 local.par_iter_mut().enumerate().for_each(|(k, h)| {
                     let f = jacobian2(x, &tris[k], &dm_inv[k]);
-                    match eval2_eigen(energy, &f, mode) {
-                        Some((_, _, eigen)) => {
-                            vertex_hessian2(&eigen, &dm_inv[k], lambda * m.weight[k], h)
-                        }
-                        None => *h = [0.0; 36],
+                    match hessian2_eigen(energy, &f, mode) {
+                        Some(eigen) => vertex_hessian2(&eigen, &dm_inv[k], lambda * m.weight[k], h),
+                        None => *h = [0.0; TRI_SLOTS],
                     }
                 });
                 for (k, h) in local.iter().enumerate() {
-                    let s = &layout.element_slots[k * 36..(k + 1) * 36];
+                    let s = &layout.element_slots[k * TRI_SLOTS..(k + 1) * TRI_SLOTS];
                     for (slot, v) in s.iter().zip(h) {
                         if *slot != NONE {
                             values[*slot as usize] += v;
@@ -711,7 +713,7 @@ impl<'a> Objective<'a> {
         let pattern = SpdPattern::from_vertex_graph(nv, D, col_ptr.clone(), row_idx.clone())?;
         let nve = D + 1;
         let ld = D * nve;
-        let mut slots = Vec::with_capacity(self.mesh.num_elements() * ld * ld);
+        let mut slots = Vec::with_capacity(self.mesh.num_elements() * TRI_SLOTS);
         let mut entry = [[usize::MAX; 3]; 3];
         for e in 0..self.mesh.num_elements() {
             let vs = self.mesh.element(e);
@@ -727,12 +729,20 @@ impl<'a> Objective<'a> {
                     };
                 }
             }
+            // The 21 entries r <= c of the symmetric local matrix, each
+            // stored once: as (r, c) when its row vertex has the smaller
+            // index, transposed otherwise (a triangle's corners are
+            // distinct: ParamMesh refuses degenerate ones).
             for r in 0..ld {
-                for c in 0..ld {
+                for c in r..ld {
                     let (la, lb) = (r / D, c / D);
                     let (i, j) = (r % D, c % D);
-                    let k = entry[la][lb];
-                    let s = if k == usize::MAX || (vs[la] == vs[lb] && i > j) {
+                    let (k, i, j) = if vs[la] <= vs[lb] {
+                        (entry[la][lb], i, j)
+                    } else {
+                        (entry[lb][la], j, i)
+                    };
+                    let s = if k == usize::MAX {
                         NONE
                     } else {
                         pattern.block_slot(k, i, j).map_or(NONE, |s| s as u32)
@@ -868,15 +878,16 @@ fn vertex_hessian3(
     }
 }
 
-/// `H_x = w sum_k l_k (C^T m_k)(C^T m_k)^T` (6x6, row-major local DOF
-/// `2 v + i`) from the element's Hessian eigensystem ([`Eigen2`]), with
+/// `H_x = w sum_k l_k (C^T m_k)(C^T m_k)^T` (the 21 entries `r <= c` of
+/// the symmetric 6x6, row-major over local DOF `2 v + i`) from the
+/// element's Hessian eigensystem ([`Eigen2`]), with
 /// `(C^T m)[2 v + i] = sum_j P[v][j] m_ij` the vertex form of a 2x2 mode
 /// (the chain rule through `F = [x1 - x0, x2 - x0] Dm^-1`). Modes with a zero
 /// eigenvalue (clamped ones) are skipped.
 #[inline]
-fn vertex_hessian2(eigen: &Eigen2, dm_inv: &Matrix2<f64>, w: f64, out: &mut [f64; 36]) {
+fn vertex_hessian2(eigen: &Eigen2, dm_inv: &Matrix2<f64>, w: f64, out: &mut [f64; TRI_SLOTS]) {
     let p = corner_map2(dm_inv);
-    *out = [0.0; 36];
+    *out = [0.0; TRI_SLOTS];
     for (&l, m) in eigen.values.iter().zip(&eigen.modes) {
         if l == 0.0 {
             continue;
@@ -888,16 +899,13 @@ fn vertex_hessian2(eigen: &Eigen2, dm_inv: &Matrix2<f64>, w: f64, out: &mut [f64
             }
         }
         let lw = l * w;
+        let mut k = 0;
         for r in 0..6 {
             let x = lw * c[r];
-            for k in r..6 {
-                out[6 * r + k] += x * c[k];
+            for cc in &c[r..] {
+                out[k] += x * cc;
+                k += 1;
             }
-        }
-    }
-    for r in 0..6 {
-        for k in 0..r {
-            out[6 * r + k] = out[6 * k + r];
         }
     }
 }
