@@ -413,12 +413,21 @@ fn the_outputs_carry_every_map() {
     }
 }
 
-/// Both plane modes (the landmark plane is the default). In straight mode,
-/// where the annulus is forced flat, sd still wins on angle and length but
-/// can give up a little area energy on the coarse valve (2.1112 vs 2.1099).
+/// The acceptance comparison in both plane modes (the landmark plane is the
+/// default): lower angle, no higher length and area energy than 5 spring
+/// steps, on every synthetic valve. In straight mode, where the annulus is
+/// forced flat (all heights 0), sd still has the lower angle energy on
+/// every valve, but on the coarse 32 x 6 valve gives up a little area
+/// energy (2.1112 vs 2.1099) and, without longitudes, length energy
+/// (2.0589 vs 2.0547, against a spring layout with flipped triangles):
+/// symmetric Dirichlet trades them for angle there.
 #[test]
 fn sd_beats_the_spring_in_both_plane_modes() {
-    for mode in [AnnulusMode::LeastSquares, AnnulusMode::Landmark] {
+    for mode in [
+        AnnulusMode::LeastSquares,
+        AnnulusMode::Landmark,
+        AnnulusMode::Straight,
+    ] {
         for c in cases() {
             let config = Config {
                 annulus_mode: mode,
@@ -442,8 +451,10 @@ fn sd_beats_the_spring_in_both_plane_modes() {
             );
             assert_eq!(sd.report.flipped_triangles, 0);
             assert!(a.angle < b.angle, "{mode:?} {}", c.name);
-            assert!(a.length <= b.length, "{mode:?} {}", c.name);
-            assert!(a.area <= b.area, "{mode:?} {}", c.name);
+            if mode != AnnulusMode::Straight {
+                assert!(a.length <= b.length, "{mode:?} {}", c.name);
+                assert!(a.area <= b.area, "{mode:?} {}", c.name);
+            }
         }
     }
 }
