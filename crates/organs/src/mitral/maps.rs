@@ -188,6 +188,57 @@ pub fn leaflet_maps(
     config: &MapsConfig,
 ) -> Result<[LeafletMaps; 2], OrganError> {
     config.validate()?;
+    let (a, p) = rayon::join(
+        || coaptation_distances(valve, ANTERIOR),
+        || coaptation_distances(valve, POSTERIOR),
+    );
+    leaflet_maps_with(valve, uv, plane, config, [a, p])
+}
+
+/// Per vertex of leaflet `k`, the distance (mm) to the closest point of the
+/// other leaflet's surface: [`LeafletMaps::coaptation_distance_mm`]. It
+/// depends on the 3D leaflets only, so a pipeline can compute it while the
+/// layouts relax. Exact (a closest-point search over a BVH of the other
+/// leaflet), in parallel over the vertices; `+inf` everywhere when the
+/// other leaflet has no triangle. Out-of-range `k` gives an empty list.
+pub fn coaptation_distances(valve: &PreparedValve, k: usize) -> Vec<f64> {
+    use rayon::prelude::*;
+    if k > 1 {
+        return Vec::new();
+    }
+    let other = ClosestPointQuery::new(&valve.leaflets[1 - k].mesh);
+    valve.leaflets[k]
+        .mesh
+        .positions
+        .par_iter()
+        .with_min_len(64)
+        .map(|p| other.closest(p).map_or(f64::INFINITY, |c| c.distance))
+        .collect()
+}
+
+/// [`leaflet_maps`] with the coaptation distances already computed
+/// ([`coaptation_distances`] of each leaflet).
+///
+/// # Errors
+/// As [`leaflet_maps`]; [`OrganError::Input`] also when a distance list
+/// does not have one value per vertex of its leaflet.
+pub fn leaflet_maps_with(
+    valve: &PreparedValve,
+    uv: [&[[f64; 2]]; 2],
+    plane: &Plane,
+    config: &MapsConfig,
+    coaptation_distances: [Vec<f64>; 2],
+) -> Result<[LeafletMaps; 2], OrganError> {
+    config.validate()?;
+    for (k, d) in coaptation_distances.iter().enumerate() {
+        let n = valve.leaflets[k].mesh.positions.len();
+        if d.len() != n {
+            return Err(OrganError::Input(format!(
+                "{} coaptation distances for leaflet {k} of {n} vertices",
+                d.len()
+            )));
+        }
+    }
     let plane = unit_plane(plane)?;
     let mut frames = Vec::with_capacity(2);
     for k in [ANTERIOR, POSTERIOR] {
@@ -204,14 +255,8 @@ pub fn leaflet_maps(
              anterior leaflet's first"
         )));
     }
-    let queries = {
-        let (a, p) = rayon::join(
-            || ClosestPointQuery::new(&valve.leaflets[ANTERIOR].mesh),
-            || ClosestPointQuery::new(&valve.leaflets[POSTERIOR].mesh),
-        );
-        [a, p]
-    };
-    let one = |k: usize| -> Result<LeafletMaps, OrganError> {
+    let [dist_a, dist_p] = coaptation_distances;
+    let one = |k: usize, coaptation_distance_mm: Vec<f64>| -> Result<LeafletMaps, OrganError> {
         let leaflet = &valve.leaflets[k];
         let q = uv[k];
         let frame = &frames[k];
@@ -251,13 +296,6 @@ pub fn leaflet_maps(
                 )
             })
             .collect();
-        let other = &queries[1 - k];
-        let coaptation_distance_mm: Vec<f64> = leaflet
-            .mesh
-            .positions
-            .iter()
-            .map(|p| other.closest(p).map_or(f64::INFINITY, |c| c.distance))
-            .collect();
         let t = config.coaptation_mm;
         let coaptation = coaptation_distance_mm
             .iter()
@@ -292,7 +330,7 @@ pub fn leaflet_maps(
         })
     };
     // The leaflets are independent: in parallel.
-    let (a, p) = rayon::join(|| one(ANTERIOR), || one(POSTERIOR));
+    let (a, p) = rayon::join(|| one(ANTERIOR, dist_a), || one(POSTERIOR, dist_p));
     Ok([a?, p?])
 }
 
@@ -1571,6 +1609,27 @@ mod tests {
         };
         let e = leaflet_maps(&f.valve, f.uv(), &flat, &ok).unwrap_err();
         assert!(matches!(e, OrganError::Input(_)), "{e}");
+        // Precomputed coaptation distances: the same maps; a short list is
+        // refused.
+        let dist = [
+            coaptation_distances(&f.valve, ANTERIOR),
+            coaptation_distances(&f.valve, POSTERIOR),
+        ];
+        assert!(coaptation_distances(&f.valve, 2).is_empty());
+        let with = leaflet_maps_with(&f.valve, f.uv(), &f.plane, &ok, dist.clone()).unwrap();
+        let plain = leaflet_maps(&f.valve, f.uv(), &f.plane, &ok).unwrap();
+        for k in [ANTERIOR, POSTERIOR] {
+            assert_eq!(
+                with[k].coaptation_distance_mm,
+                plain[k].coaptation_distance_mm
+            );
+            assert_eq!(with[k].coaptation, plain[k].coaptation);
+        }
+        let mut short_dist = dist;
+        short_dist[POSTERIOR].pop();
+        let e = leaflet_maps_with(&f.valve, f.uv(), &f.plane, &ok, short_dist).unwrap_err();
+        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(e.to_string().contains("coaptation distances"), "{e}");
         let m = measurements(&f.valve, &flat);
         assert!(m.saddle_horn_height_mm.is_nan() && m.area_above_plane_mm2.is_nan());
         assert!(m.leaflet_area_mm2.anterior > 0.0);

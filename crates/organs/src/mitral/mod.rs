@@ -260,9 +260,10 @@ pub struct Timings {
     pub contract: f64,
     /// Annulus and initial layouts.
     pub layout: f64,
-    /// Relaxation of both leaflets (with their initial layouts' energies).
+    /// Relaxation of both leaflets (with their initial layouts' energies
+    /// and, after each leaflet's relaxation, its coaptation distances).
     pub relax: f64,
-    /// Maps, measurements and output meshes.
+    /// The other maps, measurements and output meshes.
     pub maps: f64,
 }
 
@@ -521,8 +522,10 @@ fn run_cached(
     let t = Instant::now();
 
     // The leaflets relax independently (each with its annulus pinned): in
-    // parallel, each with the energies of its initial layout.
-    type Relaxed = (relax::RelaxReport, [Vec<f64>; 3]);
+    // parallel, each with the energies of its initial layout, then its
+    // coaptation distances (3D only, parallel over the vertices: the
+    // leaflet that relaxes first starts them, the other joins in).
+    type Relaxed = (relax::RelaxReport, [Vec<f64>; 3], Vec<f64>);
     let relax_one = |k: usize, uv: &mut Vec<[f64; 2]>| -> Result<Relaxed, OrganError> {
         let leaflet = &valve.leaflets[k];
         let initial = maps::leaflet_energies(&leaflet.mesh, k, uv)?;
@@ -536,11 +539,11 @@ fn run_cached(
                 relax::symmetric_dirichlet_cached(&leaflet.mesh, uv, &fixed, &config.sd, cache)
             }
         }?;
-        Ok((report, initial))
+        Ok((report, initial, maps::coaptation_distances(&valve, k)))
     };
     let [uv_a, uv_p] = &mut uv;
     let (ra, rp) = rayon::join(|| relax_one(ANTERIOR, uv_a), || relax_one(POSTERIOR, uv_p));
-    let ((report_a, initial_a), (report_p, initial_p)) = (ra?, rp?);
+    let ((report_a, initial_a, dist_a), (report_p, initial_p, dist_p)) = (ra?, rp?);
     let relax_reports = [report_a, report_p];
     let initial = maps::summarize(
         [&initial_a, &initial_p]
@@ -554,11 +557,12 @@ fn run_cached(
             q[0] += config.cut_gap_mm;
         }
     }
-    let leaflet_maps = maps::leaflet_maps(
+    let leaflet_maps = maps::leaflet_maps_with(
         &valve,
         [&uv[ANTERIOR], &uv[POSTERIOR]],
         &plane,
         &config.maps,
+        [dist_a, dist_p],
     )?;
     let final_distortion = maps::summary(&leaflet_maps);
     let (m, (valve3d, valve2d)) = rayon::join(
