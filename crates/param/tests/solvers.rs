@@ -220,3 +220,54 @@ fn the_decrement_stop_takes_its_newton_step() {
     assert!(h.0[1].step > 0.0);
     assert!(h.0[1].value < h.0[0].value, "{:?}", h.0);
 }
+
+/// Step expansion keeps every iterate decreasing and reaches the same
+/// optimum; a bad factor is refused.
+#[test]
+fn step_expansion_reaches_the_same_optimum_and_checks_its_factor() {
+    let (mesh, labels, weights) = slab(3, 2);
+    let tight = Stopping {
+        grad_tol: 1e-9,
+        decrement_tol: 0.0,
+        ..Stopping::default()
+    };
+    let plain = ProjectedNewton {
+        stopping: tight,
+        ..ProjectedNewton::default()
+    };
+    let expanding = ProjectedNewton {
+        stopping: tight,
+        expand: 1.5,
+        ..ProjectedNewton::default()
+    };
+    let (_, h_plain, hp, ok_p) = solve(&plain, &mesh, &labels, &weights);
+    let (_, h_exp, he, ok_e) = solve(&expanding, &mesh, &labels, &weights);
+    assert!(ok_p && ok_e);
+    for w in he.0.windows(2) {
+        assert!(w[1].value <= w[0].value, "{} -> {}", w[0].value, w[1].value);
+        assert!(w[1].step < 0.9 * w[1].max_step || w[1].max_step.is_infinite());
+    }
+    let (fp, fe) = (hp.0.last().unwrap().value, he.0.last().unwrap().value);
+    assert!((fp - fe).abs() <= 1e-9 * fp.abs(), "{fp} vs {fe}");
+    assert!((h_plain - h_exp).abs() <= 1e-6 * h_plain.abs());
+    for bad in [0.5, f64::NAN, f64::INFINITY] {
+        let solver = ProjectedNewton {
+            expand: bad,
+            ..ProjectedNewton::default()
+        };
+        let template = ParallelPlanes::default();
+        let term = TemplateTerm {
+            template: &template,
+            labels: &labels,
+            weights: &weights,
+        };
+        let mut obj = Objective::new(&mesh, &SymmetricDirichlet, 1.0, Some(term), &[]).unwrap();
+        let mut x = mesh.rest_flat();
+        let mut theta = [1.0];
+        let e = solver
+            .solve(&mut obj, &mut x, &mut theta, &mut History::default())
+            .unwrap_err();
+        assert!(e.to_string().contains("expansion"), "{e}");
+        assert_eq!(x, mesh.rest_flat(), "x unchanged on error");
+    }
+}
