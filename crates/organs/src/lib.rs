@@ -7,10 +7,13 @@
 //!   the boundary parcellation and the image pull-back.
 //! - [`mitral`]: the mitral valve's leaflets laid out below their annulus
 //!   in 2D, flip-free, with clinical maps and measurements (ALGORITHMS 4).
+//! - [`ventricle`] (in progress): the chamber's enclosing surface flattened
+//!   to the disk with its landmarks (ALGORITHMS 3.1, 3.2).
 
 mod error;
 pub mod mitral;
 pub mod placenta;
+pub mod ventricle;
 
 pub use error::OrganError;
 pub use unfold_mesh as mesh;

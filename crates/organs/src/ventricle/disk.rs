@@ -1,0 +1,418 @@
+//! The LV disk map `phi: S -> D` (ALGORITHMS 3.2): S flattened onto the
+//! unit disk with its rim on the unit circle by cumulative edge length, the
+//! landmarks' bisector along +x (anterior on the +y side), and a thin-plate
+//! spline warp that keeps the rim and moves the apex to the centre.
+
+use super::landmarks::Landmarks;
+use crate::OrganError;
+use unfold_mesh::TriMesh;
+use unfold_mesh::nalgebra::{DMatrix, DVector};
+use unfold_param::initializer::{DiskBoundary, TutteDisk, TutteWeights, circle_boundary};
+
+/// A 2D thin-plate spline `f(p) = a0 + A p + sum_i w_i U(|p - c_i|)` with
+/// `U(r) = r^2 log r`, interpolating given targets at its centres with the
+/// least bending energy (the affine part absorbs whatever is affine).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThinPlateSpline {
+    centres: Vec<[f64; 2]>,
+    /// Kernel weights per centre, one column per output coordinate.
+    w: Vec<[f64; 2]>,
+    /// Affine part: `[a0, A e_x, A e_y]`, one column per output coordinate.
+    affine: [[f64; 2]; 3],
+}
+
+/// `U(r) = r^2 log r` from `r^2` (`U(0) = 0`).
+#[inline]
+fn kernel(r2: f64) -> f64 {
+    if r2 > 0.0 { 0.5 * r2 * r2.ln() } else { 0.0 }
+}
+
+impl ThinPlateSpline {
+    /// The spline with `f(c_i) = t_i`: solves
+    /// `[K P; P^T 0] [w; a] = [t; 0]`, `K_ij = U(|c_i - c_j|)`,
+    /// `P_i = (1, c_i)`.
+    ///
+    /// # Errors
+    /// `Input` for different lengths, fewer than 3 centres, non-finite
+    /// values, or a singular system (repeated or collinear centres).
+    pub fn fit(centres: &[[f64; 2]], targets: &[[f64; 2]]) -> Result<Self, OrganError> {
+        let m = centres.len();
+        if targets.len() != m {
+            return Err(OrganError::Input(format!(
+                "thin-plate spline: {m} centres but {} targets",
+                targets.len()
+            )));
+        }
+        if m < 3 {
+            return Err(OrganError::Input(format!(
+                "thin-plate spline: needs at least 3 centres, got {m}"
+            )));
+        }
+        if !centres
+            .iter()
+            .chain(targets)
+            .flatten()
+            .all(|x| x.is_finite())
+        {
+            return Err(OrganError::Input(
+                "thin-plate spline: a centre or target is not finite".into(),
+            ));
+        }
+        let n = m + 3;
+        let mut a = DMatrix::<f64>::zeros(n, n);
+        for i in 0..m {
+            for j in 0..i {
+                let (dx, dy) = (centres[i][0] - centres[j][0], centres[i][1] - centres[j][1]);
+                let k = kernel(dx * dx + dy * dy);
+                a[(i, j)] = k;
+                a[(j, i)] = k;
+            }
+            let p = [1.0, centres[i][0], centres[i][1]];
+            for (c, &x) in p.iter().enumerate() {
+                a[(i, m + c)] = x;
+                a[(m + c, i)] = x;
+            }
+        }
+        let lu = a.lu();
+        let mut w = vec![[0.0; 2]; m];
+        let mut affine = [[0.0; 2]; 3];
+        for d in 0..2 {
+            let mut b = DVector::<f64>::zeros(n);
+            for i in 0..m {
+                b[i] = targets[i][d];
+            }
+            let x = lu
+                .solve(&b)
+                .filter(|x| x.iter().all(|v| v.is_finite()))
+                .ok_or_else(|| {
+                    OrganError::Input(
+                        "thin-plate spline: singular system (repeated or collinear centres)".into(),
+                    )
+                })?;
+            for i in 0..m {
+                w[i][d] = x[i];
+            }
+            for c in 0..3 {
+                affine[c][d] = x[m + c];
+            }
+        }
+        Ok(ThinPlateSpline {
+            centres: centres.to_vec(),
+            w,
+            affine,
+        })
+    }
+
+    /// `f(p)`.
+    pub fn eval(&self, p: [f64; 2]) -> [f64; 2] {
+        let [a0, ax, ay] = self.affine;
+        let mut out = [
+            a0[0] + ax[0] * p[0] + ay[0] * p[1],
+            a0[1] + ax[1] * p[0] + ay[1] * p[1],
+        ];
+        for (c, w) in self.centres.iter().zip(&self.w) {
+            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+            let k = kernel(dx * dx + dy * dy);
+            out[0] += w[0] * k;
+            out[1] += w[1] * k;
+        }
+        out
+    }
+}
+
+/// The LV disk map of S.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiskMap {
+    /// Disk position of every vertex of S (the origin for vertices in no
+    /// triangle).
+    pub uv: Vec<[f64; 2]>,
+    /// Triangles whose orientation differs from the majority, or with zero
+    /// area, after the apex warp (0 for a bijective map).
+    pub flipped_triangles: usize,
+    /// The weights of the embedding: `"cotangent"` (the harmonic map), or
+    /// `"mean-value"` when the harmonic map flipped triangles (mean-value
+    /// weights are positive, so that embedding is bijective).
+    pub weights: &'static str,
+    /// Whether the disk was mirrored to put the anterior landmark on +y.
+    pub mirrored: bool,
+}
+
+/// Triangles of `uv` whose signed area has the other sign than the
+/// majority's, or is zero.
+pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
+    let areas: Vec<f64> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| uv[v as usize]);
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        })
+        .collect();
+    let positive = areas.iter().filter(|&&x| x > 0.0).count();
+    let sign = if 2 * positive >= areas.len() {
+        1.0
+    } else {
+        -1.0
+    };
+    // NaN areas count as flipped too.
+    areas
+        .iter()
+        .filter(|&&x| x * sign <= 0.0 || x.is_nan())
+        .count()
+}
+
+/// The LV disk map (ALGORITHMS 3.2):
+///
+/// 1. the harmonic (cotangent) map of S with the rim on the unit circle by
+///    cumulative edge length (mean-value weights instead when the harmonic
+///    map flips a triangle);
+/// 2. mirrored if needed so that the anterior landmark follows the inferior
+///    one counter-clockwise along their shorter arc, then rotated so that
+///    the bisector of that arc points along +x (the septum; the anterior
+///    landmark on the +y side);
+/// 3. warped by the thin-plate spline that keeps every rim vertex and
+///    moves the apex to `(0, 0)`.
+///
+/// The result's flips are counted ([`DiskMap::flipped_triangles`]).
+///
+/// # Errors
+/// `Param` / `Mesh` when S cannot be embedded (not a disk, degenerate);
+/// `Input` when the spline cannot be fitted.
+pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+    let rim = &landmarks.rim;
+    let boundary = circle_boundary(&surface.positions, rim)?;
+    let embed = |weights| {
+        TutteDisk {
+            weights,
+            boundary: DiskBoundary::Given(boundary.clone()),
+        }
+        .layout(surface)
+    };
+    let (mut uv, weights) = {
+        let harmonic = embed(TutteWeights::Cotangent)?;
+        if flipped_triangles(surface, &harmonic) == 0 {
+            (harmonic, "cotangent")
+        } else {
+            (embed(TutteWeights::MeanValue)?, "mean-value")
+        }
+    };
+    let angle = |q: [f64; 2]| q[1].atan2(q[0]);
+    let wrap = |a: f64| {
+        let t = a.rem_euclid(std::f64::consts::TAU);
+        if t > std::f64::consts::PI {
+            t - std::f64::consts::TAU
+        } else {
+            t
+        }
+    };
+    let (ta, ti) = (
+        angle(uv[rim[landmarks.anterior] as usize]),
+        angle(uv[rim[landmarks.inferior] as usize]),
+    );
+    let mirrored = wrap(ta - ti) < 0.0;
+    if mirrored {
+        for q in &mut uv {
+            q[1] = -q[1];
+        }
+    }
+    let (ta, ti) = if mirrored { (-ta, -ti) } else { (ta, ti) };
+    let bisector = ti + 0.5 * wrap(ta - ti);
+    let (c, s) = (bisector.cos(), bisector.sin());
+    for q in &mut uv {
+        *q = [c * q[0] + s * q[1], -s * q[0] + c * q[1]];
+    }
+    // The apex warp: rim fixed, apex to the centre.
+    let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
+    let mut targets = centres.clone();
+    centres.push(uv[landmarks.apex as usize]);
+    targets.push([0.0, 0.0]);
+    let tps = ThinPlateSpline::fit(&centres, &targets)?;
+    let mut on_rim = vec![false; uv.len()];
+    for &v in rim {
+        on_rim[v as usize] = true;
+    }
+    for (v, q) in uv.iter_mut().enumerate() {
+        if !on_rim[v] {
+            *q = tps.eval(*q);
+        }
+    }
+    uv[landmarks.apex as usize] = [0.0, 0.0];
+    Ok(DiskMap {
+        flipped_triangles: flipped_triangles(surface, &uv),
+        uv,
+        weights,
+        mirrored,
+    })
+}
+
+/// The display warp `r' = r^n` (angle kept) of disk positions, `n` finite
+/// and `> 0` (ALGORITHMS 3.2: `n = 1/3` spreads the apical region).
+///
+/// # Errors
+/// `Config` for a bad exponent.
+pub fn display_warp(uv: &[[f64; 2]], exponent: f64) -> Result<Vec<[f64; 2]>, OrganError> {
+    OrganError::check_positive(&[("display exponent", exponent)])?;
+    Ok(uv
+        .iter()
+        .map(|q| {
+            let r = q[0].hypot(q[1]);
+            if r > 0.0 {
+                let k = r.powf(exponent) / r;
+                [k * q[0], k * q[1]]
+            } else {
+                [0.0, 0.0]
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ventricle::landmarks::DEFAULT_SNAP_MM;
+    use proptest::prelude::*;
+    use unfold_mesh::shapes::{Pose, VentricleParams, ventricle_cup};
+
+    proptest! {
+        /// The spline interpolates its centres and reproduces affine maps.
+        #[test]
+        fn tps_interpolates_and_reproduces_affine_maps(
+            pts in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 4..30),
+            m in prop::array::uniform4(-2.0..2.0f64),
+            t in prop::array::uniform2(-1.0..1.0f64),
+            q in prop::array::uniform2(-1.5..1.5f64),
+            targets in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 30),
+        ) {
+            let centres: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
+            // Skip nearly repeated centres (a singular system).
+            let min_gap = centres.iter().enumerate().flat_map(|(i, a)| {
+                centres[..i].iter().map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+            }).fold(f64::INFINITY, f64::min);
+            prop_assume!(min_gap > 1e-3);
+            let tg: Vec<[f64; 2]> = targets[..centres.len()].iter().map(|&(x, y)| [x, y]).collect();
+            let f = ThinPlateSpline::fit(&centres, &tg).unwrap();
+            for (c, t) in centres.iter().zip(&tg) {
+                let y = f.eval(*c);
+                prop_assert!((y[0] - t[0]).abs() < 1e-7 && (y[1] - t[1]).abs() < 1e-7);
+            }
+            let affine = |p: [f64; 2]| [m[0] * p[0] + m[1] * p[1] + t[0], m[2] * p[0] + m[3] * p[1] + t[1]];
+            let tg: Vec<[f64; 2]> = centres.iter().map(|&c| affine(c)).collect();
+            let g = ThinPlateSpline::fit(&centres, &tg).unwrap();
+            let (y, e) = (g.eval(q), affine(q));
+            prop_assert!((y[0] - e[0]).abs() < 1e-7 && (y[1] - e[1]).abs() < 1e-7);
+        }
+    }
+
+    #[test]
+    fn tps_refuses_bad_input() {
+        let c = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        assert!(ThinPlateSpline::fit(&c[..2], &c[..2]).is_err());
+        assert!(ThinPlateSpline::fit(&c, &c[..2]).is_err());
+        let collinear = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+        let e = ThinPlateSpline::fit(&collinear, &collinear).unwrap_err();
+        assert!(e.to_string().contains("singular"), "{e}");
+        let nan = [[0.0, 0.0], [1.0, 0.0], [f64::NAN, 1.0]];
+        assert!(ThinPlateSpline::fit(&nan, &c).is_err());
+    }
+
+    fn disk_of(p: &VentricleParams) -> (unfold_mesh::shapes::VentricleShape, Landmarks, DiskMap) {
+        let cup = ventricle_cup(p).unwrap();
+        let l = Landmarks::resolve(
+            &cup.surface,
+            &cup.anterior,
+            &cup.inferior,
+            None,
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        let d = lv_disk(&cup.surface, &l).unwrap();
+        (cup, l, d)
+    }
+
+    #[test]
+    fn the_cup_flattens_with_rings_on_circles_and_the_landmarks_in_place() {
+        let (cup, l, d) = disk_of(&VentricleParams::default());
+        assert_eq!(d.flipped_triangles, 0);
+        assert_eq!(d.weights, "cotangent");
+        assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
+        for &v in &l.rim {
+            let q = d.uv[v as usize];
+            assert!((q[0].hypot(q[1]) - 1.0).abs() < 1e-12);
+        }
+        // Landmarks symmetric about +x, anterior on +y (the cup puts them at
+        // +-55 degrees about its septal +x direction).
+        let (qa, qi) = (
+            d.uv[l.rim[l.anterior] as usize],
+            d.uv[l.rim[l.inferior] as usize],
+        );
+        assert!(qa[1] > 0.0 && qi[1] < 0.0);
+        let (ta, ti) = (qa[1].atan2(qa[0]), qi[1].atan2(qi[0]));
+        assert!((ta + ti).abs() < 1e-9, "{ta} {ti}");
+        assert!((ta.to_degrees() - 55.0).abs() < 2.0, "{}", ta.to_degrees());
+        // S's vertex rings (constant height) map to circles.
+        let mut rings: Vec<(f64, Vec<usize>)> = Vec::new();
+        for (v, p) in cup.surface.positions.iter().enumerate() {
+            match rings.iter_mut().find(|(z, _)| (z - p.z).abs() < 1e-9) {
+                Some((_, r)) => r.push(v),
+                None => rings.push((p.z, vec![v])),
+            }
+        }
+        let mut checked = 0;
+        for (_, ring) in rings.iter().filter(|(_, r)| r.len() >= 6) {
+            let radii: Vec<f64> = ring.iter().map(|&v| d.uv[v][0].hypot(d.uv[v][1])).collect();
+            let mean = radii.iter().sum::<f64>() / radii.len() as f64;
+            let spread = radii.iter().fold(0.0f64, |s, r| s.max((r - mean).abs()));
+            assert!(spread < 0.02 * mean, "ring at r = {mean}: spread {spread}");
+            checked += 1;
+        }
+        assert!(checked >= 20, "{checked} rings");
+    }
+
+    #[test]
+    fn the_disk_does_not_depend_on_the_pose() {
+        let (_, _, d0) = disk_of(&VentricleParams::default());
+        let posed = VentricleParams {
+            pose: Pose {
+                rotation_deg: [20.0, -35.0, 110.0],
+                translation: [12.0, -4.0, 30.0],
+            },
+            ..VentricleParams::default()
+        };
+        let (_, _, d1) = disk_of(&posed);
+        for (a, b) in d0.uv.iter().zip(&d1.uv) {
+            assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_mirrored_surface_gives_a_mirror_free_disk() {
+        // Reversing every triangle reverses the rim's direction: the disk
+        // is mirrored back so that the anterior landmark stays on +y.
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let mut s = cup.surface.clone();
+        for t in &mut s.triangles {
+            t.swap(1, 2);
+        }
+        let l =
+            Landmarks::resolve(&s, &cup.anterior, &cup.inferior, None, DEFAULT_SNAP_MM).unwrap();
+        let d = lv_disk(&s, &l).unwrap();
+        let (_, _, d0) = disk_of(&VentricleParams::default());
+        assert_ne!(d.mirrored, d0.mirrored);
+        for (a, b) in d.uv.iter().zip(&d0.uv) {
+            assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn the_display_warp_keeps_angles_and_the_unit_circle() {
+        let uv = [[0.5, 0.0], [0.0, -0.125], [0.6, 0.8], [0.0, 0.0]];
+        let w = display_warp(&uv, 1.0 / 3.0).unwrap();
+        assert!((w[0][0] - 0.5f64.powf(1.0 / 3.0)).abs() < 1e-15 && w[0][1] == 0.0);
+        assert!((w[1][1] + 0.5).abs() < 1e-15);
+        assert!((w[2][0] - 0.6).abs() < 1e-15 && (w[2][1] - 0.8).abs() < 1e-15);
+        assert_eq!(w[3], [0.0, 0.0]);
+        for bad in [0.0, -1.0, f64::NAN] {
+            assert!(matches!(display_warp(&uv, bad), Err(OrganError::Config(_))));
+        }
+    }
+}
