@@ -135,6 +135,9 @@ pub struct DiskMap {
     pub weights: &'static str,
     /// Whether the disk was mirrored to put the anterior landmark on +y.
     pub mirrored: bool,
+    /// The apex warp used: `"thin-plate spline"` (the rim kept in place), or
+    /// `"mobius"` when the spline folded triangles (see [`lv_disk`]).
+    pub apex_warp: &'static str,
 }
 
 /// Triangles of `uv` whose signed area has the other sign than the
@@ -173,7 +176,12 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
 /// 3. warped by the thin-plate spline that keeps every rim vertex and
 ///    moves the apex to `(0, 0)`.
 ///
-/// The result's flips are counted ([`DiskMap::flipped_triangles`]).
+/// When the spline folds triangles (an apex far from the centre, near the
+/// rim), the apex is moved instead by the Mobius transformation of the
+/// disk `z -> (z - a) / (1 - conj(a) z)`, a conformal bijection of the disk
+/// onto itself: nothing folds, but the rim slides along the circle (it is
+/// no longer at arc length), and the bisector is put back on +x after. The
+/// result's flips are counted ([`DiskMap::flipped_triangles`]).
 ///
 /// # Errors
 /// `Param` / `Mesh` when S cannot be embedded (not a disk, degenerate);
@@ -217,32 +225,71 @@ pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, Orga
     }
     let (ta, ti) = if mirrored { (-ta, -ti) } else { (ta, ti) };
     let bisector = ti + 0.5 * wrap(ta - ti);
-    let (c, s) = (bisector.cos(), bisector.sin());
-    for q in &mut uv {
-        *q = [c * q[0] + s * q[1], -s * q[0] + c * q[1]];
-    }
+    rotate(&mut uv, -bisector);
     // The apex warp: rim fixed, apex to the centre.
     let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
     let mut targets = centres.clone();
-    centres.push(uv[landmarks.apex as usize]);
+    let a = uv[landmarks.apex as usize];
+    centres.push(a);
     targets.push([0.0, 0.0]);
     let tps = ThinPlateSpline::fit(&centres, &targets)?;
     let mut on_rim = vec![false; uv.len()];
     for &v in rim {
         on_rim[v as usize] = true;
     }
-    for (v, q) in uv.iter_mut().enumerate() {
-        if !on_rim[v] {
-            *q = tps.eval(*q);
+    let mut warped: Vec<[f64; 2]> = uv
+        .iter()
+        .enumerate()
+        .map(|(v, &q)| if on_rim[v] { q } else { tps.eval(q) })
+        .collect();
+    warped[landmarks.apex as usize] = [0.0, 0.0];
+    let mut flipped = flipped_triangles(surface, &warped);
+    let mut apex_warp = "thin-plate spline";
+    if flipped > 0 {
+        let mut m: Vec<[f64; 2]> = uv.iter().map(|&q| mobius(q, a)).collect();
+        m[landmarks.apex as usize] = [0.0, 0.0];
+        let (qa, qi) = (
+            m[rim[landmarks.anterior] as usize],
+            m[rim[landmarks.inferior] as usize],
+        );
+        let (ta, ti) = (angle(qa), angle(qi));
+        rotate(&mut m, -(ti + 0.5 * wrap(ta - ti)));
+        let f = flipped_triangles(surface, &m);
+        if f < flipped {
+            (warped, flipped, apex_warp) = (m, f, "mobius");
         }
     }
-    uv[landmarks.apex as usize] = [0.0, 0.0];
     Ok(DiskMap {
-        flipped_triangles: flipped_triangles(surface, &uv),
-        uv,
+        flipped_triangles: flipped,
+        uv: warped,
         weights,
         mirrored,
+        apex_warp,
     })
+}
+
+/// Rotates every point by `angle` (radians, counter-clockwise).
+fn rotate(uv: &mut [[f64; 2]], angle: f64) {
+    let (c, s) = (angle.cos(), angle.sin());
+    for q in uv {
+        *q = [c * q[0] - s * q[1], s * q[0] + c * q[1]];
+    }
+}
+
+/// The Mobius automorphism of the unit disk taking `a` to 0:
+/// `(z - a) / (1 - conj(a) z)` in complex numbers.
+fn mobius(z: [f64; 2], a: [f64; 2]) -> [f64; 2] {
+    let num = [z[0] - a[0], z[1] - a[1]];
+    // 1 - conj(a) z = 1 - (a0 - i a1)(z0 + i z1)
+    let den = [
+        1.0 - (a[0] * z[0] + a[1] * z[1]),
+        -(a[0] * z[1] - a[1] * z[0]),
+    ];
+    let d2 = den[0] * den[0] + den[1] * den[1];
+    [
+        (num[0] * den[0] + num[1] * den[1]) / d2,
+        (num[1] * den[0] - num[0] * den[1]) / d2,
+    ]
 }
 
 /// The display warp `r' = r^n` (angle kept) of disk positions, `n` finite
@@ -401,6 +448,61 @@ mod tests {
         for (a, b) in d.uv.iter().zip(&d0.uv) {
             assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn an_apex_near_the_rim_falls_back_to_the_mobius_warp() {
+        // A given apex a few rings below the rim: the spline that keeps the
+        // rim and pulls it to the centre folds; the Mobius warp does not.
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let s = &cup.surface;
+        let mut by_height: Vec<(f64, usize)> = s
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(v, p)| (p.z, v))
+            .collect();
+        by_height.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let apex = s.positions[by_height[by_height.len() / 20].1];
+        let l = Landmarks::resolve(
+            s,
+            &cup.anterior,
+            &cup.inferior,
+            Some(&apex),
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        let d = lv_disk(s, &l).unwrap();
+        assert_eq!(d.apex_warp, "mobius");
+        assert_eq!(d.flipped_triangles, 0);
+        assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
+        for &v in &l.rim {
+            let q = d.uv[v as usize];
+            assert!((q[0].hypot(q[1]) - 1.0).abs() < 1e-9);
+        }
+        let (qa, qi) = (
+            d.uv[l.rim[l.anterior] as usize],
+            d.uv[l.rim[l.inferior] as usize],
+        );
+        let (ta, ti) = (qa[1].atan2(qa[0]), qi[1].atan2(qi[0]));
+        assert!(ta > 0.0 && ti < 0.0 && (ta + ti).abs() < 1e-9, "{ta} {ti}");
+        // The default apex keeps the spline.
+        let (_, _, d0) = disk_of(&VentricleParams::default());
+        assert_eq!(d0.apex_warp, "thin-plate spline");
+    }
+
+    #[test]
+    fn mobius_maps_the_disk_onto_itself_and_a_to_the_centre() {
+        let a = [0.3, -0.5];
+        let m = mobius(a, a);
+        assert!(m[0].abs() < 1e-15 && m[1].abs() < 1e-15);
+        for k in 0..12 {
+            let t = k as f64 * 0.5;
+            let q = mobius([t.cos(), t.sin()], a);
+            assert!((q[0].hypot(q[1]) - 1.0).abs() < 1e-12);
+        }
+        let q = mobius([0.1, 0.2], a);
+        assert!(q[0].hypot(q[1]) < 1.0);
     }
 
     #[test]
