@@ -268,6 +268,106 @@ pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, Orga
     })
 }
 
+/// Centre of the RV half disk's circle (ALGORITHMS 3.2).
+pub const RV_CENTRE: [f64; 2] = [1.25, 0.0];
+
+/// The RV half disk (ALGORITHMS 3.2): the unit circle centred at
+/// [`RV_CENTRE`], the part with `x >= 1.25`. The septal arc of the rim (the
+/// shorter of its two arcs between the two septal corners) goes to the
+/// straight edge, the first corner (`landmarks.anterior`) at `(1.25, 1)`,
+/// the second (`landmarks.inferior`) at `(1.25, -1)`, by cumulative edge
+/// length; the rest of the rim to the half circle through `(2.25, 0)`, by
+/// cumulative edge length. The embedding is the harmonic map (mean-value
+/// weights when it flips a triangle; the half disk is convex, so that one is
+/// bijective), then the thin-plate spline that keeps the rim and moves the
+/// apex to `(1.75, 0)`. Flips are counted, not repaired.
+///
+/// # Errors
+/// As [`lv_disk`].
+pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+    let rim = &landmarks.rim;
+    let m = rim.len();
+    let pos = &surface.positions;
+    let edge = |k: usize| (pos[rim[(k + 1) % m] as usize] - pos[rim[k] as usize]).norm();
+    // The two arcs from the first corner to the second: forward along the
+    // loop, or backward. The shorter is septal.
+    let (a, b) = (landmarks.anterior, landmarks.inferior);
+    let walk = |from: usize, to: usize, step: isize| -> (Vec<usize>, Vec<f64>) {
+        let mut ks = vec![from];
+        let mut s = vec![0.0];
+        let mut k = from;
+        while k != to {
+            let next = (k as isize + step).rem_euclid(m as isize) as usize;
+            let e = if step > 0 { edge(k) } else { edge(next) };
+            s.push(s[s.len() - 1] + e);
+            ks.push(next);
+            k = next;
+        }
+        (ks, s)
+    };
+    let (fwd, sf) = walk(a, b, 1);
+    let (bwd, sb) = walk(a, b, -1);
+    let (septal, ss, free, sfree) = if sf[sf.len() - 1] <= sb[sb.len() - 1] {
+        (fwd, sf, bwd, sb)
+    } else {
+        (bwd, sb, fwd, sf)
+    };
+    let (ls, lf) = (ss[ss.len() - 1], sfree[sfree.len() - 1]);
+    if !(ls > 0.0 && lf > 0.0 && ls.is_finite() && lf.is_finite()) {
+        return Err(OrganError::Input(
+            "the RV rim has an arc of zero length between its two corners".into(),
+        ));
+    }
+    let mut given: Vec<(u32, [f64; 2])> = Vec::with_capacity(m);
+    for (k, s) in septal.iter().zip(&ss) {
+        given.push((rim[*k], [RV_CENTRE[0], 1.0 - 2.0 * s / ls]));
+    }
+    // The free arc from the first corner (angle pi/2) to the second (-pi/2)
+    // through angle 0, corners excluded (already placed).
+    for (k, s) in free.iter().zip(&sfree).skip(1).take(free.len() - 2) {
+        let t = std::f64::consts::FRAC_PI_2 - std::f64::consts::PI * s / lf;
+        given.push((rim[*k], [RV_CENTRE[0] + t.cos(), RV_CENTRE[1] + t.sin()]));
+    }
+    let embed = |weights| {
+        TutteDisk {
+            weights,
+            boundary: DiskBoundary::Given(given.clone()),
+        }
+        .layout(surface)
+    };
+    let (uv, weights) = {
+        let harmonic = embed(TutteWeights::Cotangent)?;
+        if flipped_triangles(surface, &harmonic) == 0 {
+            (harmonic, "cotangent")
+        } else {
+            (embed(TutteWeights::MeanValue)?, "mean-value")
+        }
+    };
+    let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
+    let mut targets = centres.clone();
+    let apex_target = [RV_CENTRE[0] + 0.5, RV_CENTRE[1]];
+    centres.push(uv[landmarks.apex as usize]);
+    targets.push(apex_target);
+    let tps = ThinPlateSpline::fit(&centres, &targets)?;
+    let mut on_rim = vec![false; uv.len()];
+    for &v in rim {
+        on_rim[v as usize] = true;
+    }
+    let mut warped: Vec<[f64; 2]> = uv
+        .iter()
+        .enumerate()
+        .map(|(v, &q)| if on_rim[v] { q } else { tps.eval(q) })
+        .collect();
+    warped[landmarks.apex as usize] = apex_target;
+    Ok(DiskMap {
+        flipped_triangles: flipped_triangles(surface, &warped),
+        uv: warped,
+        weights,
+        mirrored: false,
+        apex_warp: "thin-plate spline",
+    })
+}
+
 /// Rotates every point by `angle` (radians, counter-clockwise).
 fn rotate(uv: &mut [[f64; 2]], angle: f64) {
     let (c, s) = (angle.cos(), angle.sin());
@@ -489,6 +589,42 @@ mod tests {
         // The default apex keeps the spline.
         let (_, _, d0) = disk_of(&VentricleParams::default());
         assert_eq!(d0.apex_warp, "thin-plate spline");
+    }
+
+    #[test]
+    fn the_rv_half_disk_puts_the_septal_arc_on_the_straight_edge() {
+        // The cup as an RV: its landmarks (110 degrees apart) bound the
+        // shorter, septal arc.
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let s = &cup.surface;
+        let l = Landmarks::resolve(s, &cup.anterior, &cup.inferior, None, DEFAULT_SNAP_MM).unwrap();
+        let d = rv_half_disk(s, &l).unwrap();
+        assert_eq!(d.flipped_triangles, 0);
+        let at = |v: u32| d.uv[v as usize];
+        assert_eq!(at(l.rim[l.anterior]), [1.25, 1.0]);
+        assert!((at(l.rim[l.inferior])[1] + 1.0).abs() < 1e-12);
+        assert_eq!(at(l.apex), [1.75, 0.0]);
+        let mut straight = 0;
+        for &v in &l.rim {
+            let q = at(v);
+            assert!(q[0] >= 1.25 - 1e-12);
+            let on_edge = (q[0] - 1.25).abs() < 1e-12 && q[1].abs() <= 1.0 + 1e-12;
+            let on_arc = ((q[0] - 1.25).hypot(q[1]) - 1.0).abs() < 1e-12;
+            assert!(on_edge || on_arc, "{q:?}");
+            if on_edge {
+                straight += 1;
+            }
+        }
+        // 110 of 360 degrees of the rim on the straight edge.
+        let frac = straight as f64 / l.rim.len() as f64;
+        assert!((frac - 110.0 / 360.0).abs() < 0.03, "{frac}");
+        // Every vertex inside the half disk.
+        for q in &d.uv {
+            assert!(
+                q[0] >= 1.25 - 1e-9 && (q[0] - 1.25).hypot(q[1]) <= 1.0 + 1e-9,
+                "{q:?}"
+            );
+        }
     }
 
     #[test]

@@ -17,9 +17,11 @@ pub struct Landmarks {
     /// The boundary loop of S (the basal rim), in the direction of its
     /// boundary half-edges.
     pub rim: Vec<u32>,
-    /// Position in `rim` of the anterior (first) rim landmark.
+    /// Position in `rim` of the first rim landmark: the anterior RV
+    /// insertion point (LV), or the first septal corner (RV).
     pub anterior: usize,
-    /// Position in `rim` of the inferior (second) rim landmark.
+    /// Position in `rim` of the second rim landmark: the inferior RV
+    /// insertion point (LV), or the second septal corner (RV).
     pub inferior: usize,
     /// The apex vertex of S.
     pub apex: u32,

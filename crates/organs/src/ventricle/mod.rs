@@ -8,7 +8,8 @@
 //!   apex (given and snapped, or the vertex farthest from the rim centroid).
 //! - [`disk`]: the LV disk map `phi: S -> D` (harmonic map with arc-length
 //!   boundary, the landmarks' bisector along +x, a thin-plate-spline warp
-//!   taking the apex to the centre, the optional display exponent).
+//!   taking the apex to the centre, a Mobius warp where that folds, the
+//!   optional display exponent) and the RV half disk.
 
 pub mod disk;
 pub mod landmarks;
