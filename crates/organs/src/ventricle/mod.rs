@@ -10,6 +10,8 @@
 //!   boundary, the landmarks' bisector along +x, a thin-plate-spline warp
 //!   taking the apex to the centre, a Mobius warp where that folds, the
 //!   optional display exponent) and the RV half disk.
+//! - [`aha`]: the AHA 17-segment label of an LV disk position.
 
+pub mod aha;
 pub mod disk;
 pub mod landmarks;
