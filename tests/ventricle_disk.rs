@@ -1,7 +1,7 @@
-//! The LV disk map on a real enclosing surface (issue 6, in progress):
-//! Cobiveco geo2's epicardium (`../shared/data/cobiveco-geo2`, see its
-//! licence in `../shared/data/README.md`) flattens without a flipped
-//! triangle, its rim on the unit circle and its apex at the centre.
+//! The LV disk map on the real enclosing surfaces (issue 6, in progress):
+//! Cobiveco geo2's and the LDRB ellipsoid's epicardia (`../shared/data/`,
+//! licences in its README) flatten without a flipped triangle, the rim on
+//! the unit circle and the apex at the centre.
 
 use unfold::io::read_tri_mesh;
 use unfold::organs::ventricle::disk::lv_disk;
@@ -36,4 +36,33 @@ fn cobiveco_epicardium_flattens_flip_free() {
     }
     let qa = d.uv[l.rim[l.anterior] as usize];
     assert!(qa[1] > 0.0, "anterior on +y: {qa:?}");
+}
+
+/// The LDRB ellipsoid's epicardium (`../shared/data/ldrb-ellipsoid`) comes
+/// with half its triangles the other way round: after the mesh repair it is
+/// a disk, and it flattens without a flipped triangle.
+#[test]
+fn ldrb_epicardium_flattens_flip_free_after_repair() {
+    let raw = read_tri_mesh("../shared/data/ldrb-ellipsoid/epi.obj").unwrap();
+    assert!(disk_boundary_loop(&raw).is_err(), "inconsistent as read");
+    let (s, report) = unfold::mesh::repair::repair_tri_mesh(&raw).unwrap();
+    assert!(report.flipped > 0 && report.non_orientable_components == 0);
+    let rim = disk_boundary_loop(&s).unwrap();
+    let (a, i) = (
+        s.positions[rim[0] as usize],
+        s.positions[rim[rim.len() / 3] as usize],
+    );
+    let l = Landmarks::resolve(&s, &a, &i, None, DEFAULT_SNAP_MM).unwrap();
+    let d = lv_disk(&s, &l).unwrap();
+    println!(
+        "{} triangles ({} reoriented), rim {}: flipped {}, weights {}, apex warp {}",
+        s.triangles.len(),
+        report.flipped,
+        rim.len(),
+        d.flipped_triangles,
+        d.weights,
+        d.apex_warp
+    );
+    assert_eq!(d.flipped_triangles, 0);
+    assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
 }
