@@ -184,9 +184,11 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
 /// result's flips are counted ([`DiskMap::flipped_triangles`]).
 ///
 /// # Errors
-/// `Param` / `Mesh` when S cannot be embedded (not a disk, degenerate);
-/// `Input` when the spline cannot be fitted.
+/// `Input` for landmarks that do not fit S ([`Landmarks::check`]) or a
+/// spline that cannot be fitted; `Param` / `Mesh` when S cannot be embedded
+/// (not a disk, degenerate).
 pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+    landmarks.check(surface)?;
     let rim = &landmarks.rim;
     let boundary = circle_boundary(&surface.positions, rim)?;
     let embed = |weights| {
@@ -285,6 +287,7 @@ pub const RV_CENTRE: [f64; 2] = [1.25, 0.0];
 /// # Errors
 /// As [`lv_disk`].
 pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+    landmarks.check(surface)?;
     let rim = &landmarks.rim;
     let m = rim.len();
     let pos = &surface.positions;

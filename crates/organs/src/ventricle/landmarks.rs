@@ -133,6 +133,37 @@ impl Landmarks {
     }
 }
 
+impl Landmarks {
+    /// Checks that these landmarks fit `surface` (for landmarks built by
+    /// hand rather than by [`Landmarks::resolve`]): rim vertices and apex in
+    /// range, at least 3 rim vertices, the two rim positions in range and
+    /// distinct, the apex not on the rim.
+    ///
+    /// # Errors
+    /// `Input` naming the first problem.
+    pub fn check(&self, surface: &TriMesh) -> Result<(), OrganError> {
+        let n = surface.positions.len();
+        let bad = |m: String| Err(OrganError::Input(format!("landmarks: {m}")));
+        if self.rim.len() < 3 {
+            return bad(format!("a rim of {} vertices", self.rim.len()));
+        }
+        if let Some(v) = self.rim.iter().find(|&&v| v as usize >= n) {
+            return bad(format!("rim vertex {v} out of range ({n} vertices)"));
+        }
+        let m = self.rim.len();
+        if self.anterior >= m || self.inferior >= m || self.anterior == self.inferior {
+            return bad(format!(
+                "rim positions {} and {} for a rim of {m} vertices (two distinct ones needed)",
+                self.anterior, self.inferior
+            ));
+        }
+        if self.apex as usize >= n || self.rim.contains(&self.apex) {
+            return bad(format!("apex {} out of range or on the rim", self.apex));
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,5 +256,40 @@ mod tests {
             5.0,
         ));
         assert!(m.contains("not a disk"), "{m}");
+    }
+
+    #[test]
+    fn hand_made_landmarks_are_checked() {
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let s = &cup.surface;
+        let good = Landmarks::resolve(s, &cup.anterior, &cup.inferior, None, 5.0).unwrap();
+        assert!(good.check(s).is_ok());
+        let n = good.rim.len();
+        for l in [
+            Landmarks {
+                anterior: n,
+                ..good.clone()
+            },
+            Landmarks {
+                inferior: good.anterior,
+                ..good.clone()
+            },
+            Landmarks {
+                apex: good.rim[0],
+                ..good.clone()
+            },
+            Landmarks {
+                apex: u32::MAX,
+                ..good.clone()
+            },
+            Landmarks {
+                rim: vec![0, 1],
+                ..good.clone()
+            },
+        ] {
+            assert!(matches!(l.check(s), Err(OrganError::Input(_))), "{l:?}");
+            assert!(crate::ventricle::disk::lv_disk(s, &l).is_err());
+            assert!(crate::ventricle::disk::rv_half_disk(s, &l).is_err());
+        }
     }
 }
