@@ -190,22 +190,7 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
 pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
     landmarks.check(surface)?;
     let rim = &landmarks.rim;
-    let boundary = circle_boundary(&surface.positions, rim)?;
-    let embed = |weights| {
-        TutteDisk {
-            weights,
-            boundary: DiskBoundary::Given(boundary.clone()),
-        }
-        .layout(surface)
-    };
-    let (mut uv, weights) = {
-        let harmonic = embed(TutteWeights::Cotangent)?;
-        if flipped_triangles(surface, &harmonic) == 0 {
-            (harmonic, "cotangent")
-        } else {
-            (embed(TutteWeights::MeanValue)?, "mean-value")
-        }
-    };
+    let (mut uv, weights) = embed(surface, circle_boundary(&surface.positions, rim)?)?;
     let angle = |q: [f64; 2]| q[1].atan2(q[0]);
     let wrap = |a: f64| {
         let t = a.rem_euclid(std::f64::consts::TAU);
@@ -228,23 +213,8 @@ pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, Orga
     let (ta, ti) = if mirrored { (-ta, -ti) } else { (ta, ti) };
     let bisector = ti + 0.5 * wrap(ta - ti);
     rotate(&mut uv, -bisector);
-    // The apex warp: rim fixed, apex to the centre.
-    let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
-    let mut targets = centres.clone();
     let a = uv[landmarks.apex as usize];
-    centres.push(a);
-    targets.push([0.0, 0.0]);
-    let tps = ThinPlateSpline::fit(&centres, &targets)?;
-    let mut on_rim = vec![false; uv.len()];
-    for &v in rim {
-        on_rim[v as usize] = true;
-    }
-    let mut warped: Vec<[f64; 2]> = uv
-        .iter()
-        .enumerate()
-        .map(|(v, &q)| if on_rim[v] { q } else { tps.eval(q) })
-        .collect();
-    warped[landmarks.apex as usize] = [0.0, 0.0];
+    let mut warped = spline_apex(&uv, landmarks, [0.0, 0.0])?;
     let mut flipped = flipped_triangles(surface, &warped);
     let mut apex_warp = "thin-plate spline";
     if flipped > 0 {
@@ -331,26 +301,51 @@ pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap,
         let t = std::f64::consts::FRAC_PI_2 - std::f64::consts::PI * s / lf;
         given.push((rim[*k], [RV_CENTRE[0] + t.cos(), RV_CENTRE[1] + t.sin()]));
     }
-    let embed = |weights| {
+    let (uv, weights) = embed(surface, given)?;
+    let warped = spline_apex(&uv, landmarks, [RV_CENTRE[0] + 0.5, RV_CENTRE[1]])?;
+    Ok(DiskMap {
+        flipped_triangles: flipped_triangles(surface, &warped),
+        uv: warped,
+        weights,
+        mirrored: false,
+        apex_warp: "thin-plate spline",
+    })
+}
+
+/// The harmonic (cotangent) embedding of S with the rim at `given`, or the
+/// mean-value one when the harmonic map flips a triangle, with the name of
+/// the weights used.
+fn embed(
+    surface: &TriMesh,
+    given: Vec<(u32, [f64; 2])>,
+) -> Result<(Vec<[f64; 2]>, &'static str), OrganError> {
+    let layout = |weights| {
         TutteDisk {
             weights,
             boundary: DiskBoundary::Given(given.clone()),
         }
         .layout(surface)
     };
-    let (uv, weights) = {
-        let harmonic = embed(TutteWeights::Cotangent)?;
-        if flipped_triangles(surface, &harmonic) == 0 {
-            (harmonic, "cotangent")
-        } else {
-            (embed(TutteWeights::MeanValue)?, "mean-value")
-        }
-    };
+    let harmonic = layout(TutteWeights::Cotangent)?;
+    Ok(if flipped_triangles(surface, &harmonic) == 0 {
+        (harmonic, "cotangent")
+    } else {
+        (layout(TutteWeights::MeanValue)?, "mean-value")
+    })
+}
+
+/// `uv` warped by the thin-plate spline that keeps every rim vertex where
+/// it is and takes the apex to `target` (rim and apex set exactly).
+fn spline_apex(
+    uv: &[[f64; 2]],
+    landmarks: &Landmarks,
+    target: [f64; 2],
+) -> Result<Vec<[f64; 2]>, OrganError> {
+    let rim = &landmarks.rim;
     let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
     let mut targets = centres.clone();
-    let apex_target = [RV_CENTRE[0] + 0.5, RV_CENTRE[1]];
     centres.push(uv[landmarks.apex as usize]);
-    targets.push(apex_target);
+    targets.push(target);
     let tps = ThinPlateSpline::fit(&centres, &targets)?;
     let mut on_rim = vec![false; uv.len()];
     for &v in rim {
@@ -361,14 +356,8 @@ pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap,
         .enumerate()
         .map(|(v, &q)| if on_rim[v] { q } else { tps.eval(q) })
         .collect();
-    warped[landmarks.apex as usize] = apex_target;
-    Ok(DiskMap {
-        flipped_triangles: flipped_triangles(surface, &warped),
-        uv: warped,
-        weights,
-        mirrored: false,
-        apex_warp: "thin-plate spline",
-    })
+    warped[landmarks.apex as usize] = target;
+    Ok(warped)
 }
 
 /// Rotates every point by `angle` (radians, counter-clockwise).
