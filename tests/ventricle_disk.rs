@@ -4,38 +4,46 @@
 //! the unit circle and the apex at the centre.
 
 use unfold::io::read_tri_mesh;
+use unfold::mesh::TriMesh;
 use unfold::organs::ventricle::disk::lv_disk;
 use unfold::organs::ventricle::landmarks::{DEFAULT_SNAP_MM, Landmarks};
 use unfold::param::initializer::disk_boundary_loop;
 
-#[test]
-fn cobiveco_epicardium_flattens_flip_free() {
-    let s = read_tri_mesh("../shared/data/cobiveco-geo2/heart_epi.ply").unwrap();
-    let rim = disk_boundary_loop(&s).unwrap();
-    // Two rim points a third of the loop apart stand in for the RV
-    // insertion points (the data set does not mark them).
+/// Flattens `s` and checks the disk: no flip, rim on the unit circle, apex
+/// at the centre, the anterior landmark on +y. Two rim points a third of
+/// the loop apart stand in for the RV insertion points (the data sets do
+/// not mark them).
+fn flattens_flip_free(name: &str, s: &TriMesh) {
+    let rim = disk_boundary_loop(s).unwrap();
     let (a, i) = (
         s.positions[rim[0] as usize],
         s.positions[rim[rim.len() / 3] as usize],
     );
-    let l = Landmarks::resolve(&s, &a, &i, None, DEFAULT_SNAP_MM).unwrap();
-    let d = lv_disk(&s, &l).unwrap();
+    let l = Landmarks::resolve(s, &a, &i, None, DEFAULT_SNAP_MM).unwrap();
+    let d = lv_disk(s, &l).unwrap();
     println!(
-        "{} vertices, {} triangles, rim {}: flipped {}, weights {}",
+        "{name}: {} vertices, {} triangles, rim {}: flipped {}, weights {}, apex warp {}",
         s.positions.len(),
         s.triangles.len(),
         rim.len(),
         d.flipped_triangles,
-        d.weights
+        d.weights,
+        d.apex_warp
     );
-    assert_eq!(d.flipped_triangles, 0);
-    assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
+    assert_eq!(d.flipped_triangles, 0, "{name}");
+    assert_eq!(d.uv[l.apex as usize], [0.0, 0.0], "{name}");
     for &v in &l.rim {
         let q = d.uv[v as usize];
-        assert!((q[0].hypot(q[1]) - 1.0).abs() < 1e-12);
+        assert!((q[0].hypot(q[1]) - 1.0).abs() < 1e-12, "{name}");
     }
     let qa = d.uv[l.rim[l.anterior] as usize];
-    assert!(qa[1] > 0.0, "anterior on +y: {qa:?}");
+    assert!(qa[1] > 0.0, "{name}: anterior on +y: {qa:?}");
+}
+
+#[test]
+fn cobiveco_epicardium_flattens_flip_free() {
+    let s = read_tri_mesh("../shared/data/cobiveco-geo2/heart_epi.ply").unwrap();
+    flattens_flip_free("cobiveco geo2", &s);
 }
 
 /// The LDRB ellipsoid's epicardium (`../shared/data/ldrb-ellipsoid`) comes
@@ -47,22 +55,5 @@ fn ldrb_epicardium_flattens_flip_free_after_repair() {
     assert!(disk_boundary_loop(&raw).is_err(), "inconsistent as read");
     let (s, report) = unfold::mesh::repair::repair_tri_mesh(&raw).unwrap();
     assert!(report.flipped > 0 && report.non_orientable_components == 0);
-    let rim = disk_boundary_loop(&s).unwrap();
-    let (a, i) = (
-        s.positions[rim[0] as usize],
-        s.positions[rim[rim.len() / 3] as usize],
-    );
-    let l = Landmarks::resolve(&s, &a, &i, None, DEFAULT_SNAP_MM).unwrap();
-    let d = lv_disk(&s, &l).unwrap();
-    println!(
-        "{} triangles ({} reoriented), rim {}: flipped {}, weights {}, apex warp {}",
-        s.triangles.len(),
-        report.flipped,
-        rim.len(),
-        d.flipped_triangles,
-        d.weights,
-        d.apex_warp
-    );
-    assert_eq!(d.flipped_triangles, 0);
-    assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
+    flattens_flip_free("ldrb ellipsoid (repaired)", &s);
 }
