@@ -20,6 +20,7 @@ mod error;
 pub mod initializer;
 pub mod linesearch;
 pub mod metrics;
+pub mod multigrid;
 pub mod objective;
 pub mod operators;
 pub mod rest;
