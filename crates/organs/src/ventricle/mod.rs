@@ -13,5 +13,13 @@
 //! - [`aha`]: the AHA 17-segment label of an LV disk position.
 
 pub mod aha;
+pub mod base;
 pub mod disk;
+pub mod field;
 pub mod landmarks;
+pub mod map;
+pub mod pipeline;
+pub mod trace;
+
+pub use map::{Chamber, Chart, ChartConfig, CylinderPoint, ForwardPoint};
+pub use pipeline::{Config, LandmarkPoints, Outcome, Report, run};

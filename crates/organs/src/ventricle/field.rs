@@ -1,0 +1,876 @@
+//! The Laplace field `f` between S and the hemisphere H (ALGORITHMS 3.3), on
+//! a grid, and the one continuous interpolant of `grad f` the streamlines of
+//! both directions follow.
+//!
+//! **Frame.** The basal plane is fitted to the rim of S (least squares); its
+//! normal `e3` points to the apex. The plane is moved along `e3` to the most
+//! basal rim vertex, so all of S's rim lies on the apical side (`z >= 0`).
+//! S is closed by a vertical skirt from its rim down to that plane and by the
+//! plane itself (the basal cap); a planar rim has no skirt.
+//!
+//! **Domain.** `U` = inside the closed surface, `z >= 0`, outside the ball
+//! `|x - h0| < r_H` whose centre `h0` is the rim's centroid projected on the
+//! cap plane (so H is a hemisphere on the cap bulging into the chamber).
+//!
+//! **Discretization.** Grid nodes `(x0 + i h, y0 + j h, k h)` in the basal
+//! frame, the plane `k = 0` on the cap. Each unknown node has the 7-point
+//! finite-volume Laplacian (nodes on the cap have half a control volume; the
+//! zero-flux cap is exact, as the mirror image of the field). A link that
+//! leaves U through S or H at the fraction `theta` of its length couples to
+//! the boundary value there (Gibou et al. 2002, symmetric and second order):
+//! `(u_n - u_b) / theta` in place of `u_n - u_m`. A link that leaves through
+//! the skirt carries no flux. The system is solved by conjugate gradients
+//! with a multigrid preconditioner ([`unfold_param::multigrid`]).
+//!
+//! **Gradient.** At each unknown node, `df/dx_a` is the second-order
+//! three-point derivative on the two (possibly shortened) arms of axis `a`,
+//! `(a^2 u_+ - b^2 u_- + (b^2 - a^2) u_0) / (a b (a + b))` for arms `b` (+)
+//! and `a` (-), or one-sided with one arm; `df/dz = 0` on the cap. Nodes
+//! within [`EXTENSION_LAYERS`] of U (beyond S, inside H, beyond the skirt)
+//! get the mean gradient of their neighbours, layer by layer, so that the
+//! interpolant is defined where streamlines cross S and H. `grad f` at any
+//! point is the trilinear interpolation of the nodal gradients: one
+//! continuous field, mirrored across the cap (`g_z(x, y, -z) = -g_z(x, y, z)`).
+
+use super::landmarks::Landmarks;
+use crate::OrganError;
+use serde::{Deserialize, Serialize};
+use unfold_mesh::TriMesh;
+use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
+use unfold_param::multigrid::{Csr, Multigrid, pcg};
+
+/// Default grid spacing, mm (`--grid-mm`).
+pub const DEFAULT_GRID_MM: f64 = 0.5;
+/// Default radius of the hemisphere H, mm (ALGORITHMS 3.3).
+pub const DEFAULT_HEMISPHERE_MM: f64 = 5.0;
+/// Layers of nodes beyond U that get an extended gradient.
+pub const EXTENSION_LAYERS: usize = 3;
+/// Largest number of grid nodes (the bounding box of S), beyond which the
+/// grid is refused as too fine for memory.
+pub const MAX_GRID_NODES: usize = 250_000_000;
+
+/// Nodes of padding around S's bounding box.
+const PAD: usize = EXTENSION_LAYERS + 2;
+/// Boundary links shorter than this fraction of `h` are lengthened to it
+/// (moves the boundary by at most `THETA_MIN h`; keeps the system well
+/// conditioned).
+const THETA_MIN: f64 = 1e-2;
+/// Offsets of the ray-casting lines from the grid lines, in units of `h`
+/// (irrational-looking, so that no line passes through a vertex or an edge
+/// of S in practice).
+const JITTER: [f64; 3] = [3.1415926e-7, 2.7182818e-7, 1.4142135e-7];
+
+/// Settings of the Laplace field.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FieldConfig {
+    /// Grid spacing `h`, mm.
+    pub grid_mm: f64,
+    /// Radius of the hemisphere H, mm.
+    pub hemisphere_mm: f64,
+    /// Relative residual `|b - A f| / |b|` at which conjugate gradients stop.
+    pub tolerance: f64,
+}
+
+impl Default for FieldConfig {
+    fn default() -> Self {
+        FieldConfig {
+            grid_mm: DEFAULT_GRID_MM,
+            hemisphere_mm: DEFAULT_HEMISPHERE_MM,
+            tolerance: 1e-10,
+        }
+    }
+}
+
+/// The basal frame: `local(p) = R (p - origin)` with rows `e1, e2, e3` of `R`;
+/// `e3` is the basal plane's normal toward the apex and `origin` the rim's
+/// centroid projected on the cap plane (the most basal rim height).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BasalFrame {
+    /// The centre of H, on the cap plane.
+    pub origin: Point3<f64>,
+    /// Rows `e1, e2, e3`.
+    pub rotation: Matrix3<f64>,
+}
+
+impl BasalFrame {
+    /// The frame of S: least-squares plane of the rim (smallest eigenvector
+    /// of the rim's covariance), `e3` toward the apex, origin at the rim
+    /// centroid moved along `e3` to the smallest rim height.
+    ///
+    /// # Errors
+    /// `Input` when the rim is degenerate (collinear) or the apex lies in the
+    /// rim's plane.
+    pub fn new(surface: &TriMesh, landmarks: &Landmarks) -> Result<BasalFrame, OrganError> {
+        let pos = &surface.positions;
+        let rim: Vec<Point3<f64>> = landmarks.rim.iter().map(|&v| pos[v as usize]).collect();
+        let n = rim.len() as f64;
+        let c = rim.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+        let mut cov = Matrix3::zeros();
+        for p in &rim {
+            let d = p.coords - c;
+            cov += d * d.transpose();
+        }
+        let eig = cov.symmetric_eigen();
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+        let l2 = eig.eigenvalues[order[2]];
+        if l2.is_nan() || l2 <= 0.0 || eig.eigenvalues[order[1]] <= 1e-12 * l2 {
+            return Err(OrganError::Input(
+                "the rim of S is degenerate (its vertices are collinear)".into(),
+            ));
+        }
+        let mut e3: Vector3<f64> = eig.eigenvectors.column(order[0]).into();
+        let apex = pos[landmarks.apex as usize].coords - c;
+        let along = apex.dot(&e3);
+        if along.abs() <= 1e-9 * apex.norm().max(1e-300) {
+            return Err(OrganError::Input(
+                "the apex lies in the plane of the rim: S is not a cup".into(),
+            ));
+        }
+        if along < 0.0 {
+            e3 = -e3;
+        }
+        let mut e1: Vector3<f64> = eig.eigenvectors.column(order[2]).into();
+        e1 -= e3 * e1.dot(&e3);
+        e1.normalize_mut();
+        let e2 = e3.cross(&e1);
+        let rotation = Matrix3::from_rows(&[e1.transpose(), e2.transpose(), e3.transpose()]);
+        let zmin = rim
+            .iter()
+            .map(|p| (p.coords - c).dot(&e3))
+            .fold(f64::INFINITY, f64::min);
+        Ok(BasalFrame {
+            origin: Point3::from(c + e3 * zmin),
+            rotation,
+        })
+    }
+
+    /// Basal-frame coordinates of a world point.
+    #[inline]
+    pub fn local(&self, p: &Point3<f64>) -> [f64; 3] {
+        let q = self.rotation * (p - self.origin);
+        [q.x, q.y, q.z]
+    }
+
+    /// The world point of basal-frame coordinates.
+    #[inline]
+    pub fn world(&self, q: [f64; 3]) -> Point3<f64> {
+        self.origin + self.rotation.transpose() * Vector3::new(q[0], q[1], q[2])
+    }
+}
+
+/// Node states.
+const OUT: u8 = 0;
+const IN_H: u8 = 1;
+const UNKNOWN: u8 = 2;
+
+/// The crossings of S with the grid lines along one axis, per line, sorted.
+struct AxisCrossings {
+    /// Line index -> start in `coords`.
+    start: Vec<u32>,
+    coords: Vec<f64>,
+}
+
+impl AxisCrossings {
+    fn line(&self, l: usize) -> &[f64] {
+        &self.coords[self.start[l] as usize..self.start[l + 1] as usize]
+    }
+}
+
+/// The grid geometry.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    h: f64,
+    origin: [f64; 3],
+    dims: [usize; 3],
+}
+
+impl Grid {
+    #[inline]
+    fn id(&self, i: usize, j: usize, k: usize) -> usize {
+        i + self.dims[0] * (j + self.dims[1] * k)
+    }
+    #[inline]
+    fn ijk(&self, id: usize) -> [usize; 3] {
+        let i = id % self.dims[0];
+        let r = id / self.dims[0];
+        [i, r % self.dims[1], r / self.dims[1]]
+    }
+    #[inline]
+    fn coord(&self, a: usize, i: usize) -> f64 {
+        self.origin[a] + i as f64 * self.h
+    }
+    #[inline]
+    fn stride(&self, a: usize) -> usize {
+        match a {
+            0 => 1,
+            1 => self.dims[0],
+            _ => self.dims[0] * self.dims[1],
+        }
+    }
+    /// The two axes other than `a`, in increasing order.
+    #[inline]
+    fn others(a: usize) -> [usize; 2] {
+        match a {
+            0 => [1, 2],
+            1 => [0, 2],
+            _ => [0, 1],
+        }
+    }
+    /// The line along axis `a` through node `ijk`.
+    #[inline]
+    fn line(&self, a: usize, ijk: [usize; 3]) -> usize {
+        let [u, v] = Self::others(a);
+        ijk[u] + self.dims[u] * ijk[v]
+    }
+}
+
+/// Where the link from an unknown node along one axis direction leads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Link {
+    /// Another unknown node (its unknown number).
+    Node(u32),
+    /// The boundary S (`-1`) or H (`+1`) at the fraction `theta` of the link.
+    Boundary { theta: f64, value: f64 },
+    /// No flux (the skirt).
+    Wall,
+    /// The mirror image across the cap (the `-z` link of a cap node).
+    Mirror,
+}
+
+/// Solver statistics of a [`LaplaceField`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FieldStats {
+    /// Grid nodes in the bounding box.
+    pub grid_nodes: usize,
+    /// Unknown nodes (inside U, connected to H).
+    pub unknowns: usize,
+    /// Multigrid levels.
+    pub levels: usize,
+    /// Conjugate-gradient iterations.
+    pub iterations: usize,
+    /// Relative residual reached.
+    pub relative_residual: f64,
+}
+
+/// The solved Laplace field and the interpolant of its gradient.
+#[derive(Debug, Clone)]
+pub struct LaplaceField {
+    frame: BasalFrame,
+    grid: Grid,
+    radius: f64,
+    /// Box node -> slot in `grad`/`value`, `u32::MAX` without a gradient.
+    slot: Vec<u32>,
+    grad: Vec<[f64; 3]>,
+    value: Vec<f64>,
+    stats: FieldStats,
+}
+
+impl LaplaceField {
+    /// Solves the Laplace field of S (with its landmarks' rim and apex).
+    ///
+    /// # Errors
+    /// - `Config` for a grid spacing or radius that is not finite and `> 0`,
+    ///   or a grid of more than [`MAX_GRID_NODES`] nodes;
+    /// - `Input` when H does not fit inside S (a vertex of S is within the
+    ///   hemisphere's radius of its centre), or U has no node;
+    /// - `Param` when the solver fails.
+    pub fn solve(
+        surface: &TriMesh,
+        landmarks: &Landmarks,
+        config: &FieldConfig,
+    ) -> Result<LaplaceField, OrganError> {
+        OrganError::check_positive(&[
+            ("grid spacing (mm)", config.grid_mm),
+            ("hemisphere radius (mm)", config.hemisphere_mm),
+            ("field tolerance", config.tolerance),
+        ])?;
+        landmarks.check(surface)?;
+        let frame = BasalFrame::new(surface, landmarks)?;
+        let h = config.grid_mm;
+        let radius = config.hemisphere_mm;
+        let mut used = vec![false; surface.positions.len()];
+        for t in &surface.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        let local: Vec<[f64; 3]> = surface.positions.iter().map(|p| frame.local(p)).collect();
+        if let Some((v, d)) = local
+            .iter()
+            .enumerate()
+            .filter(|(v, _)| used[*v])
+            .map(|(v, q)| (v, (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            && d <= radius
+        {
+            return Err(OrganError::Input(format!(
+                "the hemisphere H (radius {radius} mm at the centre of the base) does not fit \
+                 inside S: vertex {v} of S is {d:.3} mm from its centre"
+            )));
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for q in local
+            .iter()
+            .enumerate()
+            .filter(|(v, _)| used[*v])
+            .map(|x| x.1)
+        {
+            for a in 0..3 {
+                lo[a] = lo[a].min(q[a]);
+                hi[a] = hi[a].max(q[a]);
+            }
+        }
+        let mut dims = [0usize; 3];
+        let mut origin = [0.0; 3];
+        for a in 0..2 {
+            dims[a] = ((hi[a] - lo[a]) / h).ceil() as usize + 2 * PAD + 1;
+            origin[a] = lo[a] - PAD as f64 * h;
+        }
+        dims[2] = (hi[2].max(0.0) / h).ceil() as usize + PAD + 1;
+        let total = dims.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
+        let total = match total {
+            Some(t) if t <= MAX_GRID_NODES => t,
+            _ => {
+                return Err(OrganError::Config(format!(
+                    "a {h} mm grid over S needs {}x{}x{} nodes (more than {MAX_GRID_NODES}); \
+                     use a coarser grid",
+                    dims[0], dims[1], dims[2]
+                )));
+            }
+        };
+        let grid = Grid { h, origin, dims };
+        let crossings: [AxisCrossings; 3] =
+            [0, 1, 2].map(|a| axis_crossings(&grid, &local, &surface.triangles, a));
+        let rim2: Vec<[f64; 2]> = landmarks
+            .rim
+            .iter()
+            .map(|&v| [local[v as usize][0], local[v as usize][1]])
+            .collect();
+        let mut state = classify(&grid, &crossings[2], &rim2, radius);
+        let index = connected_unknowns(&grid, &mut state);
+        let unknowns = index.iter().filter(|&&x| x != u32::MAX).count();
+        if unknowns == 0 {
+            return Err(OrganError::Input(format!(
+                "no grid node lies between S and the hemisphere H at a {h} mm grid; \
+                 use a finer grid"
+            )));
+        }
+        let ctx = Ctx {
+            grid: &grid,
+            state: &state,
+            index: &index,
+            crossings: &crossings,
+            radius,
+        };
+        let (a, b) = ctx.assemble()?;
+        let mg = Multigrid::for_grid(a.clone(), dims, &index)?;
+        let mut f = vec![0.0; unknowns];
+        let report = pcg(&a, &b, &mut f, &mg, config.tolerance, 500)?;
+        let (slot, grad, value) = ctx.gradients(&f);
+        Ok(LaplaceField {
+            frame,
+            grid,
+            radius,
+            slot,
+            grad,
+            value,
+            stats: FieldStats {
+                grid_nodes: total,
+                unknowns,
+                levels: mg.levels(),
+                iterations: report.iterations,
+                relative_residual: report.relative_residual,
+            },
+        })
+    }
+
+    /// The basal frame the field lives in.
+    pub fn frame(&self) -> &BasalFrame {
+        &self.frame
+    }
+
+    /// Grid spacing, mm.
+    pub fn grid_mm(&self) -> f64 {
+        self.grid.h
+    }
+
+    /// Radius of H, mm (its centre is the frame's origin).
+    pub fn hemisphere_radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// Solver statistics.
+    pub fn stats(&self) -> FieldStats {
+        self.stats
+    }
+
+    /// Corner slots and trilinear weights of the cell containing `q`
+    /// (mirrored to `z >= 0`); `None` outside the field.
+    #[inline]
+    fn cell(&self, q: [f64; 3]) -> Option<([u32; 8], [f64; 3])> {
+        let g = &self.grid;
+        let mut base = [0usize; 3];
+        let mut t = [0.0; 3];
+        for a in 0..3 {
+            let x = if a == 2 { q[2].abs() } else { q[a] };
+            let s = (x - g.origin[a]) / g.h;
+            if s.is_nan() || s < 0.0 {
+                return None;
+            }
+            let i = (s as usize).min(g.dims[a].saturating_sub(2));
+            if i + 1 >= g.dims[a] {
+                return None;
+            }
+            base[a] = i;
+            t[a] = s - i as f64;
+            if t[a] > 1.0 + 1e-9 {
+                return None;
+            }
+        }
+        let id = g.id(base[0], base[1], base[2]);
+        let (sx, sy, sz) = (1, g.dims[0], g.dims[0] * g.dims[1]);
+        let ids = [
+            id,
+            id + sx,
+            id + sy,
+            id + sx + sy,
+            id + sz,
+            id + sx + sz,
+            id + sy + sz,
+            id + sx + sy + sz,
+        ];
+        let mut slots = [0u32; 8];
+        for (s, &i) in slots.iter_mut().zip(&ids) {
+            *s = self.slot[i];
+            if *s == u32::MAX {
+                return None;
+            }
+        }
+        Some((slots, t))
+    }
+
+    /// `grad f` at basal-frame point `q`: the trilinear interpolation of the
+    /// nodal gradients; `None` where the field is not defined (far outside U).
+    #[inline]
+    pub fn gradient(&self, q: [f64; 3]) -> Option<[f64; 3]> {
+        let (s, t) = self.cell(q)?;
+        let w = trilinear_weights(t);
+        let mut g = [0.0; 3];
+        for c in 0..8 {
+            let n = &self.grad[s[c] as usize];
+            g[0] += w[c] * n[0];
+            g[1] += w[c] * n[1];
+            g[2] += w[c] * n[2];
+        }
+        if q[2] < 0.0 {
+            g[2] = -g[2];
+        }
+        Some(g)
+    }
+
+    /// `f` at basal-frame point `q` (trilinear; `-1` beyond S and `+1` in H
+    /// at the nodes); `None` where the field is not defined.
+    pub fn value(&self, q: [f64; 3]) -> Option<f64> {
+        let (s, t) = self.cell(q)?;
+        let w = trilinear_weights(t);
+        Some((0..8).map(|c| w[c] * self.value[s[c] as usize]).sum())
+    }
+
+    /// Signed distance-like test for H: `|q| - r_H` (negative inside the
+    /// hemisphere's ball).
+    #[inline]
+    pub fn hemisphere_level(&self, q: [f64; 3]) -> f64 {
+        (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt() - self.radius
+    }
+}
+
+#[inline]
+fn trilinear_weights(t: [f64; 3]) -> [f64; 8] {
+    let (x, y, z) = (t[0], t[1], t[2]);
+    let (a, b, c) = (1.0 - x, 1.0 - y, 1.0 - z);
+    [
+        a * b * c,
+        x * b * c,
+        a * y * c,
+        x * y * c,
+        a * b * z,
+        x * b * z,
+        a * y * z,
+        x * y * z,
+    ]
+}
+
+/// Crossings of the triangles with the (jittered) grid lines along axis `a`.
+fn axis_crossings(grid: &Grid, local: &[[f64; 3]], tris: &[[u32; 3]], a: usize) -> AxisCrossings {
+    let [u, v] = Grid::others(a);
+    let (nu, nv) = (grid.dims[u], grid.dims[v]);
+    let h = grid.h;
+    let line_u = |i: usize| grid.coord(u, i) + JITTER[u] * h;
+    let line_v = |j: usize| grid.coord(v, j) + JITTER[v] * h;
+    let mut hits: Vec<(u32, f64)> = Vec::new();
+    for t in tris {
+        let p = t.map(|x| local[x as usize]);
+        let (mut umin, mut umax, mut vmin, mut vmax) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for q in &p {
+            umin = umin.min(q[u]);
+            umax = umax.max(q[u]);
+            vmin = vmin.min(q[v]);
+            vmax = vmax.max(q[v]);
+        }
+        let i0 = (((umin - grid.origin[u]) / h).floor().max(0.0)) as usize;
+        let i1 = ((((umax - grid.origin[u]) / h).ceil()) as usize).min(nu - 1);
+        let j0 = (((vmin - grid.origin[v]) / h).floor().max(0.0)) as usize;
+        let j1 = ((((vmax - grid.origin[v]) / h).ceil()) as usize).min(nv - 1);
+        let (ax, ay) = (p[0][u], p[0][v]);
+        let (e1u, e1v) = (p[1][u] - ax, p[1][v] - ay);
+        let (e2u, e2v) = (p[2][u] - ax, p[2][v] - ay);
+        let det = e1u * e2v - e1v * e2u;
+        if det == 0.0 {
+            continue;
+        }
+        for j in j0..=j1 {
+            let y = line_v(j) - ay;
+            for i in i0..=i1 {
+                let x = line_u(i) - ax;
+                let b1 = (x * e2v - y * e2u) / det;
+                let b2 = (e1u * y - e1v * x) / det;
+                let b0 = 1.0 - b1 - b2;
+                if b0 >= 0.0 && b1 >= 0.0 && b2 >= 0.0 {
+                    let c = b0 * p[0][a] + b1 * p[1][a] + b2 * p[2][a];
+                    hits.push(((i + nu * j) as u32, c));
+                }
+            }
+        }
+    }
+    hits.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut start = vec![0u32; nu * nv + 1];
+    for &(l, _) in &hits {
+        start[l as usize + 1] += 1;
+    }
+    for l in 0..nu * nv {
+        start[l + 1] += start[l];
+    }
+    AxisCrossings {
+        start,
+        coords: hits.into_iter().map(|x| x.1).collect(),
+    }
+}
+
+/// Whether `p` is inside the polygon (crossing number).
+fn in_polygon(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut inside = false;
+    let n = poly.len();
+    for k in 0..n {
+        let a = poly[k];
+        let b = poly[(k + 1) % n];
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
+}
+
+/// Node states: inside the closed S (parity along the z-columns, starting
+/// inside where the column meets the cap polygon), in H, or out.
+fn classify(grid: &Grid, zc: &AxisCrossings, rim2: &[[f64; 2]], radius: f64) -> Vec<u8> {
+    let [nx, ny, nz] = grid.dims;
+    let h = grid.h;
+    let mut state = vec![OUT; nx * ny * nz];
+    for j in 0..ny {
+        for i in 0..nx {
+            let x = grid.coord(0, i);
+            let y = grid.coord(1, j);
+            let p = [x + JITTER[0] * h, y + JITTER[1] * h];
+            let mut inside = in_polygon(rim2, p);
+            let line = zc.line(i + nx * j);
+            let mut next = 0;
+            for k in 0..nz {
+                let z = if k == 0 { 1e-9 * h } else { k as f64 * h };
+                while next < line.len() && line[next] < z {
+                    inside = !inside;
+                    next += 1;
+                }
+                let id = grid.id(i, j, k);
+                if x * x + y * y + z * z < radius * radius {
+                    state[id] = IN_H;
+                } else if inside {
+                    state[id] = UNKNOWN;
+                }
+            }
+        }
+    }
+    state
+}
+
+/// Unknown numbers of the unknown nodes connected (through unknown nodes) to
+/// a node next to H; other unknown nodes become `OUT`.
+fn connected_unknowns(grid: &Grid, state: &mut [u8]) -> Vec<u32> {
+    let n = state.len();
+    let mut seen = vec![false; n];
+    let mut stack = Vec::new();
+    let neighbours = |id: usize| -> [Option<usize>; 6] {
+        let ijk = grid.ijk(id);
+        let mut out = [None; 6];
+        for a in 0..3 {
+            let s = grid.stride(a);
+            if ijk[a] > 0 {
+                out[2 * a] = Some(id - s);
+            }
+            if ijk[a] + 1 < grid.dims[a] {
+                out[2 * a + 1] = Some(id + s);
+            }
+        }
+        out
+    };
+    for id in 0..n {
+        if state[id] == UNKNOWN && neighbours(id).iter().flatten().any(|&m| state[m] == IN_H) {
+            seen[id] = true;
+            stack.push(id);
+        }
+    }
+    while let Some(id) = stack.pop() {
+        for m in neighbours(id).into_iter().flatten() {
+            if state[m] == UNKNOWN && !seen[m] {
+                seen[m] = true;
+                stack.push(m);
+            }
+        }
+    }
+    let mut index = vec![u32::MAX; n];
+    let mut next = 0u32;
+    for id in 0..n {
+        if state[id] == UNKNOWN {
+            if seen[id] {
+                index[id] = next;
+                next += 1;
+            } else {
+                state[id] = OUT;
+            }
+        }
+    }
+    index
+}
+
+/// Shared read-only state of the assembly and the gradients.
+struct Ctx<'a> {
+    grid: &'a Grid,
+    state: &'a [u8],
+    index: &'a [u32],
+    crossings: &'a [AxisCrossings; 3],
+    radius: f64,
+}
+
+impl Ctx<'_> {
+    /// The link from unknown node `id` along axis `a`, direction `dir` (+1 / -1).
+    fn link(&self, id: usize, a: usize, dir: i32) -> Link {
+        let g = self.grid;
+        let ijk = g.ijk(id);
+        if a == 2 && dir < 0 && ijk[2] == 0 {
+            return Link::Mirror;
+        }
+        let s = g.stride(a);
+        let m = if dir > 0 { id + s } else { id - s };
+        match self.state[m] {
+            UNKNOWN => Link::Node(self.index[m]),
+            IN_H => {
+                // |p + t d| = r along the link, t in (0, h]
+                let p = [0, 1, 2].map(|b| g.coord(b, ijk[b]));
+                let pa = p[a];
+                let rest = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - pa * pa;
+                let r2 = self.radius * self.radius - rest;
+                let target = if r2 > 0.0 { r2.sqrt() } else { 0.0 };
+                // the crossing nearest p on the node's side
+                let t = if dir > 0 { -target - pa } else { pa - target };
+                let theta = (t / g.h).clamp(THETA_MIN, 1.0);
+                Link::Boundary { theta, value: 1.0 }
+            }
+            _ => {
+                let c = g.coord(a, ijk[a]);
+                let line = self.crossings[a].line(g.line(a, ijk));
+                let hit = if dir > 0 {
+                    let k = line.partition_point(|&x| x <= c);
+                    line.get(k).filter(|&&x| x <= c + g.h).map(|&x| x - c)
+                } else {
+                    let k = line.partition_point(|&x| x < c);
+                    (k > 0)
+                        .then(|| line[k - 1])
+                        .filter(|&x| x >= c - g.h)
+                        .map(|x| c - x)
+                };
+                match hit {
+                    Some(d) => Link::Boundary {
+                        theta: (d / g.h).clamp(THETA_MIN, 1.0),
+                        value: -1.0,
+                    },
+                    None => Link::Wall,
+                }
+            }
+        }
+    }
+
+    /// The finite-volume system `A f = b` over the unknowns (CSR, sorted).
+    fn assemble(&self) -> Result<(Csr, Vec<f64>), OrganError> {
+        let g = self.grid;
+        let n = self.index.iter().filter(|&&x| x != u32::MAX).count();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col: Vec<u32> = Vec::with_capacity(7 * n);
+        let mut val = Vec::with_capacity(7 * n);
+        let mut b = vec![0.0; n];
+        row_ptr.push(0usize);
+        for (id, &row) in self.index.iter().enumerate() {
+            if row == u32::MAX {
+                continue;
+            }
+            let cap = g.ijk(id)[2] == 0;
+            let mut diag = 0.0;
+            let mut offs: [(u32, f64); 6] = [(u32::MAX, 0.0); 6];
+            let mut k = 0;
+            for a in [2usize, 1, 0] {
+                for dir in [-1, 1] {
+                    let w = if cap && a != 2 { 0.5 } else { 1.0 };
+                    match self.link(id, a, dir) {
+                        Link::Node(m) => {
+                            diag += w;
+                            offs[k] = (m, -w);
+                            k += 1;
+                        }
+                        Link::Boundary { theta, value } => {
+                            diag += w / theta;
+                            b[row as usize] += w / theta * value;
+                        }
+                        Link::Wall | Link::Mirror => {}
+                    }
+                }
+            }
+            let mut entries: Vec<(u32, f64)> = offs[..k].to_vec();
+            entries.push((row, diag));
+            entries.sort_unstable_by_key(|e| e.0);
+            for (c, v) in entries {
+                col.push(c);
+                val.push(v);
+            }
+            row_ptr.push(col.len());
+        }
+        let a = Csr::from_raw(n, n, row_ptr, col, val)?;
+        Ok((a, b))
+    }
+
+    /// Nodal gradients on U and the extension layers; values `f`.
+    fn gradients(&self, f: &[f64]) -> (Vec<u32>, Vec<[f64; 3]>, Vec<f64>) {
+        let g = self.grid;
+        let n = self.state.len();
+        let mut slot = vec![u32::MAX; n];
+        let mut grad: Vec<[f64; 3]> = Vec::with_capacity(f.len() * 5 / 4);
+        let mut value: Vec<f64> = Vec::with_capacity(f.len() * 5 / 4);
+        for (id, &row) in self.index.iter().enumerate() {
+            if row == u32::MAX {
+                continue;
+            }
+            let u0 = f[row as usize];
+            let cap = g.ijk(id)[2] == 0;
+            let mut gr = [0.0; 3];
+            for (a, ga) in gr.iter_mut().enumerate() {
+                if a == 2 && cap {
+                    continue;
+                }
+                let arm = |dir: i32| -> Option<(f64, f64)> {
+                    match self.link(id, a, dir) {
+                        Link::Node(m) => Some((g.h, f[m as usize])),
+                        Link::Boundary { theta, value } => Some((theta * g.h, value)),
+                        Link::Wall | Link::Mirror => None,
+                    }
+                };
+                *ga = match (arm(-1), arm(1)) {
+                    (Some((da, ua)), Some((db, ub))) => {
+                        (da * da * ub - db * db * ua + (db * db - da * da) * u0)
+                            / (da * db * (da + db))
+                    }
+                    (Some((da, ua)), None) => (u0 - ua) / da,
+                    (None, Some((db, ub))) => (ub - u0) / db,
+                    (None, None) => 0.0,
+                };
+            }
+            slot[id] = grad.len() as u32;
+            grad.push(gr);
+            value.push(u0);
+        }
+        // extension, layer by layer (26-neighbourhood)
+        let mut frontier: Vec<usize> = Vec::new();
+        let mut defined: Vec<usize> = (0..n).filter(|&id| slot[id] != u32::MAX).collect();
+        for _ in 0..EXTENSION_LAYERS {
+            frontier.clear();
+            for &id in &defined {
+                for_each_neighbour26(g, id, |m| {
+                    if slot[m] == u32::MAX {
+                        frontier.push(m);
+                    }
+                });
+            }
+            frontier.sort_unstable();
+            frontier.dedup();
+            let mut new: Vec<(usize, [f64; 3])> = Vec::with_capacity(frontier.len());
+            for &id in &frontier {
+                let mut s = [0.0; 3];
+                let mut c = 0usize;
+                for_each_neighbour26(g, id, |m| {
+                    let k = slot[m];
+                    if k != u32::MAX {
+                        let q = grad[k as usize];
+                        s[0] += q[0];
+                        s[1] += q[1];
+                        s[2] += q[2];
+                        c += 1;
+                    }
+                });
+                let inv = 1.0 / c.max(1) as f64;
+                let mut q = [s[0] * inv, s[1] * inv, s[2] * inv];
+                if g.ijk(id)[2] == 0 {
+                    q[2] = 0.0;
+                }
+                new.push((id, q));
+            }
+            for (id, q) in new {
+                slot[id] = grad.len() as u32;
+                grad.push(q);
+                value.push(if self.state[id] == IN_H { 1.0 } else { -1.0 });
+            }
+            defined = std::mem::take(&mut frontier);
+        }
+        (slot, grad, value)
+    }
+}
+
+fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
+    let [i, j, k] = g.ijk(id);
+    let [nx, ny, nz] = g.dims;
+    for dk in -1i64..=1 {
+        let kk = k as i64 + dk;
+        if kk < 0 || kk >= nz as i64 {
+            continue;
+        }
+        for dj in -1i64..=1 {
+            let jj = j as i64 + dj;
+            if jj < 0 || jj >= ny as i64 {
+                continue;
+            }
+            for di in -1i64..=1 {
+                let ii = i as i64 + di;
+                if ii < 0 || ii >= nx as i64 || (di == 0 && dj == 0 && dk == 0) {
+                    continue;
+                }
+                f(g.id(ii as usize, jj as usize, kk as usize));
+            }
+        }
+    }
+}

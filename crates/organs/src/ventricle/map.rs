@@ -1,0 +1,482 @@
+//! The map `psi: M -> cylinder` and its inverse (ALGORITHMS 3.3, 3.4) for
+//! one heart: a [`Chart`] holds S, its landmarks, its disk map `phi`, the
+//! Laplace field and the streamline tracer.
+//!
+//! `psi(v) = (phi(v_S), d(v))` with `v_S` where the streamline through `v`
+//! meets S (traced against `grad f`) and `d(v) = len(v_S -> v) /
+//! len(v_S -> v_H)`. The inverse locates `(xi, zeta)` in the flattened S
+//! (barycentric coordinates of a disk triangle give `v_S` on S), traces
+//! from `v_S` to H (length `L`) and returns the point at arc length `d L`.
+//! Both directions follow the same interpolant of `grad f` with the same
+//! error-controlled integrator, so `psi^-1(psi(v)) = v` up to the
+//! integrator's tolerance. Transfer to another heart is `other.inverse(
+//! self.forward(v))`.
+
+use super::base::{ExtendedSurface, close_base};
+use super::disk::{DiskMap, lv_disk, rv_half_disk};
+use super::field::{FieldConfig, LaplaceField};
+use super::landmarks::Landmarks;
+use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceFailure, Tracer};
+use crate::OrganError;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+use unfold_mesh::TriMesh;
+use unfold_mesh::nalgebra::Point3;
+use unfold_mesh::repair::{RepairReport, repair_tri_mesh};
+use unfold_mesh::spatial::{ClosestPointQuery, PlanarTriLocator};
+
+/// Which chamber S encloses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Chamber {
+    /// Left ventricle: the unit disk.
+    #[default]
+    Lv,
+    /// Right ventricle: the half disk `x >= 1.25` of the unit circle
+    /// centred at `(1.25, 0)`.
+    Rv,
+}
+
+/// Default distance, mm, within which an anatomy point counts as lying on S
+/// (depth 0, mapped through its closest point of S).
+pub const DEFAULT_ON_SURFACE_MM: f64 = 1e-4;
+
+/// Settings of a [`Chart`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ChartConfig {
+    /// The chamber (disk or half disk).
+    pub chamber: Chamber,
+    /// The Laplace field's grid and hemisphere.
+    pub field: FieldConfig,
+    /// Local error tolerance of the streamline integrator, mm.
+    pub trace_tolerance_mm: f64,
+    /// Largest distance, mm, from a given rim landmark to the rim.
+    pub snap_mm: f64,
+    /// Anatomy points closer than this to S (mm) are on S.
+    pub on_surface_mm: f64,
+}
+
+impl Default for ChartConfig {
+    fn default() -> Self {
+        ChartConfig {
+            chamber: Chamber::Lv,
+            field: FieldConfig::default(),
+            trace_tolerance_mm: DEFAULT_TRACE_TOLERANCE_MM,
+            snap_mm: super::landmarks::DEFAULT_SNAP_MM,
+            on_surface_mm: DEFAULT_ON_SURFACE_MM,
+        }
+    }
+}
+
+/// A point of the cylinder: disk position `(xi, zeta)` and depth `d` in
+/// `[0, 1]` (0 on S, 1 on H).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CylinderPoint {
+    /// Disk x.
+    pub xi: f64,
+    /// Disk y.
+    pub zeta: f64,
+    /// Normalized arc length from S along the streamline.
+    pub depth: f64,
+}
+
+/// The forward map of one point, with its streamline's pieces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForwardPoint {
+    /// `psi(v)`.
+    pub coords: CylinderPoint,
+    /// Triangle of S where the streamline starts.
+    pub triangle: usize,
+    /// Barycentric coordinates of `v_S` in it.
+    pub barycentric: [f64; 3],
+    /// Arc length `v_S -> v`, mm.
+    pub to_surface_mm: f64,
+    /// Arc length `v -> v_H`, mm.
+    pub to_hemisphere_mm: f64,
+}
+
+/// Seconds spent building a chart.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct ChartTimings {
+    /// Mesh repair, landmarks and the disk map.
+    pub disk: f64,
+    /// The Laplace field.
+    pub laplace: f64,
+}
+
+/// One heart prepared for mapping.
+#[derive(Debug, Clone)]
+pub struct Chart {
+    surface: TriMesh,
+    repair: RepairReport,
+    landmarks: Landmarks,
+    disk: DiskMap,
+    field: LaplaceField,
+    index: SurfaceIndex,
+    locator: PlanarTriLocator,
+    closest: ClosestPointQuery,
+    /// Boundary edges of the disk: `(a, b, triangle)`.
+    rim_edges: Vec<(u32, u32, usize)>,
+    config: ChartConfig,
+    max_length: f64,
+    strip_height_mm: f64,
+    original_vertices: usize,
+    timings: ChartTimings,
+}
+
+/// A point that could not be mapped, and why.
+fn point_error(what: &str, failures: &[(usize, String)], total: usize) -> OrganError {
+    let (i, why) = &failures[0];
+    OrganError::Input(format!(
+        "{} of {total} {what} cannot be mapped; the first, point {i}: {why}",
+        failures.len()
+    ))
+}
+
+impl Chart {
+    /// Repairs S (orientation, duplicate triangles), resolves the landmarks
+    /// (given points snapped to the rim; the apex given or found), flattens
+    /// S to the disk (LV) or half disk (RV) and solves the Laplace field.
+    ///
+    /// # Errors
+    /// `Input` when S cannot be repaired into a disk, a landmark is off the
+    /// rim, the disk map folds, or H does not fit; `Config` for bad
+    /// settings.
+    pub fn new(
+        surface: &TriMesh,
+        anterior: &Point3<f64>,
+        inferior: &Point3<f64>,
+        apex: Option<&Point3<f64>>,
+        config: &ChartConfig,
+    ) -> Result<Chart, OrganError> {
+        OrganError::check_positive(&[
+            ("trace tolerance (mm)", config.trace_tolerance_mm),
+            ("on-surface distance (mm)", config.on_surface_mm),
+        ])?;
+        let t0 = Instant::now();
+        let (surface, repair) = repair_tri_mesh(surface)?;
+        let landmarks = Landmarks::resolve(&surface, anterior, inferior, apex, config.snap_mm)?;
+        let ExtendedSurface {
+            surface,
+            landmarks,
+            strip_height_mm,
+            original_vertices,
+        } = close_base(&surface, &landmarks)?;
+        let disk = match config.chamber {
+            Chamber::Lv => lv_disk(&surface, &landmarks)?,
+            Chamber::Rv => rv_half_disk(&surface, &landmarks)?,
+        };
+        if disk.flipped_triangles > 0 {
+            return Err(OrganError::Input(format!(
+                "the disk map of S flips {} triangles",
+                disk.flipped_triangles
+            )));
+        }
+        let locator = PlanarTriLocator::new(&disk.uv, &surface.triangles);
+        let closest = ClosestPointQuery::new(&surface);
+        let rim = &landmarks.rim;
+        let mut rim_edges = Vec::with_capacity(rim.len());
+        {
+            let mut edge_tri = std::collections::HashMap::new();
+            for (t, tri) in surface.triangles.iter().enumerate() {
+                for k in 0..3 {
+                    edge_tri.insert((tri[k], tri[(k + 1) % 3]), t);
+                    edge_tri.insert((tri[(k + 1) % 3], tri[k]), t);
+                }
+            }
+            for k in 0..rim.len() {
+                let (a, b) = (rim[k], rim[(k + 1) % rim.len()]);
+                if let Some(&t) = edge_tri.get(&(a, b)) {
+                    rim_edges.push((a, b, t));
+                }
+            }
+        }
+        let t1 = Instant::now();
+        let field = LaplaceField::solve(&surface, &landmarks, &config.field)?;
+        let index = SurfaceIndex::new(&surface, &field);
+        let t2 = Instant::now();
+        let diag = {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for p in index.points() {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+        };
+        Ok(Chart {
+            surface,
+            repair,
+            landmarks,
+            disk,
+            field,
+            index,
+            locator,
+            closest,
+            rim_edges,
+            config: *config,
+            max_length: 4.0 * diag,
+            strip_height_mm,
+            original_vertices,
+            timings: ChartTimings {
+                disk: (t1 - t0).as_secs_f64(),
+                laplace: (t2 - t1).as_secs_f64(),
+            },
+        })
+    }
+
+    /// S after the repair, closed down to its basal plane (`S'` of
+    /// [`close_base`]; S's vertices come first).
+    pub fn surface(&self) -> &TriMesh {
+        &self.surface
+    }
+
+    /// Number of vertices of (repaired) S at the start of [`Chart::surface`].
+    pub fn original_vertices(&self) -> usize {
+        self.original_vertices
+    }
+
+    /// Height of the strip closing S down to its basal plane, mm (0 for a
+    /// planar rim).
+    pub fn strip_height_mm(&self) -> f64 {
+        self.strip_height_mm
+    }
+
+    /// What the repair of S changed.
+    pub fn repair(&self) -> &RepairReport {
+        &self.repair
+    }
+
+    /// The landmarks as vertices of [`Chart::surface`] (its rim is the
+    /// strip's lowest layer when S was extended).
+    pub fn landmarks(&self) -> &Landmarks {
+        &self.landmarks
+    }
+
+    /// The disk map `phi`.
+    pub fn disk(&self) -> &DiskMap {
+        &self.disk
+    }
+
+    /// The Laplace field.
+    pub fn field(&self) -> &LaplaceField {
+        &self.field
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ChartConfig {
+        &self.config
+    }
+
+    /// Seconds spent building the chart.
+    pub fn timings(&self) -> ChartTimings {
+        self.timings
+    }
+
+    fn tracer(&self) -> Tracer<'_> {
+        Tracer::new(
+            &self.field,
+            &self.index,
+            self.config.trace_tolerance_mm,
+            self.max_length,
+        )
+        .expect("the tolerance was checked in Chart::new")
+    }
+
+    /// Disk position of barycentric coordinates `b` in triangle `t` of S.
+    fn disk_point(&self, t: usize, b: [f64; 3]) -> [f64; 2] {
+        let tri = self.surface.triangles[t];
+        let mut x = [0.0; 2];
+        for (k, &v) in tri.iter().enumerate() {
+            let uv = self.disk.uv[v as usize];
+            x[0] += b[k] * uv[0];
+            x[1] += b[k] * uv[1];
+        }
+        x
+    }
+
+    /// Basal-frame point of barycentric coordinates `b` in triangle `t`.
+    fn surface_point(&self, t: usize, b: [f64; 3]) -> [f64; 3] {
+        let tri = self.surface.triangles[t];
+        let pts = self.index.points();
+        let mut x = [0.0; 3];
+        for (k, &v) in tri.iter().enumerate() {
+            for a in 0..3 {
+                x[a] += b[k] * pts[v as usize][a];
+            }
+        }
+        x
+    }
+
+    /// `psi(v)` of one point.
+    ///
+    /// # Errors
+    /// A one-line reason: the point is outside S, inside H, or its
+    /// streamline fails.
+    pub fn forward(&self, v: &Point3<f64>) -> Result<ForwardPoint, String> {
+        if !v.coords.iter().all(|x| x.is_finite()) {
+            return Err(format!("it is not finite: {:?}", [v.x, v.y, v.z]));
+        }
+        let tracer = self.tracer();
+        let frame = self.field.frame();
+        let near = self
+            .closest
+            .closest(v)
+            .ok_or_else(|| "S has no triangle".to_string())?;
+        let (triangle, barycentric, to_surface, start) = if near.distance
+            <= self.config.on_surface_mm
+        {
+            let s = self.surface_point(near.triangle, near.barycentric);
+            (near.triangle, near.barycentric, 0.0, s)
+        } else {
+            let mut q = frame.local(v);
+            if q[2] < 0.0 && q[2] > -self.config.on_surface_mm {
+                q[2] = 0.0;
+            }
+            let mut buf = Vec::new();
+            if !self.index.contains(q, &mut buf) {
+                return Err(format!(
+                    "({:.3}, {:.3}, {:.3}) lies outside S (closed by its basal plane), {:.3} mm \
+                     from it",
+                    v.x, v.y, v.z, near.distance
+                ));
+            }
+            if self.field.hemisphere_level(q) < 0.0 {
+                return Err(format!(
+                    "({:.3}, {:.3}, {:.3}) lies inside the hemisphere H (radius {} mm at the \
+                     centre of the base)",
+                    v.x,
+                    v.y,
+                    v.z,
+                    self.field.hemisphere_radius()
+                ));
+            }
+            let hit = tracer.to_surface(q).map_err(|e| e.describe("S"))?;
+            (hit.triangle, hit.barycentric, hit.length, q)
+        };
+        let (_, to_h) = tracer
+            .to_hemisphere(start)
+            .map_err(|e: TraceFailure| e.describe("the hemisphere H"))?;
+        let [xi, zeta] = self.disk_point(triangle, barycentric);
+        let total = to_surface + to_h;
+        let depth = if total > 0.0 { to_surface / total } else { 1.0 };
+        Ok(ForwardPoint {
+            coords: CylinderPoint { xi, zeta, depth },
+            triangle,
+            barycentric,
+            to_surface_mm: to_surface,
+            to_hemisphere_mm: to_h,
+        })
+    }
+
+    /// `psi` of every point, in parallel.
+    ///
+    /// # Errors
+    /// `Input` saying how many points failed and why the first did.
+    pub fn forward_all(&self, points: &[Point3<f64>]) -> Result<Vec<ForwardPoint>, OrganError> {
+        let out: Vec<Result<ForwardPoint, String>> =
+            points.par_iter().map(|p| self.forward(p)).collect();
+        collect("anatomy points", out)
+    }
+
+    /// The triangle of S and barycentric coordinates at disk position
+    /// `(xi, zeta)`; a position just outside the disk polygon (between a rim
+    /// edge and the circle, within `1e-3`) goes to the nearest rim point.
+    fn locate(&self, xi: f64, zeta: f64) -> Option<(usize, [f64; 3])> {
+        if let Some(x) = self.locator.locate([xi, zeta]) {
+            return Some(x);
+        }
+        let p = [xi, zeta];
+        let mut best: Option<(f64, usize, [f64; 3])> = None;
+        for &(a, b, t) in &self.rim_edges {
+            let pa = self.disk.uv[a as usize];
+            let pb = self.disk.uv[b as usize];
+            let d = [pb[0] - pa[0], pb[1] - pa[1]];
+            let l2 = d[0] * d[0] + d[1] * d[1];
+            let s = if l2 > 0.0 {
+                (((p[0] - pa[0]) * d[0] + (p[1] - pa[1]) * d[1]) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let q = [pa[0] + s * d[0], pa[1] + s * d[1]];
+            let dist = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+            if best.is_none_or(|x| dist < x.0) {
+                let tri = self.surface.triangles[t];
+                let mut bary = [0.0; 3];
+                for k in 0..3 {
+                    if tri[k] == a {
+                        bary[k] = 1.0 - s;
+                    } else if tri[k] == b {
+                        bary[k] = s;
+                    }
+                }
+                best = Some((dist, t, bary));
+            }
+        }
+        best.filter(|x| x.0 <= 1e-3).map(|x| (x.1, x.2))
+    }
+
+    /// `psi^-1` of one cylinder point.
+    ///
+    /// # Errors
+    /// A one-line reason: the disk position is outside the (half) disk, the
+    /// depth is outside `[0, 1]`, or the streamline fails.
+    pub fn inverse(&self, c: &CylinderPoint) -> Result<Point3<f64>, String> {
+        if !(c.xi.is_finite() && c.zeta.is_finite() && (0.0..=1.0).contains(&c.depth)) {
+            return Err(format!(
+                "({}, {}, {}) is not a point of the cylinder (depth must be in [0, 1])",
+                c.xi, c.zeta, c.depth
+            ));
+        }
+        let (t, b) = self.locate(c.xi, c.zeta).ok_or_else(|| {
+            format!(
+                "the disk position ({:.6}, {:.6}) lies outside the flattened S",
+                c.xi, c.zeta
+            )
+        })?;
+        let start = self.surface_point(t, b);
+        let frame = self.field.frame();
+        if c.depth == 0.0 {
+            return Ok(frame.world(start));
+        }
+        let tracer = self.tracer();
+        let (end, total) = tracer
+            .to_hemisphere(start)
+            .map_err(|e| e.describe("the hemisphere H"))?;
+        if c.depth == 1.0 {
+            return Ok(frame.world(end));
+        }
+        let q = tracer
+            .along(start, c.depth * total)
+            .map_err(|e| e.describe("its depth"))?;
+        Ok(frame.world(q))
+    }
+
+    /// `psi^-1` of every cylinder point, in parallel.
+    ///
+    /// # Errors
+    /// `Input` saying how many points failed and why the first did.
+    pub fn inverse_all(&self, coords: &[CylinderPoint]) -> Result<Vec<Point3<f64>>, OrganError> {
+        let out: Vec<Result<Point3<f64>, String>> =
+            coords.par_iter().map(|c| self.inverse(c)).collect();
+        collect("cylinder points", out)
+    }
+}
+
+/// All results, or an error naming the failures.
+fn collect<T>(what: &str, out: Vec<Result<T, String>>) -> Result<Vec<T>, OrganError> {
+    let total = out.len();
+    let failures: Vec<(usize, String)> = out
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.as_ref().err().map(|e| (i, e.clone())))
+        .collect();
+    if !failures.is_empty() {
+        return Err(point_error(what, &failures, total));
+    }
+    Ok(out.into_iter().map(|r| r.expect("no failures")).collect())
+}

@@ -1,0 +1,325 @@
+//! The whole ventricle pipeline on in-memory inputs (ALGORITHMS 3): a chart
+//! of S, every anatomy point mapped to the cylinder and back (round-trip
+//! error), AHA-17 labels and depth on the anatomy, the flattened S.
+
+use super::aha::aha_segment;
+use super::disk::display_warp;
+use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
+use crate::OrganError;
+use serde::Serialize;
+use std::time::Instant;
+use unfold_mesh::nalgebra::Point3;
+use unfold_mesh::repair::RepairReport;
+use unfold_mesh::{CellMesh, Field, TriMesh};
+
+/// Default display exponent `n` of `r' = r^n` (ALGORITHMS 3.2).
+pub const DEFAULT_DISPLAY_EXPONENT: f64 = 1.0 / 3.0;
+
+/// Settings of [`run`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Config {
+    /// The chart of S (chamber, grid, hemisphere, tolerances).
+    pub chart: ChartConfig,
+    /// Display exponent of the LV disk; the AHA labels follow the displayed
+    /// disk, so that labels and bull's-eye agree (1 labels the harmonic
+    /// disk).
+    pub display_exponent: f64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            chart: ChartConfig::default(),
+            display_exponent: DEFAULT_DISPLAY_EXPONENT,
+        }
+    }
+}
+
+/// The landmarks as given (points, snapped by the pipeline).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LandmarkPoints {
+    /// Anterior RV insertion point (LV) or first septal corner (RV).
+    pub anterior: Point3<f64>,
+    /// Inferior RV insertion point (LV) or second septal corner (RV).
+    pub inferior: Point3<f64>,
+    /// The apex, or `None` to take the vertex of S farthest from the rim
+    /// centroid.
+    pub apex: Option<Point3<f64>>,
+}
+
+/// Mean, median, standard deviation and maximum of a set of values.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Summary {
+    /// Mean.
+    pub mean: f64,
+    /// Median.
+    pub median: f64,
+    /// Standard deviation (population).
+    pub std: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Summary {
+    /// The summary of `values` (all zero when empty).
+    pub fn of(values: &[f64]) -> Summary {
+        if values.is_empty() {
+            return Summary::default();
+        }
+        let n = values.len() as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+        let mut s = values.to_vec();
+        s.sort_by(|a, b| a.total_cmp(b));
+        let m = s.len() / 2;
+        let median = if s.len() % 2 == 1 {
+            s[m]
+        } else {
+            0.5 * (s[m - 1] + s[m])
+        };
+        Summary {
+            mean,
+            median,
+            std: var.sqrt(),
+            max: s[s.len() - 1],
+        }
+    }
+}
+
+/// Seconds per step.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Seconds {
+    /// Repair, landmarks, disk map.
+    pub disk: f64,
+    /// The Laplace field.
+    pub laplace: f64,
+    /// The forward map of the anatomy.
+    pub streamlines: f64,
+    /// The inverse map (round trip).
+    pub inverse: f64,
+}
+
+/// The Laplace field's figures.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FieldReport {
+    /// Grid nodes in the bounding box.
+    pub grid_nodes: usize,
+    /// Unknowns.
+    pub unknowns: usize,
+    /// Multigrid levels.
+    pub multigrid_levels: usize,
+    /// Conjugate-gradient iterations.
+    pub cg_iterations: usize,
+    /// Relative residual reached.
+    pub relative_residual: f64,
+}
+
+/// `report.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// `lv` or `rv`.
+    pub chamber: Chamber,
+    /// Anatomy points mapped.
+    pub anatomy_points: usize,
+    /// Round-trip error `|v - psi^-1(psi(v))|`, micrometres.
+    pub roundtrip_error_um: Summary,
+    /// Disk triangles with the wrong orientation (0: `phi` is injective).
+    pub flipped_disk_triangles: usize,
+    /// Grid spacing of the Laplace field, mm.
+    pub grid_mm: f64,
+    /// Radius of H, mm.
+    pub hemisphere_mm: f64,
+    /// The display exponent.
+    pub display_exponent: f64,
+    /// The disk embedding's weights (`cotangent` or `mean-value`).
+    pub disk_weights: &'static str,
+    /// The apex warp (`thin-plate spline` or `mobius`).
+    pub apex_warp: &'static str,
+    /// What the repair of S changed.
+    pub surface_repair: RepairReport,
+    /// Distances from the given landmarks to the vertices they snapped to,
+    /// mm (anterior, inferior, apex; 0 for a computed apex).
+    pub landmark_snap_mm: [f64; 3],
+    /// The apex used, mm.
+    pub apex_mm: [f64; 3],
+    /// Anatomy points per AHA segment 1..17 (LV only).
+    pub aha_points: Option<[usize; 17]>,
+    /// The Laplace field.
+    pub field: FieldReport,
+    /// Seconds per step.
+    pub seconds: Seconds,
+}
+
+/// What [`run`] returns.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The chart of S (reusable for transfers).
+    pub chart: Chart,
+    /// `psi` of every anatomy point.
+    pub coords: Vec<CylinderPoint>,
+    /// The round trip `psi^-1(psi(v))` of every anatomy point.
+    pub roundtrip: Vec<Point3<f64>>,
+    /// AHA segment (1..17) of every anatomy point (LV; empty for the RV).
+    pub aha: Vec<u8>,
+    /// The anatomy in cylinder coordinates: points `(X, Y, d)` with
+    /// `(X, Y)` the displayed disk position; arrays `xi`, `zeta` (the
+    /// disk position `phi(v_S)`), `depth`, `aha` (LV).
+    pub normalized: CellMesh,
+    /// The input anatomy with arrays `aha` (LV), `depth`, `xi`, `zeta`.
+    pub anatomy: CellMesh,
+    /// S flattened: points `(X, Y, 0)` (displayed disk), arrays `xi`, `zeta`.
+    pub disk: TriMesh,
+    /// The report.
+    pub report: Report,
+}
+
+/// Displayed disk positions: the LV disk warped by `r' = r^n`; the RV half
+/// disk as it is.
+pub fn displayed(
+    chamber: Chamber,
+    uv: &[[f64; 2]],
+    exponent: f64,
+) -> Result<Vec<[f64; 2]>, OrganError> {
+    match chamber {
+        Chamber::Lv => display_warp(uv, exponent),
+        Chamber::Rv => Ok(uv.to_vec()),
+    }
+}
+
+/// Runs the pipeline: the chart of `surface`, `psi` of every point of
+/// `anatomy` (its connectivity kept), the round trip, AHA labels and depth.
+///
+/// # Errors
+/// `Input` for a surface that is not a disk, landmarks off the rim, anatomy
+/// points outside S or inside H (how many, and the first), `Config` for
+/// bad settings.
+pub fn run(
+    anatomy: &CellMesh,
+    surface: &TriMesh,
+    landmarks: &LandmarkPoints,
+    config: &Config,
+) -> Result<Outcome, OrganError> {
+    OrganError::check_positive(&[("display exponent", config.display_exponent)])?;
+    if anatomy.positions.is_empty() {
+        return Err(OrganError::Input("the anatomy has no points".into()));
+    }
+    let chart = Chart::new(
+        surface,
+        &landmarks.anterior,
+        &landmarks.inferior,
+        landmarks.apex.as_ref(),
+        &config.chart,
+    )?;
+    let t0 = Instant::now();
+    let forward = chart.forward_all(&anatomy.positions)?;
+    let coords: Vec<CylinderPoint> = forward.iter().map(|f| f.coords).collect();
+    let t1 = Instant::now();
+    let roundtrip = chart.inverse_all(&coords)?;
+    let t2 = Instant::now();
+    let errors_um: Vec<f64> = anatomy
+        .positions
+        .iter()
+        .zip(&roundtrip)
+        .map(|(a, b)| (a - b).norm() * 1e3)
+        .collect();
+    let chamber = config.chart.chamber;
+    let uv: Vec<[f64; 2]> = coords.iter().map(|c| [c.xi, c.zeta]).collect();
+    let shown = displayed(chamber, &uv, config.display_exponent)?;
+    let aha: Vec<u8> = match chamber {
+        Chamber::Lv => shown.iter().map(|&p| aha_segment(p)).collect(),
+        Chamber::Rv => Vec::new(),
+    };
+    let depth: Vec<f64> = coords.iter().map(|c| c.depth).collect();
+    let xi: Vec<f64> = coords.iter().map(|c| c.xi).collect();
+    let zeta: Vec<f64> = coords.iter().map(|c| c.zeta).collect();
+    let add_arrays = |mesh: &mut CellMesh| {
+        mesh.point_data.insert(Field::scalars("xi", xi.clone()));
+        mesh.point_data.insert(Field::scalars("zeta", zeta.clone()));
+        mesh.point_data
+            .insert(Field::scalars("depth", depth.clone()));
+        if !aha.is_empty() {
+            mesh.point_data.insert(Field::labels(
+                "aha",
+                aha.iter().map(|&a| a as i32).collect(),
+            ));
+        }
+    };
+    let mut normalized = anatomy.clone();
+    normalized.point_data = Default::default();
+    normalized.cell_data = Default::default();
+    normalized.positions = shown
+        .iter()
+        .zip(&depth)
+        .map(|(p, &d)| Point3::new(p[0], p[1], d))
+        .collect();
+    add_arrays(&mut normalized);
+    let mut anatomy_out = anatomy.clone();
+    add_arrays(&mut anatomy_out);
+    let disk_uv = &chart.disk().uv;
+    let disk_shown = displayed(chamber, disk_uv, config.display_exponent)?;
+    let mut disk = TriMesh::new(
+        disk_shown
+            .iter()
+            .map(|p| Point3::new(p[0], p[1], 0.0))
+            .collect(),
+        chart.surface().triangles.clone(),
+    );
+    disk.add_point_field(Field::scalars("xi", disk_uv.iter().map(|p| p[0]).collect()))?;
+    disk.add_point_field(Field::scalars(
+        "zeta",
+        disk_uv.iter().map(|p| p[1]).collect(),
+    ))?;
+    let aha_points = (chamber == Chamber::Lv).then(|| {
+        let mut c = [0usize; 17];
+        for &a in &aha {
+            if (1..=17).contains(&a) {
+                c[a as usize - 1] += 1;
+            }
+        }
+        c
+    });
+    let stats = chart.field().stats();
+    let ChartTimings {
+        disk: t_disk,
+        laplace,
+    } = chart.timings();
+    let apex = chart.surface().positions[chart.landmarks().apex as usize];
+    let report = Report {
+        chamber,
+        anatomy_points: anatomy.positions.len(),
+        roundtrip_error_um: Summary::of(&errors_um),
+        flipped_disk_triangles: chart.disk().flipped_triangles,
+        grid_mm: chart.field().grid_mm(),
+        hemisphere_mm: chart.field().hemisphere_radius(),
+        display_exponent: config.display_exponent,
+        disk_weights: chart.disk().weights,
+        apex_warp: chart.disk().apex_warp,
+        surface_repair: *chart.repair(),
+        landmark_snap_mm: chart.landmarks().snap_distances_mm,
+        apex_mm: [apex.x, apex.y, apex.z],
+        aha_points,
+        field: FieldReport {
+            grid_nodes: stats.grid_nodes,
+            unknowns: stats.unknowns,
+            multigrid_levels: stats.levels,
+            cg_iterations: stats.iterations,
+            relative_residual: stats.relative_residual,
+        },
+        seconds: Seconds {
+            disk: t_disk,
+            laplace,
+            streamlines: (t1 - t0).as_secs_f64(),
+            inverse: (t2 - t1).as_secs_f64(),
+        },
+    };
+    Ok(Outcome {
+        chart,
+        coords,
+        roundtrip,
+        aha,
+        normalized,
+        anatomy: anatomy_out,
+        disk,
+        report,
+    })
+}

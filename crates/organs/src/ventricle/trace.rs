@@ -1,0 +1,631 @@
+//! Streamlines of `grad f` (ALGORITHMS 3.3, 3.8): the curves
+//! `dc/ds = sigma g(c) / |g(c)|` parameterized by arc length `s`, with `g`
+//! the field's one continuous interpolant of `grad f` and `sigma = -1`
+//! toward S, `+1` toward H.
+//!
+//! The integrator is Dormand–Prince 5(4) with error control: a step of
+//! length `ds` is accepted when the embedded error estimate
+//! `max_i |y5_i - y4_i| <= tol`, and the next step is
+//! `ds * clamp(0.9 (tol / err)^(1/5), 0.2, 5)`, at most half a grid cell.
+//! Arc length is the integration variable, so lengths are exact sums of
+//! steps. An event (S crossed, H entered, the wanted length reached) ends
+//! the trace on the event: the last step's length `sigma*` is found by
+//! regula falsi (Illinois) on the Dormand–Prince step itself, so the end
+//! point is a point of the numerical curve, accurate to the tolerance.
+
+use super::field::LaplaceField;
+use crate::OrganError;
+use std::collections::HashMap;
+use unfold_mesh::TriMesh;
+
+/// Default local error tolerance of the integrator, mm.
+pub const DEFAULT_TRACE_TOLERANCE_MM: f64 = 1e-9;
+
+/// Where a trace toward S ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceHit {
+    /// Triangle of S crossed.
+    pub triangle: usize,
+    /// Barycentric coordinates of the hit point in that triangle.
+    pub barycentric: [f64; 3],
+    /// The hit point (basal frame).
+    pub point: [f64; 3],
+    /// Arc length from the start, mm.
+    pub length: f64,
+}
+
+/// Why a trace failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TraceFailure {
+    /// The curve left the region where the field is defined.
+    LeftField([f64; 3]),
+    /// `grad f` vanished.
+    Stagnant([f64; 3]),
+    /// The curve was longer than the limit without reaching its target.
+    TooLong(f64),
+}
+
+impl TraceFailure {
+    /// A one-line description.
+    pub fn describe(&self, target: &str) -> String {
+        match self {
+            TraceFailure::LeftField(q) => format!(
+                "its streamline left the field at basal-frame point ({:.3}, {:.3}, {:.3}) before \
+                 reaching {target}",
+                q[0], q[1], q[2]
+            ),
+            TraceFailure::Stagnant(q) => format!(
+                "its streamline stopped where grad f vanishes, at basal-frame point \
+                 ({:.3}, {:.3}, {:.3})",
+                q[0], q[1], q[2]
+            ),
+            TraceFailure::TooLong(l) => {
+                format!("its streamline did not reach {target} within {l:.1} mm")
+            }
+        }
+    }
+}
+
+/// The triangles of S binned by grid cell, for crossing tests.
+#[derive(Debug, Clone)]
+pub struct SurfaceIndex {
+    points: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    cell: f64,
+    origin: [f64; 3],
+    bins: HashMap<[i32; 3], (u32, u32)>,
+    items: Vec<u32>,
+}
+
+impl SurfaceIndex {
+    /// Bins the triangles of `surface` (in the basal frame of `field`) in
+    /// cubes of the grid spacing.
+    pub fn new(surface: &TriMesh, field: &LaplaceField) -> SurfaceIndex {
+        let frame = field.frame();
+        let points: Vec<[f64; 3]> = surface.positions.iter().map(|p| frame.local(p)).collect();
+        let cell = field.grid_mm();
+        let mut origin = [f64::INFINITY; 3];
+        for p in &points {
+            for a in 0..3 {
+                origin[a] = origin[a].min(p[a]);
+            }
+        }
+        let origin = origin.map(|o| if o.is_finite() { o - cell } else { 0.0 });
+        let mut pairs: Vec<([i32; 3], u32)> = Vec::new();
+        for (t, tri) in surface.triangles.iter().enumerate() {
+            let p = tri.map(|v| points[v as usize]);
+            let mut lo = [0i32; 3];
+            let mut hi = [0i32; 3];
+            for a in 0..3 {
+                let mn = p.iter().map(|q| q[a]).fold(f64::INFINITY, f64::min);
+                let mx = p.iter().map(|q| q[a]).fold(f64::NEG_INFINITY, f64::max);
+                lo[a] = ((mn - origin[a]) / cell - 1e-6).floor() as i32;
+                hi[a] = ((mx - origin[a]) / cell + 1e-6).floor() as i32;
+            }
+            for k in lo[2]..=hi[2] {
+                for j in lo[1]..=hi[1] {
+                    for i in lo[0]..=hi[0] {
+                        pairs.push(([i, j, k], t as u32));
+                    }
+                }
+            }
+        }
+        pairs.sort_unstable();
+        let mut bins = HashMap::new();
+        let mut items = Vec::with_capacity(pairs.len());
+        let mut s = 0;
+        while s < pairs.len() {
+            let mut e = s;
+            while e < pairs.len() && pairs[e].0 == pairs[s].0 {
+                items.push(pairs[e].1);
+                e += 1;
+            }
+            bins.insert(pairs[s].0, (s as u32, e as u32));
+            s = e;
+        }
+        SurfaceIndex {
+            points,
+            triangles: surface.triangles.clone(),
+            cell,
+            origin,
+            bins,
+            items,
+        }
+    }
+
+    /// Basal-frame positions of S's vertices.
+    pub fn points(&self) -> &[[f64; 3]] {
+        &self.points
+    }
+
+    /// Candidate triangles near the box `[lo, hi]` (deduplicated into `out`).
+    fn candidates(&self, lo: [f64; 3], hi: [f64; 3], out: &mut Vec<u32>) {
+        out.clear();
+        let c = |x: f64, a: usize| ((x - self.origin[a]) / self.cell).floor() as i32;
+        for k in c(lo[2], 2)..=c(hi[2], 2) {
+            for j in c(lo[1], 1)..=c(hi[1], 1) {
+                for i in c(lo[0], 0)..=c(hi[0], 0) {
+                    if let Some(&(s, e)) = self.bins.get(&[i, j, k]) {
+                        out.extend_from_slice(&self.items[s as usize..e as usize]);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// The first crossing of segment `p -> q` with S: `(triangle, t)` with
+    /// the crossing at `p + t (q - p)`, `t` in `[0, 1]`.
+    fn first_crossing(&self, p: [f64; 3], q: [f64; 3], buf: &mut Vec<u32>) -> Option<(usize, f64)> {
+        let lo = [0, 1, 2].map(|a| p[a].min(q[a]));
+        let hi = [0, 1, 2].map(|a| p[a].max(q[a]));
+        self.candidates(lo, hi, buf);
+        let d = sub(q, p);
+        let mut best: Option<(usize, f64)> = None;
+        for &t in buf.iter() {
+            let [a, b, c] = self.triangles[t as usize].map(|v| self.points[v as usize]);
+            let e1 = sub(b, a);
+            let e2 = sub(c, a);
+            let pv = cross(d, e2);
+            let det = dot(e1, pv);
+            if det == 0.0 {
+                continue;
+            }
+            let inv = 1.0 / det;
+            let tv = sub(p, a);
+            let u = dot(tv, pv) * inv;
+            let qv = cross(tv, e1);
+            let v = dot(d, qv) * inv;
+            let s = dot(e2, qv) * inv;
+            let eps = 1e-9;
+            if u >= -eps && v >= -eps && u + v <= 1.0 + eps && (0.0..=1.0).contains(&s) {
+                match best {
+                    Some((_, bs)) if bs <= s => {}
+                    _ => best = Some((t as usize, s)),
+                }
+            }
+        }
+        best
+    }
+
+    /// Signed distance of `x` from the plane of triangle `t` (along its
+    /// unit normal) and the barycentric coordinates of `x`'s projection.
+    fn plane(&self, t: usize, x: [f64; 3]) -> (f64, [f64; 3]) {
+        let [a, b, c] = self.triangles[t].map(|v| self.points[v as usize]);
+        let e1 = sub(b, a);
+        let e2 = sub(c, a);
+        let n = cross(e1, e2);
+        let nn = dot(n, n);
+        let w = sub(x, a);
+        let dist = dot(w, n) / nn.sqrt();
+        let b1 = dot(cross(w, e2), n) / nn;
+        let b2 = dot(cross(e1, w), n) / nn;
+        (dist, [1.0 - b1 - b2, b1, b2])
+    }
+
+    /// Whether `x` is inside the closed S (the ray toward `+z`, the apex
+    /// side, crosses S an odd number of times; `z < 0` is beyond the cap).
+    pub fn contains(&self, x: [f64; 3], buf: &mut Vec<u32>) -> bool {
+        if x[2] < 0.0 {
+            return false;
+        }
+        let top = self
+            .points
+            .iter()
+            .map(|p| p[2])
+            .fold(f64::NEG_INFINITY, f64::max);
+        if x[2] > top {
+            return false;
+        }
+        let mut count = 0usize;
+        // jittered vertical ray through x
+        let jx = x[0] + 2.7182818e-9 * self.cell;
+        let jy = x[1] + 3.1415926e-9 * self.cell;
+        let c = |v: f64, a: usize| ((v - self.origin[a]) / self.cell).floor() as i32;
+        let (i, j) = (c(jx, 0), c(jy, 1));
+        buf.clear();
+        for k in c(x[2], 2)..=c(top, 2) {
+            if let Some(&(s, e)) = self.bins.get(&[i, j, k]) {
+                buf.extend_from_slice(&self.items[s as usize..e as usize]);
+            }
+        }
+        buf.sort_unstable();
+        buf.dedup();
+        for &t in buf.iter() {
+            let [a, b, cc] = self.triangles[t as usize].map(|v| self.points[v as usize]);
+            let (e1u, e1v) = (b[0] - a[0], b[1] - a[1]);
+            let (e2u, e2v) = (cc[0] - a[0], cc[1] - a[1]);
+            let det = e1u * e2v - e1v * e2u;
+            if det == 0.0 {
+                continue;
+            }
+            let (px, py) = (jx - a[0], jy - a[1]);
+            let b1 = (px * e2v - py * e2u) / det;
+            let b2 = (e1u * py - e1v * px) / det;
+            let b0 = 1.0 - b1 - b2;
+            if b0 >= 0.0 && b1 >= 0.0 && b2 >= 0.0 {
+                let z = b0 * a[2] + b1 * b[2] + b2 * cc[2];
+                if z > x[2] {
+                    count += 1;
+                }
+            }
+        }
+        count % 2 == 1
+    }
+}
+
+#[inline]
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+#[inline]
+fn axpy(y: [f64; 3], a: f64, x: [f64; 3]) -> [f64; 3] {
+    [y[0] + a * x[0], y[1] + a * x[1], y[2] + a * x[2]]
+}
+
+/// What ends a trace.
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    Surface,
+    Hemisphere,
+    Length(f64),
+}
+
+/// How a trace ended.
+enum End {
+    Surface(SurfaceHit),
+    Point([f64; 3], f64),
+}
+
+/// Dormand–Prince 5(4) tableau (nodes 0, 1/5, 3/10, 4/5, 8/9, 1, 1; the
+/// field is autonomous, so only the weights are needed).
+const A: [[f64; 6]; 7] = [
+    [0.0; 6],
+    [0.2, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+const B5: [f64; 7] = [
+    35.0 / 384.0,
+    0.0,
+    500.0 / 1113.0,
+    125.0 / 192.0,
+    -2187.0 / 6784.0,
+    11.0 / 84.0,
+    0.0,
+];
+const B4: [f64; 7] = [
+    5179.0 / 57600.0,
+    0.0,
+    7571.0 / 16695.0,
+    393.0 / 640.0,
+    -92097.0 / 339200.0,
+    187.0 / 2100.0,
+    1.0 / 40.0,
+];
+
+/// Streamline tracer on a field and S.
+#[derive(Debug, Clone)]
+pub struct Tracer<'a> {
+    field: &'a LaplaceField,
+    surface: &'a SurfaceIndex,
+    tolerance: f64,
+    max_length: f64,
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer with local error tolerance `tolerance` (mm) giving up after
+    /// `max_length` mm.
+    pub fn new(
+        field: &'a LaplaceField,
+        surface: &'a SurfaceIndex,
+        tolerance: f64,
+        max_length: f64,
+    ) -> Result<Tracer<'a>, OrganError> {
+        OrganError::check_positive(&[
+            ("trace tolerance (mm)", tolerance),
+            ("largest streamline length (mm)", max_length),
+        ])?;
+        Ok(Tracer {
+            field,
+            surface,
+            tolerance,
+            max_length,
+        })
+    }
+
+    /// Unit direction `sigma g / |g|` at `y`.
+    #[inline]
+    fn dir(&self, y: [f64; 3], sigma: f64) -> Result<[f64; 3], TraceFailure> {
+        let g = self.field.gradient(y).ok_or(TraceFailure::LeftField(y))?;
+        let n = dot(g, g).sqrt();
+        if n.is_nan() || n <= 1e-300 {
+            return Err(TraceFailure::Stagnant(y));
+        }
+        let s = sigma / n;
+        Ok([g[0] * s, g[1] * s, g[2] * s])
+    }
+
+    /// One Dormand–Prince step of length `ds` from `y` with first stage
+    /// `k0`: the 5th-order point, the error estimate and the last stage
+    /// (the next step's first, FSAL).
+    fn step(
+        &self,
+        y: [f64; 3],
+        k0: [f64; 3],
+        ds: f64,
+        sigma: f64,
+    ) -> Result<([f64; 3], f64, [f64; 3]), TraceFailure> {
+        let mut k = [[0.0; 3]; 7];
+        k[0] = k0;
+        for s in 1..7 {
+            let mut yi = y;
+            for (r, kr) in k.iter().enumerate().take(s) {
+                let a = A[s][r];
+                if a != 0.0 {
+                    yi = axpy(yi, ds * a, *kr);
+                }
+            }
+            k[s] = self.dir(yi, sigma)?;
+        }
+        let mut y5 = y;
+        let mut err = 0.0f64;
+        for a in 0..3 {
+            let mut d5 = 0.0;
+            let mut d4 = 0.0;
+            for s in 0..7 {
+                d5 += B5[s] * k[s][a];
+                d4 += B4[s] * k[s][a];
+            }
+            y5[a] += ds * d5;
+            err = err.max((ds * (d5 - d4)).abs());
+        }
+        Ok((y5, err, k[6]))
+    }
+
+    /// Integrates from `start` until `target`.
+    fn run(&self, start: [f64; 3], sigma: f64, target: Target) -> Result<End, TraceFailure> {
+        let hmax = 0.5 * self.field.grid_mm();
+        let tol = self.tolerance;
+        let mut y = start;
+        let mut s = 0.0;
+        let mut k0 = self.dir(y, sigma)?;
+        let mut ds = 0.1 * hmax;
+        let mut buf = Vec::new();
+        if let Target::Length(l) = target
+            && l <= 0.0
+        {
+            return Ok(End::Point(start, 0.0));
+        }
+        if let Target::Hemisphere = target
+            && self.field.hemisphere_level(y) <= 0.0
+        {
+            return Ok(End::Point(start, 0.0));
+        }
+        loop {
+            if s > self.max_length {
+                return Err(TraceFailure::TooLong(self.max_length));
+            }
+            if let Target::Length(l) = target {
+                ds = ds.min(l - s);
+            }
+            let (y1, err, k1) = match self.step(y, k0, ds, sigma) {
+                Ok(x) => x,
+                Err(e) => {
+                    // a stage left the field: retry shorter, unless tiny
+                    if ds > 1e-6 * hmax {
+                        ds *= 0.25;
+                        continue;
+                    }
+                    return Err(e);
+                }
+            };
+            if err > tol && ds > 1e-12 {
+                ds *= (0.9 * (tol / err).powf(0.2)).clamp(0.1, 0.9);
+                continue;
+            }
+            // the step is accepted: events on it
+            match target {
+                Target::Surface => {
+                    if let Some((t, _)) = self.surface.first_crossing(y, y1, &mut buf) {
+                        return self.refine_surface(y, k0, ds, sigma, t, s);
+                    }
+                }
+                Target::Hemisphere => {
+                    if self.field.hemisphere_level(y1) <= 0.0 {
+                        let f = |x: [f64; 3]| self.field.hemisphere_level(x);
+                        let (p, d) = self.refine(y, k0, ds, sigma, f)?;
+                        return Ok(End::Point(p, s + d));
+                    }
+                }
+                Target::Length(l) => {
+                    if s + ds >= l {
+                        return Ok(End::Point(y1, l));
+                    }
+                }
+            }
+            s += ds;
+            y = y1;
+            k0 = k1;
+            let grow = if err > 0.0 {
+                (0.9 * (tol / err).powf(0.2)).clamp(0.2, 5.0)
+            } else {
+                5.0
+            };
+            ds = (ds * grow).min(hmax);
+        }
+    }
+
+    /// The step length `d` in `(0, ds]` whose Dormand–Prince step from `y`
+    /// ends where `level` changes sign (Illinois regula falsi); the end
+    /// point and `d`.
+    fn refine(
+        &self,
+        y: [f64; 3],
+        k0: [f64; 3],
+        ds: f64,
+        sigma: f64,
+        level: impl Fn([f64; 3]) -> f64,
+    ) -> Result<([f64; 3], f64), TraceFailure> {
+        let (mut a, mut fa) = (0.0, level(y));
+        let (mut pb, _, _) = self.step(y, k0, ds, sigma)?;
+        let (mut b, mut fb) = (ds, level(pb));
+        if fa == 0.0 {
+            return Ok((y, 0.0));
+        }
+        if fa * fb > 0.0 {
+            // the chord crossed but the curve's end did not: take the end
+            return Ok((pb, ds));
+        }
+        let mut side = 0i32;
+        for _ in 0..100 {
+            if (b - a).abs() <= 1e-15 * ds.max(1e-300) || fb.abs() < 1e-14 {
+                break;
+            }
+            let m = (a * fb - b * fa) / (fb - fa);
+            let m = if m > a && m < b { m } else { 0.5 * (a + b) };
+            let (pm, _, _) = self.step(y, k0, m, sigma)?;
+            let fm = level(pm);
+            if fm * fb < 0.0 {
+                a = b;
+                fa = fb;
+                side = 0;
+            } else {
+                if side == 1 {
+                    fa *= 0.5;
+                }
+                side = 1;
+            }
+            b = m;
+            fb = fm;
+            pb = pm;
+            if fm == 0.0 {
+                break;
+            }
+        }
+        Ok((pb, b))
+    }
+
+    /// Ends a trace toward S on the triangle crossed in the last step.
+    #[allow(clippy::too_many_arguments)]
+    fn refine_surface(
+        &self,
+        y: [f64; 3],
+        k0: [f64; 3],
+        ds: f64,
+        sigma: f64,
+        mut tri: usize,
+        s: f64,
+    ) -> Result<End, TraceFailure> {
+        let mut buf = Vec::new();
+        let mut point = y;
+        let mut len = 0.0;
+        let mut bary = [1.0 / 3.0; 3];
+        for _ in 0..4 {
+            let side = self.surface.plane(tri, y).0;
+            let f = |x: [f64; 3]| {
+                let d = self.surface.plane(tri, x).0;
+                if side >= 0.0 { d } else { -d }
+            };
+            let (p, d) = self.refine(y, k0, ds, sigma, f)?;
+            point = p;
+            len = d;
+            let (_, b) = self.surface.plane(tri, p);
+            bary = b;
+            let worst = b[0].min(b[1]).min(b[2]);
+            if worst >= -1e-9 {
+                break;
+            }
+            // the end point lies beside this triangle: the neighbour it is in
+            let e = 1e-6 * self.field.grid_mm();
+            self.surface.candidates(
+                [p[0] - e, p[1] - e, p[2] - e],
+                [p[0] + e, p[1] + e, p[2] + e],
+                &mut buf,
+            );
+            let mut best = (tri, worst);
+            for &t in &buf {
+                let (dist, bt) = self.surface.plane(t as usize, p);
+                let w = bt[0].min(bt[1]).min(bt[2]);
+                if w > best.1 && dist.abs() < 1e-3 * self.field.grid_mm() {
+                    best = (t as usize, w);
+                }
+            }
+            if best.0 == tri {
+                break;
+            }
+            tri = best.0;
+        }
+        let clamp = bary.map(|x| x.max(0.0));
+        let sum: f64 = clamp.iter().sum();
+        let bary = clamp.map(|x| x / sum);
+        Ok(End::Surface(SurfaceHit {
+            triangle: tri,
+            barycentric: bary,
+            point,
+            length: s + len,
+        }))
+    }
+
+    /// Traces from `start` against `grad f` until the curve crosses S.
+    pub fn to_surface(&self, start: [f64; 3]) -> Result<SurfaceHit, TraceFailure> {
+        match self.run(start, -1.0, Target::Surface)? {
+            End::Surface(h) => Ok(h),
+            End::Point(p, _) => Err(TraceFailure::LeftField(p)),
+        }
+    }
+
+    /// Traces from `start` along `grad f` until the curve enters H: the end
+    /// point and the arc length.
+    pub fn to_hemisphere(&self, start: [f64; 3]) -> Result<([f64; 3], f64), TraceFailure> {
+        match self.run(start, 1.0, Target::Hemisphere)? {
+            End::Point(p, l) => Ok((p, l)),
+            End::Surface(h) => Err(TraceFailure::LeftField(h.point)),
+        }
+    }
+
+    /// The point at arc length `length` along `grad f` from `start`.
+    pub fn along(&self, start: [f64; 3], length: f64) -> Result<[f64; 3], TraceFailure> {
+        match self.run(start, 1.0, Target::Length(length))? {
+            End::Point(p, _) => Ok(p),
+            End::Surface(h) => Err(TraceFailure::LeftField(h.point)),
+        }
+    }
+}
