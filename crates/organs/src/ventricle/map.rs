@@ -345,7 +345,7 @@ impl Chart {
                     v.x, v.y, v.z, near.distance
                 ));
             }
-            if self.field.hemisphere_level(q) < 0.0 {
+            if self.field.hemisphere_level(q) < -self.config.on_surface_mm {
                 return Err(format!(
                     "({:.3}, {:.3}, {:.3}) lies inside the hemisphere H (radius {} mm at the \
                      centre of the base)",

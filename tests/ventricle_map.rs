@@ -1,0 +1,295 @@
+//! The ventricle map `psi` and its inverse (ALGORITHMS 3.3-3.7, issue 6):
+//! analytic checks on a hemisphere and on the half-ellipsoid cup, the round
+//! trip and AHA labels on the real hearts in `../shared/data/` (licences in
+//! its README), and the transfer geo2 -> LDRB ellipsoid -> geo2.
+//!
+//! The data sets do not mark the RV insertion points: two rim points a third
+//! of the loop apart stand in for them.
+
+use std::sync::OnceLock;
+use unfold::io::{read_mesh, read_tri_mesh};
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{VentricleParams, ventricle_cup};
+use unfold::mesh::{CellMesh, TriMesh};
+use unfold::organs::ventricle::{
+    Chart, ChartConfig, Config, CylinderPoint, LandmarkPoints, Outcome, run,
+};
+use unfold::param::initializer::disk_boundary_loop;
+
+/// Two rim points a third of the loop apart (after the repair of S).
+fn rim_landmarks(s: &TriMesh) -> LandmarkPoints {
+    let (r, _) = unfold::mesh::repair::repair_tri_mesh(s).unwrap();
+    let rim = disk_boundary_loop(&r).unwrap();
+    LandmarkPoints {
+        anterior: r.positions[rim[0] as usize],
+        inferior: r.positions[rim[rim.len() / 3] as usize],
+        apex: None,
+    }
+}
+
+fn config(grid_mm: f64) -> Config {
+    let mut c = Config::default();
+    c.chart.field.grid_mm = grid_mm;
+    c
+}
+
+/// The real heart: S, the anatomy and the pipeline's outcome at 1 mm.
+struct Heart {
+    landmarks: LandmarkPoints,
+    outcome: Outcome,
+}
+
+fn heart(surface: &str, anatomy: &str) -> Heart {
+    let s = read_tri_mesh(surface).unwrap();
+    let a: CellMesh = read_mesh(anatomy).unwrap();
+    let landmarks = rim_landmarks(&s);
+    let outcome = run(&a, &s, &landmarks, &config(1.0)).unwrap();
+    Heart { landmarks, outcome }
+}
+
+fn geo2() -> &'static Heart {
+    static H: OnceLock<Heart> = OnceLock::new();
+    H.get_or_init(|| {
+        heart(
+            "../shared/data/cobiveco-geo2/heart_epi.ply",
+            "../shared/data/cobiveco-geo2/heart_endo_lv.ply",
+        )
+    })
+}
+
+fn ldrb() -> &'static Heart {
+    static H: OnceLock<Heart> = OnceLock::new();
+    H.get_or_init(|| {
+        heart(
+            "../shared/data/ldrb-ellipsoid/epi.obj",
+            "../shared/data/ldrb-ellipsoid/heart.vtu",
+        )
+    })
+}
+
+fn check_real(name: &str, h: &Heart) {
+    let r = &h.outcome.report;
+    let e = r.roundtrip_error_um;
+    println!(
+        "{name}: {} points, round trip um mean {:.2e} median {:.2e} std {:.2e} max {:.2e}; \
+         flipped {}; field {:?}; seconds {:?}; aha {:?}; strip {:.2} mm; repair {:?}",
+        r.anatomy_points,
+        e.mean,
+        e.median,
+        e.std,
+        e.max,
+        r.flipped_disk_triangles,
+        r.field,
+        r.seconds,
+        r.aha_points,
+        h.outcome.chart.strip_height_mm(),
+        r.surface_repair,
+    );
+    assert!(e.mean < 0.1, "{name}: mean {} um", e.mean);
+    assert!(e.max < 5.0, "{name}: max {} um", e.max);
+    assert_eq!(r.flipped_disk_triangles, 0, "{name}");
+    let aha = r.aha_points.expect("LV");
+    assert!(
+        aha.iter().all(|&c| c > 0),
+        "{name}: empty AHA segment {aha:?}"
+    );
+    assert_eq!(aha.iter().sum::<usize>(), r.anatomy_points, "{name}");
+    for c in &h.outcome.coords {
+        assert!((0.0..=1.0).contains(&c.depth), "{name}: depth {}", c.depth);
+        assert!(
+            c.xi.hypot(c.zeta) <= 1.0 + 1e-9,
+            "{name}: off the disk {c:?}"
+        );
+    }
+}
+
+#[test]
+fn cobiveco_geo2_round_trip_and_aha() {
+    let h = geo2();
+    check_real("cobiveco geo2", h);
+    // the rim of geo2 is not planar: S is closed by a strip down to its base
+    assert!(h.outcome.chart.strip_height_mm() > 1.0);
+}
+
+#[test]
+fn ldrb_ellipsoid_round_trip_and_aha() {
+    let h = ldrb();
+    check_real("ldrb ellipsoid", h);
+    // its rim is planar (no strip), and half of S's triangles were reversed
+    assert_eq!(h.outcome.chart.strip_height_mm(), 0.0);
+    assert!(h.outcome.report.surface_repair.flipped > 0);
+    // the tet vertices on the epicardium have depth 0
+    let on_s = h.outcome.coords.iter().filter(|c| c.depth == 0.0).count();
+    assert!(on_s > 100, "{on_s} points on S");
+}
+
+/// geo2 -> LDRB ellipsoid -> geo2 returns every anatomy point.
+#[test]
+fn transfer_geo2_to_ldrb_and_back() {
+    let (g, l) = (geo2(), ldrb());
+    let there = l.outcome.chart.inverse_all(&g.outcome.coords).unwrap();
+    let coords: Vec<CylinderPoint> = l
+        .outcome
+        .chart
+        .forward_all(&there)
+        .unwrap()
+        .iter()
+        .map(|f| f.coords)
+        .collect();
+    let back = g.outcome.chart.inverse_all(&coords).unwrap();
+    let a = read_mesh("../shared/data/cobiveco-geo2/heart_endo_lv.ply").unwrap();
+    let worst = a
+        .positions
+        .iter()
+        .zip(&back)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    println!("transfer geo2 -> ldrb -> geo2: max {worst:.3e} mm");
+    assert!(worst < 1e-3, "max {worst} mm");
+    // the transferred points are inside the other heart (depths kept)
+    for (c, d) in g.outcome.coords.iter().zip(&coords) {
+        assert!((c.depth - d.depth).abs() < 1e-6, "{c:?} vs {d:?}");
+    }
+    let _ = &g.landmarks;
+}
+
+/// On a hemispherical S of radius R with H of radius r at its centre, the
+/// Laplace field is the concentric-spheres one (the cap is a plane of
+/// symmetry): streamlines are radial, `v_S = R v / |v|` and
+/// `d = (R - |v|) / (R - r)`.
+#[test]
+fn hemisphere_streamlines_are_radial() {
+    let radius = 20.0;
+    let p = VentricleParams {
+        radius,
+        length: radius,
+        base_above_equator: 0.0,
+        rings: 40,
+        ..VentricleParams::default()
+    };
+    let cup = ventricle_cup(&p).unwrap();
+    let mut cfg = ChartConfig::default();
+    cfg.field.grid_mm = 0.5;
+    // every vertex of a hemisphere is equally far from the rim's centre:
+    // the apex is given
+    let chart = Chart::new(
+        &cup.surface,
+        &cup.anterior,
+        &cup.inferior,
+        Some(&cup.apex),
+        &cfg,
+    )
+    .unwrap();
+    let frame = *chart.field().frame();
+    let r_h = chart.field().hemisphere_radius();
+    let mut worst_dir: f64 = 0.0;
+    let mut worst_depth: f64 = 0.0;
+    let mut pts = Vec::new();
+    for k in 0..60 {
+        // directions spread over the hemisphere, radii between H and S
+        let t = k as f64 / 60.0;
+        let polar = 0.1 + 1.35 * ((k * 7 % 60) as f64 / 60.0);
+        let az = 2.0 * std::f64::consts::PI * t * 5.0;
+        let rad = r_h + 1.0 + (radius - r_h - 2.0) * ((k * 13 % 60) as f64 / 60.0);
+        let q = [
+            rad * polar.sin() * az.cos(),
+            rad * polar.sin() * az.sin(),
+            rad * polar.cos(),
+        ];
+        pts.push((frame.world(q), rad, q));
+    }
+    let fw = chart
+        .forward_all(&pts.iter().map(|x| x.0).collect::<Vec<_>>())
+        .unwrap();
+    let s = chart.surface();
+    for ((_, rad, q), f) in pts.iter().zip(&fw) {
+        let tri = s.triangles[f.triangle];
+        let hit = tri
+            .iter()
+            .zip(f.barycentric)
+            .fold(Point3::origin(), |acc, (&v, b)| {
+                acc + s.positions[v as usize].coords * b
+            });
+        let h = frame.local(&hit);
+        let hn = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+        let cos = (h[0] * q[0] + h[1] * q[1] + h[2] * q[2]) / (hn * rad);
+        worst_dir = worst_dir.max(cos.clamp(-1.0, 1.0).acos().to_degrees());
+        let expect = (radius - rad) / (radius - r_h);
+        worst_depth = worst_depth.max((f.coords.depth - expect).abs());
+    }
+    println!("hemisphere: direction error {worst_dir:.3} deg, depth error {worst_depth:.2e}");
+    assert!(worst_dir < 0.5, "{worst_dir} deg");
+    assert!(worst_depth < 0.01, "{worst_depth}");
+}
+
+/// ALGORITHMS 3.7 on the half-ellipsoid cup: anatomy rings of constant
+/// height map to circles (radius spread < 2 %), meridians to rays (angle
+/// spread < 1 degree), and depth increases along every streamline.
+#[test]
+fn cup_rings_to_circles_meridians_to_rays() {
+    let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+    let mut cfg = ChartConfig::default();
+    cfg.field.grid_mm = 0.5;
+    let chart = Chart::new(&cup.surface, &cup.anterior, &cup.inferior, None, &cfg).unwrap();
+    let fw = chart.forward_all(&cup.anatomy_points).unwrap();
+    let mut worst_ring: f64 = 0.0;
+    for ring in &cup.anatomy_rings {
+        let r: Vec<f64> = ring
+            .iter()
+            .map(|&i| fw[i].coords.xi.hypot(fw[i].coords.zeta))
+            .collect();
+        let mean = r.iter().sum::<f64>() / r.len() as f64;
+        let spread = r.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max) / mean;
+        worst_ring = worst_ring.max(spread);
+    }
+    let mut worst_ray: f64 = 0.0;
+    for m in &cup.anatomy_meridians {
+        let a: Vec<f64> = m
+            .iter()
+            .map(|&i| fw[i].coords.zeta.atan2(fw[i].coords.xi))
+            .collect();
+        let (s, c) = a
+            .iter()
+            .fold((0.0, 0.0), |(s, c), x| (s + x.sin(), c + x.cos()));
+        let mean = s.atan2(c);
+        for x in &a {
+            let d = (x - mean).sin().atan2((x - mean).cos()).abs().to_degrees();
+            worst_ray = worst_ray.max(d);
+        }
+    }
+    println!(
+        "cup: {} rings, worst radius spread {:.3} %; {} meridians, worst angle spread {:.3} deg",
+        cup.anatomy_rings.len(),
+        100.0 * worst_ring,
+        cup.anatomy_meridians.len(),
+        worst_ray
+    );
+    assert!(!cup.anatomy_rings.is_empty() && !cup.anatomy_meridians.is_empty());
+    assert!(worst_ring < 0.02, "{worst_ring}");
+    assert!(worst_ray < 1.0, "{worst_ray}");
+    // depth along streamlines: points at depths 0, 0.1, .., 1 on the
+    // streamline of every 10th anatomy point map back to increasing depths
+    // with the same disk position
+    for f in fw.iter().step_by(10) {
+        let line: Vec<CylinderPoint> = (0..=10)
+            .map(|k| CylinderPoint {
+                depth: k as f64 / 10.0,
+                ..f.coords
+            })
+            .collect();
+        let pts = chart.inverse_all(&line).unwrap();
+        let again = chart.forward_all(&pts).unwrap();
+        for (k, w) in again.windows(2).enumerate() {
+            assert!(
+                w[1].coords.depth > w[0].coords.depth,
+                "depth not increasing at step {k}: {:?}",
+                again.iter().map(|x| x.coords.depth).collect::<Vec<_>>()
+            );
+        }
+        for (g, want) in again.iter().zip(&line) {
+            assert!((g.coords.depth - want.depth).abs() < 1e-6);
+            assert!((g.coords.xi - want.xi).abs() < 1e-6);
+            assert!((g.coords.zeta - want.zeta).abs() < 1e-6);
+        }
+    }
+}
