@@ -1,7 +1,9 @@
 //! `unfold demo [-o DIR]`: the built-in synthetic shapes, written with their
 //! info; the placenta pipeline run on a built-in slab with the synthetic
 //! MRI (outputs in `DIR/placenta/`) and the mitral pipeline on the built-in
-//! valve (outputs in `DIR/mitral/`). A later issue adds the ventricle.
+//! valve (outputs in `DIR/mitral/`), and the ventricle pipeline on the
+//! built-in cup (its inner cup as the anatomy, outputs in
+//! `DIR/ventricle/`).
 
 use super::CliError;
 use super::placenta::{ImageInput, PipelineInput, run_pipeline};
@@ -184,8 +186,40 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         "wrote {} (valve3d.vtp, valve2d.vtp, report.json)",
         mitral_dir.display()
     );
+
+    // The ventricle pipeline on the built-in cup, its inner cup the anatomy.
+    let ventricle_dir = dir.join("ventricle");
+    let mut config = unfold::organs::ventricle::Config::default();
+    config.chart.field.grid_mm = VENTRICLE_GRID_MM;
+    let anatomy = CellMesh::from(&v.anatomy);
+    let result = super::ventricle::run_pipeline(&super::ventricle::PipelineInput {
+        anatomy_label: "built-in ventricle cup: inner cup",
+        anatomy: &anatomy,
+        surface_label: "built-in ventricle cup: S",
+        surface: &v.surface,
+        landmarks: unfold::organs::ventricle::LandmarkPoints {
+            anterior: v.anterior,
+            inferior: v.inferior,
+            apex: Some(v.apex),
+        },
+        config,
+        transfer: None,
+        dir: &ventricle_dir,
+    })?;
+    println!(
+        "built-in ventricle cup: {}",
+        super::ventricle::summary(&result.outcome.report)
+    );
+    println!(
+        "wrote {} (normalized.vtu, anatomy.vtu, disk.vtp, report.json)",
+        ventricle_dir.display()
+    );
     Ok(())
 }
+
+/// Grid spacing of the demo's Laplace field, mm (coarser than the default
+/// 0.5 mm, so that the demo stays quick).
+const VENTRICLE_GRID_MM: f64 = 1.0;
 
 /// Radial resolution of the slab the demo runs the placenta pipeline on:
 /// `18 n^2 m` = 10,368 tets with the default 4 layers.

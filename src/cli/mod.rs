@@ -6,6 +6,7 @@ mod demo;
 mod info;
 mod mitral;
 mod placenta;
+mod ventricle;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -71,13 +72,17 @@ enum Command {
     /// Convert a mesh between formats (by file extension).
     Convert(convert::ConvertArgs),
     /// Write the built-in synthetic shapes (and their info) to a directory, and run the
-    /// placenta and mitral pipelines on them.
+    /// placenta, ventricle and mitral pipelines on them.
     Demo(demo::DemoArgs),
     /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
     Deform(deform::DeformArgs),
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
     /// single plane), pulling images into the template frame.
     Placenta(placenta::PlacentaArgs),
+    /// Carry the anatomy inside a heart chamber into the canonical cylinder: the enclosing
+    /// surface flattened to a disk (LV) or half disk (RV), depth along Laplace streamlines,
+    /// AHA 17 segments, exact inverse map and transfer to another heart.
+    Ventricle(ventricle::VentricleArgs),
     /// Lay a mitral valve out in 2D: annulus first, leaflets below, relaxed flip-free, with
     /// clinical maps (coaptation, tenting, Carpentier segments) and measurements.
     Mitral(mitral::MitralArgs),
@@ -91,6 +96,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Demo(a) => demo::run(&a),
         Command::Deform(a) => deform::run(&a),
         Command::Placenta(a) => placenta::run(&a),
+        Command::Ventricle(a) => ventricle::run(&a),
         Command::Mitral(a) => mitral::run(&a),
     }
 }

@@ -444,14 +444,14 @@ impl Chart {
             return Ok(frame.world(start));
         }
         let tracer = self.tracer();
-        let (end, total) = tracer
-            .to_hemisphere(start)
+        let (end, total, record) = tracer
+            .to_hemisphere_recorded(start)
             .map_err(|e| e.describe("the hemisphere H"))?;
         if c.depth == 1.0 {
             return Ok(frame.world(end));
         }
         let q = tracer
-            .along(start, c.depth * total)
+            .along_recorded(&record, c.depth * total)
             .map_err(|e| e.describe("its depth"))?;
         Ok(frame.world(q))
     }

@@ -19,7 +19,7 @@ use std::collections::HashMap;
 use unfold_mesh::TriMesh;
 
 /// Default local error tolerance of the integrator, mm.
-pub const DEFAULT_TRACE_TOLERANCE_MM: f64 = 1e-9;
+pub const DEFAULT_TRACE_TOLERANCE_MM: f64 = 1e-8;
 
 /// Where a trace toward S ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,6 +33,9 @@ pub struct SurfaceHit {
     /// Arc length from the start, mm.
     pub length: f64,
 }
+
+/// Accepted step points of a trace with their arc lengths, mm.
+pub type Record = Vec<([f64; 3], f64)>;
 
 /// Why a trace failed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -421,7 +424,13 @@ impl<'a> Tracer<'a> {
     }
 
     /// Integrates from `start` until `target`.
-    fn run(&self, start: [f64; 3], sigma: f64, target: Target) -> Result<End, TraceFailure> {
+    fn run(
+        &self,
+        start: [f64; 3],
+        sigma: f64,
+        target: Target,
+        mut record: Option<&mut Record>,
+    ) -> Result<End, TraceFailure> {
         let hmax = 0.5 * self.field.grid_mm();
         let tol = self.tolerance;
         let mut y = start;
@@ -483,6 +492,9 @@ impl<'a> Tracer<'a> {
             }
             s += ds;
             y = y1;
+            if let Some(r) = record.as_deref_mut() {
+                r.push((y, s));
+            }
             k0 = k1;
             let grow = if err > 0.0 {
                 (0.9 * (tol / err).powf(0.2)).clamp(0.2, 5.0)
@@ -606,7 +618,7 @@ impl<'a> Tracer<'a> {
 
     /// Traces from `start` against `grad f` until the curve crosses S.
     pub fn to_surface(&self, start: [f64; 3]) -> Result<SurfaceHit, TraceFailure> {
-        match self.run(start, -1.0, Target::Surface)? {
+        match self.run(start, -1.0, Target::Surface, None)? {
             End::Surface(h) => Ok(h),
             End::Point(p, _) => Err(TraceFailure::LeftField(p)),
         }
@@ -615,15 +627,40 @@ impl<'a> Tracer<'a> {
     /// Traces from `start` along `grad f` until the curve enters H: the end
     /// point and the arc length.
     pub fn to_hemisphere(&self, start: [f64; 3]) -> Result<([f64; 3], f64), TraceFailure> {
-        match self.run(start, 1.0, Target::Hemisphere)? {
+        match self.run(start, 1.0, Target::Hemisphere, None)? {
             End::Point(p, l) => Ok((p, l)),
             End::Surface(h) => Err(TraceFailure::LeftField(h.point)),
         }
     }
 
+    /// [`Tracer::to_hemisphere`], also returning the accepted step points
+    /// with their arc lengths (for [`Tracer::along_recorded`]).
+    pub fn to_hemisphere_recorded(
+        &self,
+        start: [f64; 3],
+    ) -> Result<([f64; 3], f64, Record), TraceFailure> {
+        let mut rec = vec![(start, 0.0)];
+        match self.run(start, 1.0, Target::Hemisphere, Some(&mut rec))? {
+            End::Point(p, l) => Ok((p, l, rec)),
+            End::Surface(h) => Err(TraceFailure::LeftField(h.point)),
+        }
+    }
+
+    /// The point at arc length `length` along a recorded trace: integrated
+    /// from the last recorded point at or before `length`.
+    pub fn along_recorded(
+        &self,
+        record: &[([f64; 3], f64)],
+        length: f64,
+    ) -> Result<[f64; 3], TraceFailure> {
+        let k = record.partition_point(|r| r.1 <= length).max(1) - 1;
+        let (y, s) = record[k];
+        self.along(y, length - s)
+    }
+
     /// The point at arc length `length` along `grad f` from `start`.
     pub fn along(&self, start: [f64; 3], length: f64) -> Result<[f64; 3], TraceFailure> {
-        match self.run(start, 1.0, Target::Length(length))? {
+        match self.run(start, 1.0, Target::Length(length), None)? {
             End::Point(p, _) => Ok(p),
             End::Surface(h) => Err(TraceFailure::LeftField(h.point)),
         }

@@ -1,0 +1,644 @@
+//! `unfold ventricle ANATOMY --surface S --anterior X,Y,Z --inferior X,Y,Z
+//! -o DIR`: the anatomy inside a heart chamber carried into the canonical
+//! cylinder (ALGORITHMS 3).
+//!
+//! The pipeline is [`unfold::organs::ventricle::run`]: S (a triangle mesh
+//! with disk topology, its one boundary loop the basal rim) is flattened to
+//! the unit disk (LV) or half disk (RV) with the landmarks in place, the
+//! Laplace field between S and the hemisphere H is solved on a grid, and
+//! every anatomy point `v` goes to
+//!
+//! ```text
+//! psi(v) = (phi(v_S), d(v)),   d(v) = len(v_S -> v) / len(v_S -> v_H)
+//! ```
+//!
+//! (`v_S`, `v_H` the ends of the streamline through `v` on S and H), and
+//! back (`psi^-1`, the round-trip error). The anatomy is any mesh file:
+//! triangles, tets or bare points (VTK `VERTICES`, a PLY without faces);
+//! only its points are mapped, its cells are kept.
+//!
+//! Outputs in DIR (created if missing), each written atomically:
+//!
+//! - `normalized.vtu`: the anatomy in the cylinder, points `(X, Y, depth)`
+//!   with `(X, Y)` the displayed disk position; point arrays `xi`, `zeta`,
+//!   `depth` and (LV) `aha`;
+//! - `anatomy.vtu`: the input anatomy with the same arrays;
+//! - `disk.vtp`: S flattened (`z = 0`), arrays `xi`, `zeta`;
+//! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
+//!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
+//! - `report.json`: the library's report, the inputs and (with a transfer)
+//!   `transfer`.
+//!
+//! An anatomy without cells is written with one VTK vertex cell per point,
+//! so that viewers show it. Progress lines (`ventricle: ...`) go to stderr
+//! when it is a terminal.
+
+use super::CliError;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use std::borrow::Cow;
+use std::fmt;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use unfold::io::{WriteOptions, atomic_write, read_mesh, read_tri_mesh, write_mesh};
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::{CellMesh, CellType, TriMesh};
+use unfold::organs::OrganError;
+use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
+use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::organs::ventricle::{
+    Chamber, Chart, ChartConfig, Config, LandmarkPoints, Outcome, Report, run as run_ventricle,
+};
+
+/// `--chamber`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ChamberArg {
+    /// Left ventricle: the unit disk, AHA 17 segments.
+    Lv,
+    /// Right ventricle: the half disk (landmarks: the two septal corners).
+    Rv,
+}
+
+impl From<ChamberArg> for Chamber {
+    fn from(c: ChamberArg) -> Self {
+        match c {
+            ChamberArg::Lv => Chamber::Lv,
+            ChamberArg::Rv => Chamber::Rv,
+        }
+    }
+}
+
+/// Arguments of `unfold ventricle`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Writes DIR/normalized.vtu (the anatomy at (X, Y, depth) in the cylinder), \
+                  DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
+                  and (LV) aha, DIR/disk.vtp (S flattened), DIR/report.json and, with \
+                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart). \
+                  Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
+)]
+pub struct VentricleArgs {
+    /// The anatomy inside S (any mesh file: triangles, tets, or bare points
+    /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
+    /// mapped; its cells are kept.
+    anatomy: PathBuf,
+    /// The enclosing surface S of the chamber: a triangle mesh with disk
+    /// topology, its one boundary loop the basal rim.
+    #[arg(long, value_name = "S")]
+    surface: PathBuf,
+    /// Anterior RV insertion point (LV) or first septal corner (RV), on the
+    /// rim of S.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    anterior: Point3<f64>,
+    /// Inferior RV insertion point (LV) or second septal corner (RV), on the
+    /// rim of S.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    inferior: Point3<f64>,
+    /// The apex (snapped to the nearest vertex of S) [default: the vertex of
+    /// S farthest from the rim's centroid].
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    apex: Option<Point3<f64>>,
+    /// Output directory (created if missing).
+    #[arg(short, long, value_name = "DIR")]
+    output: PathBuf,
+    /// The chamber S encloses.
+    #[arg(long, value_enum, default_value = "lv")]
+    chamber: ChamberArg,
+    /// Grid spacing of the Laplace field, mm (finer is slower and more
+    /// accurate).
+    #[arg(long, value_name = "MM", default_value_t = DEFAULT_GRID_MM, allow_negative_numbers = true)]
+    grid_mm: f64,
+    /// Radius of the hemisphere H at the centre of the base, mm.
+    #[arg(long, value_name = "MM", default_value_t = DEFAULT_HEMISPHERE_MM, allow_negative_numbers = true)]
+    hemisphere_mm: f64,
+    /// Display exponent n of the LV disk, r' = r^n (the AHA labels follow
+    /// the displayed disk; 1 labels the harmonic disk) [default: 1/3].
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    display_exponent: Option<f64>,
+    /// Largest distance from a given rim landmark to the rim of S, mm.
+    #[arg(long, value_name = "MM", default_value_t = DEFAULT_SNAP_MM, allow_negative_numbers = true)]
+    snap_mm: f64,
+    /// Transfer the anatomy into a second heart with this enclosing surface
+    /// (same chamber, grid and settings): writes DIR/transferred.vtu.
+    #[arg(long, value_name = "S2")]
+    to_surface: Option<PathBuf>,
+    /// Anterior landmark of the second heart (with --to-surface).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          requires = "to_surface")]
+    to_anterior: Option<Point3<f64>>,
+    /// Inferior landmark of the second heart (with --to-surface).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          requires = "to_surface")]
+    to_inferior: Option<Point3<f64>>,
+    /// Apex of the second heart (with --to-surface) [default: the vertex of
+    /// S2 farthest from its rim's centroid].
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          requires = "to_surface")]
+    to_apex: Option<Point3<f64>>,
+}
+
+/// Parses a point `X,Y,Z` (spaces around the commas allowed).
+fn parse_point(s: &str) -> Result<Point3<f64>, String> {
+    let fields: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || format!("expected X,Y,Z (three numbers separated by commas), got {s:?}");
+    if fields.len() != 3 {
+        return Err(bad());
+    }
+    let mut x = [0.0; 3];
+    for (k, f) in fields.iter().enumerate() {
+        let v: f64 = f.parse().map_err(|_| bad())?;
+        if !v.is_finite() {
+            return Err(format!("coordinate {f:?} of {s:?} is not finite"));
+        }
+        x[k] = v;
+    }
+    Ok(Point3::new(x[0], x[1], x[2]))
+}
+
+/// A usage error naming `path`.
+fn at(path: &Path, msg: impl fmt::Display) -> CliError {
+    CliError::Usage(format!("{}: {msg}", path.display()))
+}
+
+/// A pipeline error about the inputs called `label`; configuration errors
+/// are usage errors.
+fn organ(label: &str, source: OrganError) -> CliError {
+    match source {
+        OrganError::Config(_) => CliError::Usage(source.to_string()),
+        source => CliError::Organ {
+            path: label.to_string(),
+            source,
+        },
+    }
+}
+
+/// `value` if it is finite and positive, else a usage error naming `flag`.
+fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(CliError::Usage(format!(
+            "{flag} must be a finite number > 0, got {value}"
+        )))
+    }
+}
+
+impl VentricleArgs {
+    /// The pipeline settings, every flag checked.
+    fn config(&self) -> Result<Config, CliError> {
+        let defaults = Config::default();
+        let display_exponent = match self.display_exponent {
+            Some(n) => positive("--display-exponent", n)?,
+            None => defaults.display_exponent,
+        };
+        Ok(Config {
+            chart: ChartConfig {
+                chamber: self.chamber.into(),
+                field: FieldConfig {
+                    grid_mm: positive("--grid-mm", self.grid_mm)?,
+                    hemisphere_mm: positive("--hemisphere-mm", self.hemisphere_mm)?,
+                    ..defaults.chart.field
+                },
+                snap_mm: positive("--snap-mm", self.snap_mm)?,
+                ..defaults.chart
+            },
+            display_exponent,
+        })
+    }
+}
+
+/// A progress line `ventricle: ...` on stderr, only when stderr is a
+/// terminal (scripts see the summary on stdout and, on failure, the one-line
+/// error on stderr; like the placenta spinner).
+fn progress(line: impl FnOnce() -> String) {
+    if std::io::stderr().is_terminal() {
+        eprintln!("ventricle: {}", line());
+    }
+}
+
+/// The output files.
+const NORMALIZED: &str = "normalized.vtu";
+const ANATOMY: &str = "anatomy.vtu";
+const DISK: &str = "disk.vtp";
+const TRANSFERRED: &str = "transferred.vtu";
+const REPORT: &str = "report.json";
+
+/// The second heart of a transfer.
+#[derive(Debug, Clone)]
+pub(crate) struct TransferInput<'a> {
+    /// Its name in messages and the report (its path, usually).
+    pub label: &'a str,
+    /// Its enclosing surface.
+    pub surface: &'a TriMesh,
+    /// Its landmarks.
+    pub landmarks: LandmarkPoints,
+}
+
+/// What [`run_pipeline`] works on.
+#[derive(Debug, Clone)]
+pub(crate) struct PipelineInput<'a> {
+    /// The anatomy's name in messages and the report.
+    pub anatomy_label: &'a str,
+    /// The anatomy (points mapped, cells kept).
+    pub anatomy: &'a CellMesh,
+    /// S's name in messages and the report.
+    pub surface_label: &'a str,
+    /// The enclosing surface S.
+    pub surface: &'a TriMesh,
+    /// The landmarks of S.
+    pub landmarks: LandmarkPoints,
+    /// Pipeline settings (already checked).
+    pub config: Config,
+    /// An optional transfer into a second heart.
+    pub transfer: Option<TransferInput<'a>>,
+    /// Output directory (created if missing).
+    pub dir: &'a Path,
+}
+
+/// `report.json`: `inputs`, the library's report and the optional transfer.
+#[derive(Serialize)]
+struct FullReport<'a> {
+    inputs: Inputs<'a>,
+    #[serde(flatten)]
+    report: &'a Report,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    transfer: Option<&'a TransferReport>,
+}
+
+/// The inputs named in `report.json`.
+#[derive(Serialize)]
+struct Inputs<'a> {
+    anatomy: &'a str,
+    surface: &'a str,
+}
+
+/// `transfer` in `report.json`.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct TransferReport {
+    /// The second heart's enclosing surface.
+    pub surface: String,
+    /// Points carried over.
+    pub points: usize,
+    /// Distances from its given landmarks to the vertices they snapped to,
+    /// mm (anterior, inferior, apex; 0 for a computed apex).
+    pub landmark_snap_mm: [f64; 3],
+    /// Its apex, mm.
+    pub apex_mm: [f64; 3],
+    /// Its chart: repair, landmarks and disk map, s.
+    pub disk_seconds: f64,
+    /// Its chart: the Laplace field, s.
+    pub laplace_seconds: f64,
+    /// The inverse map of every point, s.
+    pub inverse_seconds: f64,
+    /// The whole transfer, s.
+    pub seconds: f64,
+}
+
+/// What a run produced.
+#[derive(Debug)]
+pub(crate) struct RunResult {
+    /// The library's outcome.
+    pub outcome: Outcome,
+    /// The transfer, when asked for.
+    pub transfer: Option<TransferReport>,
+    /// Every file written, in order.
+    pub written: Vec<PathBuf>,
+}
+
+/// `mesh`, or a copy with one vertex cell per point when it has no cells
+/// (viewers show nothing of a mesh without cells).
+fn with_vertex_cells(mesh: &CellMesh) -> Cow<'_, CellMesh> {
+    if mesh.num_cells() > 0 {
+        return Cow::Borrowed(mesh);
+    }
+    let mut m = mesh.clone();
+    for i in 0..m.positions.len() as u32 {
+        m.push_cell(CellType::Vertex, &[i]);
+    }
+    Cow::Owned(m)
+}
+
+/// Runs the pipeline (and the transfer) and writes the outputs into
+/// `input.dir`: the meshes first, `report.json` last. Nothing is written
+/// when the pipeline or the transfer fails.
+pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliError> {
+    let label = format!("{} + {}", input.anatomy_label, input.surface_label);
+    progress(|| {
+        format!(
+            "disk map and Laplace field of {} ({} vertices, {} triangles; {} grid {} mm), \
+             then mapping {} anatomy points to the cylinder and back ...",
+            input.surface_label,
+            input.surface.positions.len(),
+            input.surface.triangles.len(),
+            chamber_name(input.config.chart.chamber),
+            input.config.chart.field.grid_mm,
+            input.anatomy.positions.len()
+        )
+    });
+    let outcome = run_ventricle(
+        input.anatomy,
+        input.surface,
+        &input.landmarks,
+        &input.config,
+    )
+    .map_err(|e| organ(&label, e))?;
+    let r = &outcome.report;
+    progress(|| {
+        format!(
+            "disk map {:.2} s, Laplace field {:.2} s ({} unknowns, {} CG iterations), \
+             mapping {} anatomy points {:.2} s, inverse {:.2} s",
+            r.seconds.disk,
+            r.seconds.laplace,
+            r.field.unknowns,
+            r.field.cg_iterations,
+            r.anatomy_points,
+            r.seconds.streamlines,
+            r.seconds.inverse
+        )
+    });
+
+    let transferred = match &input.transfer {
+        None => None,
+        Some(t) => {
+            progress(|| {
+                format!(
+                    "transfer: disk map and Laplace field of {} ({} vertices) ...",
+                    t.label,
+                    t.surface.positions.len()
+                )
+            });
+            let t0 = Instant::now();
+            let chart = Chart::new(
+                t.surface,
+                &t.landmarks.anterior,
+                &t.landmarks.inferior,
+                t.landmarks.apex.as_ref(),
+                &input.config.chart,
+            )
+            .map_err(|e| organ(t.label, e))?;
+            progress(|| {
+                format!(
+                    "transfer: mapping {} anatomy points into {} ...",
+                    outcome.coords.len(),
+                    t.label
+                )
+            });
+            let t1 = Instant::now();
+            let points = chart
+                .inverse_all(&outcome.coords)
+                .map_err(|e| organ(t.label, e))?;
+            let t2 = Instant::now();
+            let timings = chart.timings();
+            let s = chart.surface();
+            let apex = s.positions[chart.landmarks().apex as usize];
+            let mut mesh = outcome.anatomy.clone();
+            mesh.positions = points;
+            Some((
+                mesh,
+                TransferReport {
+                    surface: t.label.to_string(),
+                    points: outcome.coords.len(),
+                    landmark_snap_mm: chart.landmarks().snap_distances_mm,
+                    apex_mm: [apex.x, apex.y, apex.z],
+                    disk_seconds: timings.disk,
+                    laplace_seconds: timings.laplace,
+                    inverse_seconds: (t2 - t1).as_secs_f64(),
+                    seconds: (t2 - t0).as_secs_f64(),
+                },
+            ))
+        }
+    };
+
+    let dir = input.dir;
+    super::ensure_dir(dir)?;
+    let opts = WriteOptions::default();
+    let mut written = Vec::new();
+    let mut meshes: Vec<(&str, Cow<'_, CellMesh>)> = vec![
+        (NORMALIZED, with_vertex_cells(&outcome.normalized)),
+        (ANATOMY, with_vertex_cells(&outcome.anatomy)),
+        (DISK, Cow::Owned(CellMesh::from(&outcome.disk))),
+    ];
+    if let Some((mesh, _)) = &transferred {
+        meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
+    }
+    for (name, mesh) in &meshes {
+        let p = dir.join(name);
+        write_mesh(&p, mesh, &opts)?;
+        written.push(p);
+    }
+    drop(meshes);
+    let transfer = transferred.map(|(_, report)| report);
+    let report_path = dir.join(REPORT);
+    let json = serde_json::to_string_pretty(&FullReport {
+        inputs: Inputs {
+            anatomy: input.anatomy_label,
+            surface: input.surface_label,
+        },
+        report: &outcome.report,
+        transfer: transfer.as_ref(),
+    })
+    .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
+    atomic_write(&report_path, format!("{json}\n").as_bytes())?;
+    written.push(report_path);
+    Ok(RunResult {
+        outcome,
+        transfer,
+        written,
+    })
+}
+
+fn chamber_name(c: Chamber) -> &'static str {
+    match c {
+        Chamber::Lv => "LV",
+        Chamber::Rv => "RV",
+    }
+}
+
+/// A length in micrometres: three decimals, or three significant digits
+/// below 0.01 um.
+fn micrometres(x: f64) -> String {
+    if x == 0.0 || x.abs() >= 0.01 {
+        format!("{x:.3}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+/// A one-line summary of a report: round trip, AHA segments, timings.
+pub(crate) fn summary(r: &Report) -> String {
+    let aha = match &r.aha_points {
+        Some(counts) => format!(
+            "{}/17 AHA segments non-empty",
+            counts.iter().filter(|&&c| c > 0).count()
+        ),
+        None => "no AHA segments (RV)".into(),
+    };
+    let s = &r.seconds;
+    format!(
+        "{} points, round trip mean {} um, max {} um; {aha}; {} flipped disk triangles; \
+         {:.2} s (disk {:.2}, Laplace {:.2}, streamlines {:.2}, inverse {:.2})",
+        r.anatomy_points,
+        micrometres(r.roundtrip_error_um.mean),
+        micrometres(r.roundtrip_error_um.max),
+        r.flipped_disk_triangles,
+        s.disk + s.laplace + s.streamlines + s.inverse,
+        s.disk,
+        s.laplace,
+        s.streamlines,
+        s.inverse
+    )
+}
+
+/// Refuses an output directory whose files would overwrite an input.
+fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
+    let d = super::canonical(dir);
+    for input in inputs {
+        let c = super::canonical(input);
+        for f in [NORMALIZED, ANATOMY, DISK, TRANSFERRED, REPORT] {
+            if d.join(f) == c {
+                return Err(at(
+                    input,
+                    format!(
+                        "is an input and would be overwritten by the output {f}; choose another -o"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Runs `unfold ventricle`.
+pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
+    let start = Instant::now();
+    let config = a.config()?;
+    let out = a.output.as_path();
+    if out.exists() && !out.is_dir() {
+        return Err(at(
+            out,
+            "exists and is not a directory; -o needs a directory (created if missing)",
+        ));
+    }
+    if a.to_surface.is_some() && (a.to_anterior.is_none() || a.to_inferior.is_none()) {
+        return Err(CliError::Usage(
+            "--to-surface needs --to-anterior and --to-inferior (the second heart's rim \
+             landmarks)"
+                .into(),
+        ));
+    }
+    let mut inputs = vec![&a.anatomy, &a.surface];
+    inputs.extend(&a.to_surface);
+    check_not_inputs(out, &inputs)?;
+
+    let anatomy = read_mesh(&a.anatomy)?;
+    if anatomy.positions.is_empty() {
+        return Err(at(
+            &a.anatomy,
+            "has no points; the anatomy to map is a mesh or points inside S",
+        ));
+    }
+    let surface = read_tri_mesh(&a.surface)?;
+    let to_surface = match &a.to_surface {
+        Some(p) => Some(read_tri_mesh(p)?),
+        None => None,
+    };
+    let anatomy_label = a.anatomy.display().to_string();
+    let surface_label = a.surface.display().to_string();
+    let to_label = a
+        .to_surface
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let transfer = match (&to_surface, a.to_anterior, a.to_inferior) {
+        (Some(surface), Some(anterior), Some(inferior)) => Some(TransferInput {
+            label: &to_label,
+            surface,
+            landmarks: LandmarkPoints {
+                anterior,
+                inferior,
+                apex: a.to_apex,
+            },
+        }),
+        _ => None,
+    };
+    progress(|| {
+        format!(
+            "read {} ({} points, {} cells) and {}",
+            anatomy_label,
+            anatomy.positions.len(),
+            anatomy.num_cells(),
+            surface_label
+        )
+    });
+    let result = run_pipeline(&PipelineInput {
+        anatomy_label: &anatomy_label,
+        anatomy: &anatomy,
+        surface_label: &surface_label,
+        surface: &surface,
+        landmarks: LandmarkPoints {
+            anterior: a.anterior,
+            inferior: a.inferior,
+            apex: a.apex,
+        },
+        config,
+        transfer,
+        dir: out,
+    })?;
+    println!("{}: {}", anatomy_label, summary(&result.outcome.report));
+    if let Some(t) = &result.transfer {
+        println!(
+            "transferred {} points into {} in {:.2} s",
+            t.points, t.surface, t.seconds
+        );
+    }
+    for p in &result.written {
+        println!("wrote {}", p.display());
+    }
+    progress(|| format!("done in {:.2} s", start.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_parse_with_or_without_spaces() {
+        assert_eq!(
+            parse_point("1,2.5,-3").unwrap(),
+            Point3::new(1.0, 2.5, -3.0)
+        );
+        assert_eq!(
+            parse_point(" 1, 2 ,3e1 ").unwrap(),
+            Point3::new(1.0, 2.0, 30.0)
+        );
+        for bad in ["1,2", "1,2,3,4", "1,,3", "a,b,c", "", "1 2 3"] {
+            let e = parse_point(bad).unwrap_err();
+            assert!(e.contains("expected X,Y,Z"), "{bad}: {e}");
+        }
+        assert!(parse_point("1,nan,3").unwrap_err().contains("not finite"));
+        assert!(parse_point("inf,0,3").unwrap_err().contains("not finite"));
+    }
+
+    #[test]
+    fn micrometres_keep_three_significant_digits_when_small() {
+        assert_eq!(micrometres(1.23456), "1.235");
+        assert_eq!(micrometres(0.0), "0.000");
+        assert_eq!(micrometres(0.000148), "1.48e-4");
+    }
+
+    #[test]
+    fn a_mesh_without_cells_gets_vertex_cells() {
+        let m = CellMesh::from_points(vec![Point3::origin(), Point3::new(1.0, 0.0, 0.0)]);
+        let v = with_vertex_cells(&m);
+        assert_eq!(v.num_cells(), 2);
+        assert!(
+            v.cells()
+                .all(|(t, vs)| t == CellType::Vertex && vs.len() == 1)
+        );
+        let mut tri = CellMesh::from_points(vec![Point3::origin(); 3]);
+        tri.push_cell(CellType::Triangle, &[0, 1, 2]);
+        assert!(matches!(with_vertex_cells(&tri), Cow::Borrowed(_)));
+    }
+}
