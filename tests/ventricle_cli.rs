@@ -297,6 +297,60 @@ fn a_transfer_carries_the_anatomy_into_a_moved_heart() {
     assert!((a - moved.apex).norm() < 1e-9, "{a} vs {}", moved.apex);
 }
 
+/// `--to-hemisphere R`: on a hemisphere the streamlines are radial, so a
+/// point of depth `d` lands at `R - d (R - r_H)` from the base centre.
+#[test]
+fn a_transfer_onto_a_hemisphere_is_radial_in_depth() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = cup();
+    let (anatomy, surface) = write_cup(dir.path(), &v);
+    let out = dir.path().join("out");
+    let o = run(&anatomy, &surface, &v, &out, &["--to-hemisphere", "30"]);
+    assert_ok(&o);
+    let t = read_mesh(out.join("transferred.vtu")).unwrap();
+    assert_eq!(t.positions.len(), v.anatomy.positions.len());
+    let depth = array(&t, "depth");
+    // the CLI documents the hemisphere's base centre at the origin
+    let h = ventricle_cup(&VentricleParams {
+        radius: 30.0,
+        length: 30.0,
+        base_above_equator: 0.0,
+        anatomy_point_depth: 1.5,
+        anatomy_surface_depth: 3.0,
+        rings: 40,
+        ..VentricleParams::default()
+    })
+    .unwrap();
+    assert!(h.base_centre.coords.norm() < 1e-9, "{}", h.base_centre);
+    let mut worst: f64 = 0.0;
+    for (p, d) in t.positions.iter().zip(&depth) {
+        let want = 30.0 - d * (30.0 - 5.0);
+        worst = worst.max((p.coords.norm() - want).abs());
+    }
+    assert!(worst < 0.1, "radius off by {worst} mm");
+    assert_eq!(
+        report(&out)["transfer"]["surface"],
+        "the hemisphere of radius 30 mm"
+    );
+    // not both targets at once, and a positive radius
+    let o = run(
+        &anatomy,
+        &surface,
+        &v,
+        &dir.path().join("o2"),
+        &["--to-hemisphere", "30", "--to-surface", &s(&surface)],
+    );
+    assert!(!o.status.success());
+    let o = run(
+        &anatomy,
+        &surface,
+        &v,
+        &dir.path().join("o3"),
+        &["--to-hemisphere", "-2"],
+    );
+    assert_one_line_error(&o, "--to-hemisphere must be a finite number > 0");
+}
+
 #[test]
 fn surfaces_that_are_not_disks_are_rejected() {
     let dir = tempfile::tempdir().unwrap();

@@ -43,6 +43,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use unfold::io::{WriteOptions, atomic_write, read_mesh, read_tri_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::OrganError;
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
@@ -123,6 +124,16 @@ pub struct VentricleArgs {
     /// (same chamber, grid and settings): writes DIR/transferred.vtu.
     #[arg(long, value_name = "S2")]
     to_surface: Option<PathBuf>,
+    /// Transfer the anatomy onto a hemisphere of this radius (mm; centre of
+    /// its base at the origin, apex on +z, landmarks 110 degrees apart about
+    /// +x, like the demo's cup): writes DIR/transferred.vtu.
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "to_surface",
+        allow_negative_numbers = true
+    )]
+    to_hemisphere: Option<f64>,
     /// Anterior landmark of the second heart (with --to-surface).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
           requires = "to_surface")]
@@ -509,6 +520,22 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The hemisphere of radius `r` (mm) as an enclosing surface: the built-in
+/// cup with equal radius and length, cut at the equator (its base centre at
+/// the origin, apex on +z).
+fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
+    ventricle_cup(&VentricleParams {
+        radius: r,
+        length: r,
+        base_above_equator: 0.0,
+        anatomy_point_depth: 0.05 * r,
+        anatomy_surface_depth: 0.1 * r,
+        rings: 40,
+        ..VentricleParams::default()
+    })
+    .map_err(|e| CliError::Usage(format!("--to-hemisphere {r}: {e}")))
+}
+
 /// Runs `unfold ventricle`.
 pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let start = Instant::now();
@@ -543,21 +570,34 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         Some(p) => Some(read_tri_mesh(p)?),
         None => None,
     };
+    let hemisphere = match a.to_hemisphere {
+        Some(r) => Some(hemisphere(positive("--to-hemisphere", r)?)?),
+        None => None,
+    };
     let anatomy_label = a.anatomy.display().to_string();
     let surface_label = a.surface.display().to_string();
-    let to_label = a
-        .to_surface
-        .as_ref()
-        .map(|p| p.display().to_string())
-        .unwrap_or_default();
-    let transfer = match (&to_surface, a.to_anterior, a.to_inferior) {
-        (Some(surface), Some(anterior), Some(inferior)) => Some(TransferInput {
+    let to_label = match (&a.to_surface, a.to_hemisphere) {
+        (Some(p), _) => p.display().to_string(),
+        (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
+        _ => String::new(),
+    };
+    let transfer = match (&to_surface, a.to_anterior, a.to_inferior, &hemisphere) {
+        (Some(surface), Some(anterior), Some(inferior), _) => Some(TransferInput {
             label: &to_label,
             surface,
             landmarks: LandmarkPoints {
                 anterior,
                 inferior,
                 apex: a.to_apex,
+            },
+        }),
+        (None, _, _, Some(h)) => Some(TransferInput {
+            label: &to_label,
+            surface: &h.surface,
+            landmarks: LandmarkPoints {
+                anterior: h.anterior,
+                inferior: h.inferior,
+                apex: Some(h.apex),
             },
         }),
         _ => None,

@@ -5,8 +5,10 @@
 //! **Frame.** The basal plane is fitted to the rim of S (least squares); its
 //! normal `e3` points to the apex. The plane is moved along `e3` to the most
 //! basal rim vertex, so all of S's rim lies on the apical side (`z >= 0`).
-//! S is closed by a vertical skirt from its rim down to that plane and by the
-//! plane itself (the basal cap); a planar rim has no skirt.
+//! S is closed by the plane (the basal cap) and, where the rim rises above
+//! it, by a vertical zero-flux wall from the rim down to it. The pipeline
+//! hands this solver S closed by [`super::base::close_base`], whose rim is
+//! planar: there is no wall, and the zero-flux cap lies on a grid plane.
 //!
 //! **Domain.** `U` = inside the closed surface, `z >= 0`, outside the ball
 //! `|x - h0| < r_H` whose centre `h0` is the rim's centroid projected on the
