@@ -876,6 +876,13 @@ impl Multigrid {
         Ok(mg)
     }
 
+    /// The finest operator `A_0` when it is a smoothed level (`None` when
+    /// the whole problem is the coarsest level, solved densely): lets a
+    /// caller hand its matrix over instead of keeping a copy.
+    pub fn matrix(&self) -> Option<&Csr> {
+        self.levels.first().map(|l| &l.a)
+    }
+
     /// Each dropped coarsest-level direction `n` must vanish on the fine
     /// grid: `|Q n|^2 = n^T G n <= NULL_TOL sum_i n_i^2 G_ii` with
     /// `Q = P_0 ... P_{L-1}` and `G = Q^T Q` (built like the Galerkin

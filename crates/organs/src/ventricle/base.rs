@@ -120,3 +120,221 @@ pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSu
         original_vertices,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ventricle::landmarks::DEFAULT_SNAP_MM;
+    use proptest::prelude::*;
+    use std::f64::consts::TAU;
+    use unfold_mesh::nalgebra::Vector3;
+    use unfold_mesh::repair::repair_tri_mesh;
+    use unfold_mesh::shapes::{VentricleParams, ventricle_cup};
+    use unfold_param::initializer::disk_boundary_loop;
+
+    /// Below the rim, heights fade out over this many mm.
+    const FADE_MM: f64 = 15.0;
+
+    /// The default cup (long axis +z, rim at `z = 0`) with its top moved
+    /// along the long axis by `amplitude * sin(2 azimuth + phase)`, faded
+    /// out linearly over `FADE_MM` below the rim: a saddle-shaped rim
+    /// whose least-squares plane is still `z = 0`.
+    fn saddle(amplitude: f64, phase: f64) -> (TriMesh, Landmarks) {
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let mut s = cup.surface;
+        for p in &mut s.positions {
+            if p.z > -FADE_MM {
+                let az = p.y.atan2(p.x);
+                p.z += amplitude * (2.0 * az + phase).sin() * (1.0 + p.z / FADE_MM);
+            }
+        }
+        let l = Landmarks::resolve(
+            &s,
+            &s.positions[cup.anterior_index],
+            &s.positions[cup.inferior_index],
+            None,
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        (s, l)
+    }
+
+    /// Every invariant of a strip closing a non-planar rim; returns the
+    /// strip's layer count.
+    fn check_strip(s: &TriMesh, l: &Landmarks, e: &ExtendedSurface) -> usize {
+        let n = s.positions.len();
+        let m = l.rim.len();
+        let pos = &e.surface.positions;
+        // S is kept, first
+        assert_eq!(e.original_vertices, n);
+        assert_eq!(&pos[..n], &s.positions[..]);
+        assert_eq!(&e.surface.triangles[..s.triangles.len()], &s.triangles[..]);
+        // layers of the rim's copies, two triangles per rim edge and layer
+        let added = pos.len() - n;
+        assert_eq!(added % m, 0);
+        let layers = added / m;
+        assert!((1..=64).contains(&layers), "{layers} layers");
+        assert_eq!(
+            e.surface.triangles.len(),
+            s.triangles.len() + 2 * m * layers
+        );
+        // the landmarks are the same rim positions, on the new rim; the apex kept
+        assert_eq!(e.landmarks.rim.len(), m);
+        assert_eq!(
+            (e.landmarks.anterior, e.landmarks.inferior, e.landmarks.apex),
+            (l.anterior, l.inferior, l.apex)
+        );
+        assert_eq!(e.landmarks.snap_distances_mm, l.snap_distances_mm);
+        // still a disk, whose one boundary loop is the new rim
+        let mut loop_ = disk_boundary_loop(&e.surface).unwrap();
+        let k = loop_
+            .iter()
+            .position(|&v| v == e.landmarks.rim[0])
+            .expect("the new rim is the boundary");
+        loop_.rotate_left(k);
+        assert_eq!(loop_, e.landmarks.rim);
+        // consistently oriented with S
+        let (_, report) = repair_tri_mesh(&e.surface).unwrap();
+        assert_eq!(report.flipped, 0, "{report:?}");
+        assert_eq!(report.components, 1);
+        // in the frame of S: columns straight down along e3 from the rim
+        // vertices to the plane delta below the lowest one
+        let frame = BasalFrame::new(s, l).unwrap();
+        let heights: Vec<f64> = l
+            .rim
+            .iter()
+            .map(|&v| frame.local(&s.positions[v as usize])[2])
+            .collect();
+        let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let low = heights.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(low.abs() < 1e-9, "lowest rim height {low}");
+        let edges: Vec<f64> = (0..m)
+            .map(|k| {
+                (s.positions[l.rim[k] as usize] - s.positions[l.rim[(k + 1) % m] as usize]).norm()
+            })
+            .collect();
+        let delta = 0.5 * edges.iter().sum::<f64>() / m as f64;
+        assert!((e.strip_height_mm - (top + delta)).abs() < 1e-9);
+        assert_eq!(layers, ((top + delta) / (2.0 * delta)).ceil() as usize);
+        for (k, &v) in l.rim.iter().enumerate() {
+            let q0 = frame.local(&s.positions[v as usize]);
+            for layer in 1..=layers {
+                let w = n + (layer - 1) * m + k;
+                let q = frame.local(&pos[w]);
+                assert!((q[0] - q0[0]).abs() < 1e-9 && (q[1] - q0[1]).abs() < 1e-9);
+                let want = heights[k] - (heights[k] + delta) * layer as f64 / layers as f64;
+                assert!((q[2] - want).abs() < 1e-9, "{} vs {want}", q[2]);
+            }
+            // the new rim vertex k is the bottom of column k, at -delta
+            assert_eq!(e.landmarks.rim[k] as usize, n + (layers - 1) * m + k);
+        }
+        // the new rim is planar: every vertex at the same height along e3,
+        // and its own frame sees no strip to add
+        let again = BasalFrame::new(&e.surface, &e.landmarks).unwrap();
+        for &v in &e.landmarks.rim {
+            let z = again.local(&pos[v as usize])[2];
+            assert!(z.abs() < 1e-9, "new rim height {z}");
+        }
+        let twice = close_base(&e.surface, &e.landmarks).unwrap();
+        assert_eq!(twice.strip_height_mm, 0.0);
+        assert_eq!(twice.surface.positions, e.surface.positions);
+        // strip triangles: outward (away from the long axis, like S's
+        // normals) and no smaller than half a layer times the shortest
+        // horizontal rim edge
+        let e3: Vector3<f64> = frame.rotation.row(2).transpose();
+        let horizontal = |d: Vector3<f64>| d - e3 * d.dot(&e3);
+        let shortest = (0..m)
+            .map(|k| {
+                horizontal(
+                    s.positions[l.rim[(k + 1) % m] as usize] - s.positions[l.rim[k] as usize],
+                )
+                .norm()
+            })
+            .fold(f64::INFINITY, f64::min);
+        for t in &e.surface.triangles[s.triangles.len()..] {
+            let [a, b, c] = t.map(|v| pos[v as usize]);
+            let normal = (b - a).cross(&(c - a));
+            let area = 0.5 * normal.norm();
+            assert!(
+                area >= 0.5 * (delta / layers as f64) * shortest * (1.0 - 1e-9),
+                "area {area}"
+            );
+            let out = horizontal((a.coords + b.coords + c.coords) / 3.0 - frame.origin.coords);
+            assert!(normal.dot(&out) > 0.0, "{t:?} faces the axis");
+        }
+        layers
+    }
+
+    #[test]
+    fn a_planar_rim_is_left_as_it_is() {
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let l = Landmarks::resolve(
+            &cup.surface,
+            &cup.anterior,
+            &cup.inferior,
+            None,
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        let e = close_base(&cup.surface, &l).unwrap();
+        assert_eq!(e.strip_height_mm, 0.0);
+        assert_eq!(e.original_vertices, cup.surface.positions.len());
+        assert_eq!(e.surface.positions, cup.surface.positions);
+        assert_eq!(e.surface.triangles, cup.surface.triangles);
+        assert_eq!(e.landmarks, l);
+    }
+
+    #[test]
+    fn a_saddle_rim_is_closed_by_a_strip_to_a_planar_rim() {
+        let (s, l) = saddle(3.0, 0.4);
+        let e = close_base(&s, &l).unwrap();
+        let layers = check_strip(&s, &l, &e);
+        // heights 0..6 mm above the lowest rim vertex, plus delta
+        assert!(
+            e.strip_height_mm > 6.0 && e.strip_height_mm < 8.0,
+            "{}",
+            e.strip_height_mm
+        );
+        assert!(layers >= 3, "{layers}");
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+
+        #[test]
+        fn every_saddle_rim_is_closed_by_a_consistent_strip(
+            amplitude in 0.5..5.0f64,
+            phase in 0.0..TAU,
+        ) {
+            let (s, l) = saddle(amplitude, phase);
+            let e = close_base(&s, &l).unwrap();
+            check_strip(&s, &l, &e);
+            prop_assert!(e.strip_height_mm > 1.9 * amplitude, "{} for {amplitude}", e.strip_height_mm);
+        }
+    }
+
+    #[test]
+    fn a_degenerate_rim_is_refused() {
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let s = TriMesh::new(
+            vec![
+                p(0.0, 0.0, 0.0),
+                p(1.0, 0.0, 0.0),
+                p(2.0, 0.0, 0.0),
+                p(1.0, 1.0, -3.0),
+            ],
+            vec![[0, 1, 3], [1, 2, 3]],
+        );
+        let l = Landmarks {
+            rim: vec![0, 1, 2],
+            anterior: 0,
+            inferior: 1,
+            apex: 3,
+            snap_distances_mm: [0.0; 3],
+        };
+        match close_base(&s, &l) {
+            Err(OrganError::Input(m)) => assert!(m.contains("collinear"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -39,7 +39,7 @@ use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
-use unfold_param::multigrid::{Csr, Multigrid, pcg};
+use unfold_param::multigrid::{COARSEST, Csr, Multigrid, pcg};
 
 /// Default grid spacing, mm (`--grid-mm`).
 pub const DEFAULT_GRID_MM: f64 = 0.5;
@@ -368,9 +368,14 @@ impl LaplaceField {
             radius,
         };
         let (a, b) = ctx.assemble()?;
-        let mg = Multigrid::for_grid(a.clone(), dims, &index)?;
+        // the hierarchy keeps A as its finest level: no second copy
+        let small = (a.n_rows() <= COARSEST).then(|| a.clone());
+        let mg = Multigrid::for_grid(a, dims, &index)?;
+        let a = small.as_ref().or(mg.matrix()).ok_or_else(|| {
+            OrganError::Input("the multigrid hierarchy lost its finest level".into())
+        })?;
         let mut f = vec![0.0; unknowns];
-        let report = pcg(&a, &b, &mut f, &mg, config.tolerance, 500)?;
+        let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
         let (slot, grad, value) = ctx.gradients(&f);
         Ok(LaplaceField {
             frame,
@@ -479,6 +484,36 @@ impl LaplaceField {
         let (s, t) = self.cell(q)?;
         let w = trilinear_weights(t);
         Some((0..8).map(|c| w[c] * self.value[s[c] as usize]).sum())
+    }
+
+    /// Distance along the unit direction `d` from `q` to the face where the
+    /// straight line leaves the grid cell ahead of it, plus `1e-7 h` (a
+    /// point within `1e-7 h` of a face counts as on it and looks to the next
+    /// one). Inside a cell the interpolant is a polynomial; the streamline
+    /// integrator ends its steps here so that no step straddles a face,
+    /// where `grad f` has a kink the error estimate would not see.
+    #[inline]
+    pub fn face_distance(&self, q: [f64; 3], d: [f64; 3]) -> f64 {
+        let g = &self.grid;
+        let mut best = f64::INFINITY;
+        for a in 0..3 {
+            let (x, da) = if a == 2 && q[2] < 0.0 {
+                (-q[2], -d[2])
+            } else {
+                (q[a], d[a])
+            };
+            if da.abs() < 1e-12 {
+                continue;
+            }
+            let s = (x - g.origin[a]) / g.h;
+            let face = if da > 0.0 {
+                (s + 1e-7).floor() + 1.0
+            } else {
+                (s - 1e-7).ceil() - 1.0
+            };
+            best = best.min((face - s) * g.h / da);
+        }
+        best + 1e-7 * g.h
     }
 
     /// Signed distance-like test for H: `|q| - r_H` (negative inside the
@@ -874,5 +909,420 @@ fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
                 f(g.id(ii as usize, jj as usize, kk as usize));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ventricle::landmarks::DEFAULT_SNAP_MM;
+    use proptest::prelude::*;
+    use std::f64::consts::TAU;
+    use std::sync::OnceLock;
+    use unfold_mesh::shapes::{Pose, VentricleParams, VentricleShape, ventricle_cup};
+
+    /// Radius of the hemispherical S, mm.
+    const R: f64 = 20.0;
+
+    /// S a hemisphere of radius `R`: the cup with `length == radius` cut at
+    /// its equator.
+    fn hemisphere() -> VentricleShape {
+        ventricle_cup(&VentricleParams {
+            radius: R,
+            length: R,
+            base_above_equator: 0.0,
+            ..VentricleParams::default()
+        })
+        .unwrap()
+    }
+
+    /// The cup's landmarks; the apex given (every vertex of a hemisphere is
+    /// equally far from the rim's centre) or found.
+    fn landmarks_of(cup: &VentricleShape, give_apex: bool) -> Landmarks {
+        Landmarks::resolve(
+            &cup.surface,
+            &cup.anterior,
+            &cup.inferior,
+            give_apex.then_some(&cup.apex),
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap()
+    }
+
+    fn config(grid_mm: f64) -> FieldConfig {
+        FieldConfig {
+            grid_mm,
+            ..FieldConfig::default()
+        }
+    }
+
+    struct Hemi {
+        cup: VentricleShape,
+        landmarks: Landmarks,
+        field: LaplaceField,
+    }
+
+    /// The hemisphere's field on a 1 mm grid, solved once.
+    fn hemi() -> &'static Hemi {
+        static H: OnceLock<Hemi> = OnceLock::new();
+        H.get_or_init(|| {
+            let cup = hemisphere();
+            let landmarks = landmarks_of(&cup, true);
+            let field = LaplaceField::solve(&cup.surface, &landmarks, &config(1.0)).unwrap();
+            Hemi {
+                cup,
+                landmarks,
+                field,
+            }
+        })
+    }
+
+    /// The concentric-spheres solution `f = A + B / rho` with `f(R) = -1`,
+    /// `f(r) = 1`: `B = 2 r R / (R - r)`, `A = -1 - B / R`; and `B`.
+    fn analytic(rho: f64, r: f64) -> (f64, f64) {
+        let b = 2.0 * r * R / (R - r);
+        (-1.0 - b / R + b / rho, b)
+    }
+
+    fn norm(q: [f64; 3]) -> f64 {
+        (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
+    }
+
+    /// Angle between two vectors, degrees.
+    fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
+        let c = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
+        c.clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
+    /// The basal-frame point at radius `rho`, polar angle `polar` from the
+    /// long axis `e3` and azimuth `az`.
+    fn spherical(rho: f64, polar: f64, az: f64) -> [f64; 3] {
+        [
+            rho * polar.sin() * az.cos(),
+            rho * polar.sin() * az.sin(),
+            rho * polar.cos(),
+        ]
+    }
+
+    fn err_of(r: Result<LaplaceField, OrganError>) -> OrganError {
+        match r {
+            Err(e) => e,
+            Ok(f) => panic!("expected an error, got a field with {:?}", f.stats()),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+
+        /// For any rigid pose of the cup: the rotation is orthonormal and
+        /// right-handed, `world(local(p)) = p` and `local(world(q)) = q`,
+        /// `e3` is the cup's long axis toward the apex, the origin is the
+        /// rim centre, the apex is `length` above the base and the (planar)
+        /// rim at height 0; heights do not depend on the pose.
+        #[test]
+        fn the_basal_frame_is_rigid_and_points_to_the_apex(
+            angles in prop::array::uniform3(-180.0..180.0f64),
+            shift in prop::array::uniform3(-200.0..200.0f64),
+            points in prop::collection::vec(prop::array::uniform3(-500.0..500.0f64), 1..16),
+        ) {
+            let params = VentricleParams {
+                pose: Pose::new(angles, shift),
+                ..VentricleParams::default()
+            };
+            let cup = ventricle_cup(&params).unwrap();
+            let frame = BasalFrame::new(&cup.surface, &landmarks_of(&cup, false)).unwrap();
+            let r = frame.rotation;
+            let ortho = (r * r.transpose() - Matrix3::identity()).abs().max();
+            prop_assert!(ortho < 1e-12, "R R^T - I = {ortho}");
+            prop_assert!((r.determinant() - 1.0).abs() < 1e-12);
+            let o = frame.origin;
+            for p in &points {
+                let p = Point3::new(p[0], p[1], p[2]);
+                let scale = p.coords.norm() + o.coords.norm();
+                let back = frame.world(frame.local(&p));
+                prop_assert!((back - p).norm() <= 1e-12 * scale, "{p:?} -> {back:?}");
+                let q = [p.x, p.y, p.z];
+                let again = frame.local(&frame.world(q));
+                let d = norm([again[0] - q[0], again[1] - q[1], again[2] - q[2]]);
+                prop_assert!(d <= 1e-12 * scale, "{q:?} -> {again:?}");
+                let l = frame.local(&p);
+                prop_assert!((norm(l) - (p - o).norm()).abs() <= 1e-12 * scale);
+            }
+            prop_assert!((o - cup.base_centre).norm() < 1e-9, "{o:?} vs {:?}", cup.base_centre);
+            let e3: Vector3<f64> = r.row(2).transpose();
+            prop_assert!((e3 + cup.long_axis).norm() < 1e-9, "e3 {e3:?}");
+            let apex = frame.local(&cup.apex);
+            prop_assert!(apex[2] > 0.0);
+            prop_assert!((apex[2] - params.length).abs() < 1e-9, "apex height {}", apex[2]);
+            for &v in &cup.rim {
+                let z = frame.local(&cup.surface.positions[v as usize])[2];
+                prop_assert!((-1e-9..1e-9).contains(&z), "rim height {z}");
+            }
+            let plain = ventricle_cup(&VentricleParams::default()).unwrap();
+            let f0 = BasalFrame::new(&plain.surface, &landmarks_of(&plain, false)).unwrap();
+            for (p, p0) in cup.surface.positions.iter().zip(&plain.surface.positions) {
+                prop_assert!((frame.local(p)[2] - f0.local(p0)[2]).abs() < 1e-9);
+            }
+        }
+    }
+
+    /// A tilted, non-planar rim: every rim vertex on the apical side of the
+    /// frame's base plane (`z >= 0`), the lowest one on it.
+    #[test]
+    fn every_rim_vertex_is_on_the_apical_side_of_the_base() {
+        let cup = ventricle_cup(&VentricleParams {
+            pose: Pose::new([30.0, -20.0, 75.0], [5.0, 6.0, -7.0]),
+            ..VentricleParams::default()
+        })
+        .unwrap();
+        let mut s = cup.surface.clone();
+        let axis = cup.long_axis;
+        let centre = cup.base_centre;
+        for &v in &cup.rim {
+            let p = s.positions[v as usize];
+            // a height that is not a plane: 2 mm * sin(3 * azimuth)
+            let d = p - centre;
+            let az = d.y.atan2(d.x);
+            s.positions[v as usize] = p + axis * (2.0 * (3.0 * az).sin());
+        }
+        let l = Landmarks::resolve(
+            &s,
+            &s.positions[cup.anterior_index],
+            &s.positions[cup.inferior_index],
+            None,
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        let frame = BasalFrame::new(&s, &l).unwrap();
+        let heights: Vec<f64> = l
+            .rim
+            .iter()
+            .map(|&v| frame.local(&s.positions[v as usize])[2])
+            .collect();
+        let lo = heights.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert!(lo.abs() <= 1e-9, "lowest rim height {lo}");
+        assert!(hi > 2.0, "highest rim height {hi}");
+        assert!(frame.local(&s.positions[l.apex as usize])[2] > hi);
+    }
+
+    #[test]
+    fn a_degenerate_rim_or_a_flat_cup_is_refused_with_a_clear_error() {
+        let tris = vec![[0, 1, 3], [1, 2, 3]];
+        let hand = |rim: Vec<u32>| Landmarks {
+            rim,
+            anterior: 0,
+            inferior: 1,
+            apex: 3,
+            snap_distances_mm: [0.0; 3],
+        };
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        // collinear rim vertices
+        let line = TriMesh::new(
+            vec![
+                p(0.0, 0.0, 0.0),
+                p(1.0, 0.0, 0.0),
+                p(2.0, 0.0, 0.0),
+                p(1.0, 1.0, -3.0),
+            ],
+            tris.clone(),
+        );
+        // all rim vertices at one point
+        let point = TriMesh::new(
+            vec![
+                p(1.0, 1.0, 1.0),
+                p(1.0, 1.0, 1.0),
+                p(1.0, 1.0, 1.0),
+                p(1.0, 1.0, -3.0),
+            ],
+            tris.clone(),
+        );
+        for s in [&line, &point] {
+            for e in [
+                BasalFrame::new(s, &hand(vec![0, 1, 2])).unwrap_err(),
+                err_of(LaplaceField::solve(s, &hand(vec![0, 1, 2]), &config(1.0))),
+            ] {
+                match e {
+                    OrganError::Input(m) => assert!(m.contains("collinear"), "{m}"),
+                    e => panic!("{e:?}"),
+                }
+            }
+        }
+        // the apex in the rim's plane
+        let flat = TriMesh::new(
+            vec![
+                p(0.0, 0.0, 0.0),
+                p(1.0, 0.0, 0.0),
+                p(0.0, 1.0, 0.0),
+                p(1.0, 1.0, 0.0),
+            ],
+            tris,
+        );
+        match BasalFrame::new(&flat, &hand(vec![0, 1, 2])).unwrap_err() {
+            OrganError::Input(m) => assert!(m.contains("not a cup"), "{m}"),
+            e => panic!("{e:?}"),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+
+        /// On the hemisphere the field is the concentric-spheres solution:
+        /// values within 0.02, gradient directions within 2 degrees and
+        /// magnitudes within 5 % at points 2 mm or more from S and H.
+        #[test]
+        fn the_hemisphere_field_is_the_concentric_spheres_solution(
+            u in 0.0..1.0f64,
+            polar in 0.0..1.5f64,
+            az in 0.0..TAU,
+        ) {
+            let h = hemi();
+            let r = h.field.hemisphere_radius();
+            let rho = r + 2.0 + u * (R - r - 4.0);
+            let q = spherical(rho, polar, az);
+            let (want, b) = analytic(rho, r);
+            let f = h.field.value(q).unwrap();
+            prop_assert!((f - want).abs() < 0.02, "f({rho}) = {f}, want {want}");
+            let g = h.field.gradient(q).unwrap();
+            let inward = [-q[0], -q[1], -q[2]];
+            let a = angle_deg(g, inward);
+            prop_assert!(a < 2.0, "gradient {g:?} at {q:?}: {a} degrees off");
+            let mag = b / (rho * rho);
+            prop_assert!((norm(g) / mag - 1.0).abs() < 0.05, "|g| = {}, want {mag}", norm(g));
+        }
+
+        /// The gradient is mirrored across the cap: `g_z = 0` on it,
+        /// `g(x, y, -z) = (g_x, g_y, -g_z)(x, y, z)` exactly, and the value
+        /// is even in `z`.
+        #[test]
+        fn the_gradient_is_mirrored_across_the_cap(
+            u in 0.0..1.0f64,
+            polar in 0.0..1.57f64,
+            az in 0.0..TAU,
+        ) {
+            let h = hemi();
+            let r = h.field.hemisphere_radius();
+            let rho = r + 0.5 + u * (R - r - 1.0);
+            let q = spherical(rho, polar, az);
+            let g = h.field.gradient(q).unwrap();
+            let m = h.field.gradient([q[0], q[1], -q[2]]).unwrap();
+            prop_assert_eq!([m[0], m[1]], [g[0], g[1]]);
+            prop_assert_eq!(m[2], -g[2]);
+            prop_assert_eq!(h.field.value([q[0], q[1], -q[2]]), h.field.value(q));
+            let c = h.field.gradient([q[0], q[1], 0.0]).unwrap();
+            prop_assert_eq!(c[2], 0.0);
+        }
+    }
+
+    #[test]
+    fn the_field_is_undefined_far_outside_s() {
+        let h = hemi();
+        for q in [
+            [10.0 * R, 0.0, 0.0],
+            [0.0, -10.0 * R, 1.0],
+            [0.0, 0.0, 10.0 * R],
+            [0.0, 0.0, -10.0 * R],
+            [-10.0 * R, 3.0 * R, 2.0 * R],
+            [f64::NAN, 0.0, 5.0],
+            [0.0, f64::INFINITY, 5.0],
+        ] {
+            assert!(h.field.gradient(q).is_none(), "{q:?}");
+            assert!(h.field.value(q).is_none(), "{q:?}");
+        }
+        // just inside S it is defined, and near -1
+        let f = h.field.value([0.0, 0.0, R - 0.2]).unwrap();
+        assert!((f + 1.0).abs() < 0.05, "{f}");
+    }
+
+    #[test]
+    fn the_hemisphere_frame_and_solver_statistics() {
+        let h = hemi();
+        let frame = h.field.frame();
+        assert!(frame.origin.coords.norm() < 1e-9, "{:?}", frame.origin);
+        assert_eq!(h.field.grid_mm(), 1.0);
+        assert_eq!(h.field.hemisphere_radius(), DEFAULT_HEMISPHERE_MM);
+        assert!((h.field.hemisphere_level([3.0, 0.0, 4.0])).abs() < 1e-15);
+        assert!((h.field.hemisphere_level([0.0, 0.0, 9.0]) - 4.0).abs() < 1e-15);
+        let s = h.field.stats();
+        let tol = FieldConfig::default().tolerance;
+        assert!(s.relative_residual <= tol, "{s:?}");
+        assert!(s.iterations >= 1 && s.iterations <= 30, "{s:?}");
+        assert!(s.levels >= 2, "{s:?}");
+        assert!(s.unknowns < s.grid_nodes, "{s:?}");
+        // the unknowns fill the half shell between H and S (the nodes on
+        // the cap count too): volume / h^3 plus half the cap's nodes
+        let r = h.field.hemisphere_radius();
+        let shell = TAU / 3.0 * (R.powi(3) - r.powi(3));
+        let cap = 0.5 * std::f64::consts::PI * (R * R - r * r);
+        let expect = shell + cap;
+        let ratio = s.unknowns as f64 / expect;
+        assert!(
+            (ratio - 1.0).abs() < 0.03,
+            "{} unknowns, expected {expect}",
+            s.unknowns
+        );
+        // the apex given to the field is the cup's
+        let apex = h.cup.surface.positions[h.landmarks.apex as usize];
+        assert!((frame.local(&apex)[2] - R).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bad_field_settings_are_refused_with_a_clear_error() {
+        let h = hemi();
+        let (s, l) = (&h.cup.surface, &h.landmarks);
+        let solve = |c: FieldConfig| err_of(LaplaceField::solve(s, l, &c));
+        let config_error = |e: OrganError, want: &str| match e {
+            OrganError::Config(m) => assert!(m.contains(want), "{m}"),
+            e => panic!("expected a Config error about {want}, got {e:?}"),
+        };
+        let input_error = |e: OrganError, want: &str| match e {
+            OrganError::Input(m) => assert!(m.contains(want), "{m}"),
+            e => panic!("expected an Input error about {want}, got {e:?}"),
+        };
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            config_error(solve(config(bad)), "grid spacing");
+            config_error(
+                solve(FieldConfig {
+                    hemisphere_mm: bad,
+                    ..config(1.0)
+                }),
+                "hemisphere radius",
+            );
+            config_error(
+                solve(FieldConfig {
+                    tolerance: bad,
+                    ..config(1.0)
+                }),
+                "field tolerance",
+            );
+        }
+        // 4011 x 4011 x 2006 nodes
+        config_error(solve(config(0.01)), "coarser grid");
+        input_error(
+            solve(FieldConfig {
+                hemisphere_mm: 1000.0,
+                ..config(1.0)
+            }),
+            "does not fit",
+        );
+        // H as large as S: the nearest vertex is R from the centre
+        input_error(
+            solve(FieldConfig {
+                hemisphere_mm: R,
+                ..config(1.0)
+            }),
+            "does not fit",
+        );
+        // a grid far coarser than S: no node between S and H
+        input_error(solve(config(100.0)), "finer grid");
+        // landmarks that do not fit S
+        let two = Landmarks {
+            rim: vec![l.rim[0], l.rim[1]],
+            ..l.clone()
+        };
+        input_error(
+            err_of(LaplaceField::solve(s, &two, &config(1.0))),
+            "landmarks",
+        );
     }
 }

@@ -480,3 +480,278 @@ fn collect<T>(what: &str, out: Vec<Result<T, String>>) -> Result<Vec<T>, OrganEr
     }
     Ok(out.into_iter().map(|r| r.expect("no failures")).collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::f64::consts::TAU;
+    use std::sync::OnceLock;
+    use unfold_mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
+
+    struct Cup {
+        shape: VentricleShape,
+        chart: Chart,
+    }
+
+    fn config(chamber: Chamber, grid_mm: f64) -> ChartConfig {
+        ChartConfig {
+            chamber,
+            field: FieldConfig {
+                grid_mm,
+                ..FieldConfig::default()
+            },
+            ..ChartConfig::default()
+        }
+    }
+
+    /// The default cup's LV chart on a 1.5 mm grid, built once.
+    fn cup() -> &'static Cup {
+        static C: OnceLock<Cup> = OnceLock::new();
+        C.get_or_init(|| {
+            let shape = ventricle_cup(&VentricleParams::default()).unwrap();
+            let chart = Chart::new(
+                &shape.surface,
+                &shape.anterior,
+                &shape.inferior,
+                None,
+                &config(Chamber::Lv, 1.5),
+            )
+            .unwrap();
+            Cup { shape, chart }
+        })
+    }
+
+    /// The point of the ray from the rim centre (the origin) at polar angle
+    /// `polar` from the apex direction `-z` and azimuth `az`, a fraction
+    /// `u` of the way from 0.5 mm outside H to 1 mm inside S (the default
+    /// cup's ellipsoid: semi-axes `a`, `a`, `c` centred at `(0, 0, z0)`).
+    fn on_ray(polar: f64, az: f64, u: f64, r_h: f64) -> Point3<f64> {
+        let p = VentricleParams::default();
+        let (a, c) = (p.radius, p.long_semi_axis());
+        let z0 = c - p.length;
+        let d = [polar.sin() * az.cos(), polar.sin() * az.sin(), -polar.cos()];
+        // |t d - (0, 0, z0)| on the ellipsoid: qa t^2 + qb t + qc = 0
+        let qa = (d[0] * d[0] + d[1] * d[1]) / (a * a) + d[2] * d[2] / (c * c);
+        let qb = -2.0 * d[2] * z0 / (c * c);
+        let qc = z0 * z0 / (c * c) - 1.0;
+        let hit = (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa);
+        assert!(hit > r_h + 2.0, "{hit}");
+        let t = r_h + 0.5 + u * (hit - 1.0 - r_h - 0.5);
+        Point3::new(t * d[0], t * d[1], t * d[2])
+    }
+
+    fn message<T: std::fmt::Debug>(r: Result<T, String>) -> String {
+        match r {
+            Err(m) => m,
+            Ok(x) => panic!("expected an error, got {x:?}"),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(8))]
+
+        /// `psi^-1(psi(v)) = v` for points between H and S: an anatomy point
+        /// of the cup and points on rays from the rim centre.
+        #[test]
+        fn forward_then_inverse_is_the_identity(
+            k in 0usize..648,
+            polar in 0.0..1.45f64,
+            az in 0.0..TAU,
+            u in 0.0..1.0f64,
+        ) {
+            let c = cup();
+            let r_h = c.chart.field().hemisphere_radius();
+            prop_assert_eq!(c.shape.anatomy_points.len(), 648);
+            for v in [c.shape.anatomy_points[k], on_ray(polar, az, u, r_h)] {
+                let f = c.chart.forward(&v).unwrap();
+                let cp = f.coords;
+                prop_assert!(cp.depth > 0.0 && cp.depth < 1.0, "{cp:?}");
+                prop_assert!(cp.xi.hypot(cp.zeta) <= 1.0 + 1e-9, "{cp:?}");
+                prop_assert!(f.to_surface_mm > 0.0 && f.to_hemisphere_mm > 0.0);
+                let d = f.to_surface_mm / (f.to_surface_mm + f.to_hemisphere_mm);
+                prop_assert!((cp.depth - d).abs() < 1e-15);
+                prop_assert!((f.barycentric.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+                let back = c.chart.inverse(&cp).unwrap();
+                prop_assert!((back - v).norm() < 1e-4, "{v:?} -> {cp:?} -> {back:?}: {}", (back - v).norm());
+            }
+        }
+    }
+
+    #[test]
+    fn points_on_s_have_depth_0_and_points_on_h_depth_1() {
+        let c = cup();
+        let s = &c.shape.surface;
+        // vertices of S: the apex, one inside, one on the rim
+        for v in [0, s.positions.len() / 2, c.shape.rim[7] as usize] {
+            let p = s.positions[v];
+            let f = c.chart.forward(&p).unwrap();
+            assert_eq!(f.coords.depth, 0.0, "vertex {v}");
+            assert_eq!(f.to_surface_mm, 0.0);
+            let back = c.chart.inverse(&f.coords).unwrap();
+            assert!(
+                (back - p).norm() < 1e-9,
+                "vertex {v}: {}",
+                (back - p).norm()
+            );
+        }
+        // the apex is the centre of the disk
+        let f = c.chart.forward(&c.shape.apex).unwrap();
+        assert!(f.coords.xi.hypot(f.coords.zeta) < 1e-9, "{:?}", f.coords);
+        // points on H
+        let frame = *c.chart.field().frame();
+        let r_h = c.chart.field().hemisphere_radius();
+        for (polar, az) in [(0.0, 0.0), (0.7, 1.0), (1.3, 4.0)] {
+            let q = [
+                r_h * f64::sin(polar) * f64::cos(az),
+                r_h * f64::sin(polar) * f64::sin(az),
+                r_h * f64::cos(polar),
+            ];
+            let f = c.chart.forward(&frame.world(q)).unwrap();
+            assert!((f.coords.depth - 1.0).abs() < 1e-9, "{:?}", f.coords);
+            // and depth 1 maps back onto H
+            let end = frame.local(&c.chart.inverse(&f.coords).unwrap());
+            let rho = (end[0] * end[0] + end[1] * end[1] + end[2] * end[2]).sqrt();
+            assert!((rho - r_h).abs() < 1e-9, "{rho}");
+        }
+    }
+
+    #[test]
+    fn bad_points_are_refused_with_a_clear_error() {
+        let c = cup();
+        let ch = &c.chart;
+        let m = message(ch.forward(&Point3::new(f64::NAN, 0.0, -10.0)));
+        assert!(m.contains("not finite"), "{m}");
+        let m = message(ch.forward(&Point3::new(0.0, f64::INFINITY, -10.0)));
+        assert!(m.contains("not finite"), "{m}");
+        // beyond the apex, beside the cup, above the base
+        for p in [
+            Point3::new(0.0, 0.0, -65.0),
+            Point3::new(40.0, 0.0, -20.0),
+            Point3::new(0.0, 0.0, 3.0),
+        ] {
+            let m = message(ch.forward(&p));
+            assert!(m.contains("outside S"), "{m}");
+        }
+        let m = message(ch.forward(&Point3::new(1.0, -1.0, -2.0)));
+        assert!(m.contains("inside the hemisphere"), "{m}");
+        let ok = ch.forward(&c.shape.anatomy_points[0]).unwrap().coords;
+        for depth in [1.5, -0.1, f64::NAN, f64::INFINITY] {
+            let m = message(ch.inverse(&CylinderPoint { depth, ..ok }));
+            assert!(m.contains("depth"), "{m}");
+        }
+        let m = message(ch.inverse(&CylinderPoint { xi: f64::NAN, ..ok }));
+        assert!(m.contains("not a point of the cylinder"), "{m}");
+        for (xi, zeta) in [(3.0, 0.0), (0.0, -1.01), (0.8, 0.8)] {
+            let m = message(ch.inverse(&CylinderPoint {
+                xi,
+                zeta,
+                depth: 0.5,
+            }));
+            assert!(m.contains("outside the flattened S"), "{m}");
+        }
+    }
+
+    #[test]
+    fn many_points_fail_together_naming_the_first() {
+        let c = cup();
+        let good = &c.shape.anatomy_points[..4];
+        let mut points = good.to_vec();
+        points.insert(3, Point3::new(0.0, 0.0, -65.0));
+        match c.chart.forward_all(&points) {
+            Err(OrganError::Input(m)) => {
+                assert!(m.contains("1 of 5 anatomy points"), "{m}");
+                assert!(m.contains("point 3"), "{m}");
+                assert!(m.contains("outside S"), "{m}");
+            }
+            other => panic!("{other:?}"),
+        }
+        points[1] = Point3::new(f64::NAN, 0.0, 0.0);
+        match c.chart.forward_all(&points) {
+            Err(OrganError::Input(m)) => {
+                assert!(m.contains("2 of 5"), "{m}");
+                assert!(m.contains("point 1") && m.contains("not finite"), "{m}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let fw = c.chart.forward_all(good).unwrap();
+        assert_eq!(fw.len(), 4);
+        let mut coords: Vec<CylinderPoint> = fw.iter().map(|f| f.coords).collect();
+        let back = c.chart.inverse_all(&coords).unwrap();
+        for (p, q) in good.iter().zip(&back) {
+            assert!((p - q).norm() < 1e-4);
+        }
+        coords[2].depth = 2.0;
+        match c.chart.inverse_all(&coords) {
+            Err(OrganError::Input(m)) => {
+                assert!(m.contains("1 of 4 cylinder points"), "{m}");
+                assert!(m.contains("point 2") && m.contains("depth"), "{m}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_chart_settings_are_refused() {
+        let s = ventricle_cup(&VentricleParams::default()).unwrap();
+        let new = |c: ChartConfig| Chart::new(&s.surface, &s.anterior, &s.inferior, None, &c);
+        for bad in [0.0, -1.0, f64::NAN] {
+            match new(ChartConfig {
+                trace_tolerance_mm: bad,
+                ..config(Chamber::Lv, 2.0)
+            }) {
+                Err(OrganError::Config(m)) => assert!(m.contains("trace tolerance"), "{m}"),
+                other => panic!("{other:?}"),
+            }
+            match new(ChartConfig {
+                on_surface_mm: bad,
+                ..config(Chamber::Lv, 2.0)
+            }) {
+                Err(OrganError::Config(m)) => assert!(m.contains("on-surface distance"), "{m}"),
+                other => panic!("{other:?}"),
+            }
+        }
+        let mut big = config(Chamber::Lv, 2.0);
+        big.field.hemisphere_mm = 30.0;
+        match new(big) {
+            Err(OrganError::Input(m)) => assert!(m.contains("does not fit"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// The cup as an RV: every point maps into the half disk `xi >= 1.25`
+    /// and back.
+    #[test]
+    fn an_rv_chart_maps_into_the_half_disk() {
+        let shape = ventricle_cup(&VentricleParams::default()).unwrap();
+        let chart = Chart::new(
+            &shape.surface,
+            &shape.anterior,
+            &shape.inferior,
+            None,
+            &config(Chamber::Rv, 2.0),
+        )
+        .unwrap();
+        assert_eq!(chart.config().chamber, Chamber::Rv);
+        let points: Vec<Point3<f64>> = shape.anatomy_points.iter().step_by(9).copied().collect();
+        let fw = chart.forward_all(&points).unwrap();
+        for f in &fw {
+            let c = f.coords;
+            assert!(c.xi >= 1.25 - 1e-9, "{c:?}");
+            assert!((c.xi - 1.25).hypot(c.zeta) <= 1.0 + 1e-9, "{c:?}");
+            assert!(c.depth > 0.0 && c.depth < 1.0, "{c:?}");
+        }
+        let coords: Vec<CylinderPoint> = fw.iter().map(|f| f.coords).collect();
+        let back = chart.inverse_all(&coords).unwrap();
+        for (p, q) in points.iter().zip(&back) {
+            assert!((p - q).norm() < 1e-4, "{}", (p - q).norm());
+        }
+        // the LV disk's centre is outside the half disk
+        let m = message(chart.inverse(&CylinderPoint {
+            xi: 0.0,
+            zeta: 0.0,
+            depth: 0.5,
+        }));
+        assert!(m.contains("outside the flattened S"), "{m}");
+    }
+}
