@@ -185,4 +185,33 @@ if not np.all(m2.points[:, 2] == 0):
 if set(np.unique(m2.point_data["carpentier"]).tolist()) != {1, 2, 3, 4, 5, 6}:
     fail(f"valve2d.vtp: carpentier labels {np.unique(m2.point_data['carpentier'])}")
 flat_vtu.unlink()
-print(f"{checked + 6} passed, 0 failed")
+# The ventricle pipeline's outputs (`unfold demo` runs it into ventricle/).
+ve = pl.parent / "ventricle"
+vreport = json.loads((ve / "report.json").read_text())
+for key in ["roundtrip_error_um", "flipped_disk_triangles", "grid_mm", "seconds", "aha_points"]:
+    if key not in vreport:
+        fail(f"ventricle/report.json: missing {key}")
+for key in ["disk", "laplace", "streamlines", "inverse"]:
+    if key not in vreport["seconds"]:
+        fail(f"ventricle/report.json: missing seconds.{key}")
+if vreport["flipped_disk_triangles"] != 0 or vreport["roundtrip_error_um"]["max"] >= 5:
+    fail(f"ventricle/report.json: {vreport['flipped_disk_triangles']} flips, round trip {vreport['roundtrip_error_um']}")
+nv = meshio.read(ve / "normalized.vtu")
+av = meshio.read(ve / "anatomy.vtu")
+for m, name in [(nv, "normalized.vtu"), (av, "anatomy.vtu")]:
+    for arr in ["xi", "zeta", "depth", "aha"]:
+        if arr not in m.point_data:
+            fail(f"ventricle/{name}: no point array {arr}")
+if len(nv.points) != vreport["anatomy_points"] or len(av.points) != len(nv.points):
+    fail("ventricle: point counts differ from report.json")
+if not np.allclose(nv.points[:, 2], np.ravel(nv.point_data["depth"])):
+    fail("ventricle/normalized.vtu: z is not the depth")
+if set(np.unique(np.ravel(nv.point_data["aha"])).tolist()) != set(range(1, 18)):
+    fail(f"ventricle/normalized.vtu: aha labels {np.unique(nv.point_data['aha'])}")
+disk_vtu = ve / "disk_check.vtu"
+unfold("convert", str(ve / "disk.vtp"), str(disk_vtu))
+dv = meshio.read(disk_vtu)
+if not np.all(dv.points[:, 2] == 0) or np.hypot(dv.points[:, 0], dv.points[:, 1]).max() > 1 + 1e-9:
+    fail("ventricle/disk.vtp: not in the unit disk at z = 0")
+disk_vtu.unlink()
+print(f"{checked + 10} passed, 0 failed")
