@@ -293,3 +293,49 @@ fn cup_rings_to_circles_meridians_to_rays() {
         }
     }
 }
+
+/// Inputs as they come (issue 6, point 0): S with duplicated and reversed
+/// triangles is repaired, the repair is reported, and the result is the
+/// clean surface's; the anatomy may be bare points.
+#[test]
+fn a_messy_surface_is_repaired_and_reported() {
+    let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+    let mut messy = cup.surface.clone();
+    let n = messy.triangles.len();
+    // every 10th triangle duplicated, every 7th reversed
+    for t in (0..n).step_by(10) {
+        let tri = messy.triangles[t];
+        messy.triangles.push(tri);
+    }
+    for t in (0..n).step_by(7) {
+        messy.triangles[t].swap(0, 1);
+    }
+    let points = CellMesh::from_points(cup.anatomy_points.clone());
+    let landmarks = LandmarkPoints {
+        anterior: cup.anterior,
+        inferior: cup.inferior,
+        apex: None,
+    };
+    let clean = run(&points, &cup.surface, &landmarks, &config(2.0)).unwrap();
+    let fixed = run(&points, &messy, &landmarks, &config(2.0)).unwrap();
+    let r = fixed.report.surface_repair;
+    println!("repair of the messy cup: {r:?}");
+    assert_eq!(r.duplicate_elements, n.div_ceil(10));
+    assert!(r.flipped > 0);
+    assert!(clean.report.surface_repair.is_clean());
+    assert_eq!(fixed.report.flipped_disk_triangles, 0);
+    assert!(fixed.report.roundtrip_error_um.max < 5.0);
+    // the repaired surface gives the same map as the clean one
+    let worst = clean
+        .coords
+        .iter()
+        .zip(&fixed.coords)
+        .map(|(a, b)| {
+            (a.xi - b.xi)
+                .abs()
+                .max((a.zeta - b.zeta).abs())
+                .max((a.depth - b.depth).abs())
+        })
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-6, "{worst}");
+}
