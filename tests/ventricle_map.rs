@@ -268,9 +268,9 @@ fn cup_rings_to_circles_meridians_to_rays() {
     assert!(worst_ring < 0.02, "{worst_ring}");
     assert!(worst_ray < 1.0, "{worst_ray}");
     // depth along streamlines: points at depths 0, 0.1, .., 1 on the
-    // streamline of every 10th anatomy point map back to increasing depths
-    // with the same disk position
-    for f in fw.iter().step_by(10) {
+    // streamline of every anatomy point map back to increasing depths with
+    // the same disk position
+    for f in &fw {
         let line: Vec<CylinderPoint> = (0..=10)
             .map(|k| CylinderPoint {
                 depth: k as f64 / 10.0,

@@ -113,3 +113,14 @@ pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
 pub(crate) fn canonical(p: &std::path::Path) -> PathBuf {
     std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
 }
+
+/// `value` if it is finite and positive, else a usage error naming `flag`.
+pub(crate) fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(CliError::Usage(format!(
+            "{flag} must be a finite number > 0, got {value}"
+        )))
+    }
+}

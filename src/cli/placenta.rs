@@ -32,7 +32,7 @@
 //! names, and no output path equal to an input. Tets with a negative
 //! orientation are reoriented (a repair that is reported, not an error).
 
-use super::CliError;
+use super::{CliError, positive};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -177,17 +177,6 @@ fn organ(path: &str, source: OrganError) -> CliError {
     CliError::Organ {
         path: path.to_string(),
         source,
-    }
-}
-
-/// `value` if it is finite and positive, else a usage error naming `flag`.
-fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(CliError::Usage(format!(
-            "{flag} must be a finite number > 0, got {value}"
-        )))
     }
 }
 

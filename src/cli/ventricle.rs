@@ -33,7 +33,7 @@
 //! so that viewers show it. Progress lines (`ventricle: ...`) go to stderr
 //! when it is a terminal.
 
-use super::CliError;
+use super::{CliError, positive};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::borrow::Cow;
@@ -181,17 +181,6 @@ fn organ(label: &str, source: OrganError) -> CliError {
             path: label.to_string(),
             source,
         },
-    }
-}
-
-/// `value` if it is finite and positive, else a usage error naming `flag`.
-fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(CliError::Usage(format!(
-            "{flag} must be a finite number > 0, got {value}"
-        )))
     }
 }
 
