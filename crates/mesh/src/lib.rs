@@ -17,6 +17,7 @@ mod error;
 pub mod field;
 pub mod geodesic;
 pub mod geometry;
+pub mod mask;
 pub mod repair;
 pub mod shapes;
 pub mod spatial;
