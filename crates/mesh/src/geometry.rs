@@ -18,6 +18,32 @@ pub fn tet_signed_volume(
     (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
 }
 
+/// The six interior dihedral angles (radians) of the tet `p`, at the edges
+/// `01, 02, 03, 12, 13, 23`: the angle at edge `ij` is `pi` minus the angle
+/// between the outward normals of the two faces sharing it,
+/// `acos(-n_a · n_b)`. A degenerate tet gives angles of 0 or pi (or NaN for
+/// coincident corners).
+pub fn tet_dihedral_angles(p: &[Point3<f64>; 4]) -> [f64; 6] {
+    // face k is opposite corner k; its outward normal points away from p[k]
+    let normal = |k: usize| {
+        let f: Vec<usize> = (0..4).filter(|&i| i != k).collect();
+        let n = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]]));
+        let n = if n.dot(&(p[k] - p[f[0]])) > 0.0 {
+            -n
+        } else {
+            n
+        };
+        n / n.norm()
+    };
+    let n = [normal(0), normal(1), normal(2), normal(3)];
+    // edge ij is shared by the faces opposite the two other corners
+    let edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+    edges.map(|(i, j)| {
+        let o: Vec<usize> = (0..4).filter(|&x| x != i && x != j).collect();
+        (-n[o[0]].dot(&n[o[1]])).clamp(-1.0, 1.0).acos()
+    })
+}
+
 /// Area vector of the triangle `(a, b, c)`: `(b-a)×(c-a) / 2`, its length the
 /// area and its direction the counter-clockwise normal.
 #[inline]

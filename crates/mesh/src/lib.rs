@@ -12,6 +12,7 @@
 //! - [`Volume`]: 3D / 4D images with their voxel-to-world affine.
 //! - [`shapes`]: deterministic synthetic placenta, ventricle and valve.
 
+pub mod bcc;
 pub mod cells;
 mod error;
 pub mod field;
