@@ -22,6 +22,7 @@ pub mod mask;
 pub mod repair;
 pub mod shapes;
 pub mod spatial;
+pub mod stuffing;
 pub mod tetmesh;
 pub mod topology;
 pub mod trimesh;
