@@ -34,7 +34,7 @@
 //! Vertices used by no tet and without a target carry no term at all; they
 //! are kept where they are.
 
-use super::CliError;
+use super::{CliError, at};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -161,11 +161,6 @@ struct Report {
     target_error_max: f64,
     /// Root mean square distance of the target vertices from their targets.
     target_error_rms: f64,
-}
-
-/// A usage error naming `path`.
-fn at(path: &Path, msg: impl std::fmt::Display) -> CliError {
-    CliError::Usage(format!("{}: {msg}", path.display()))
 }
 
 /// `path` with `.report.json` appended to its file name.

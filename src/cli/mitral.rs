@@ -18,15 +18,13 @@
 //! paired by position, one output set per step in `OUT/<step>/` and a
 //! summary table `OUT/series.csv` (and `series.json`).
 
-use super::CliError;
+use super::{CliError, at, organ};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
-use std::fmt;
 use std::path::{Path, PathBuf};
 use unfold::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::{CellMesh, CellType, TriMesh};
-use unfold::organs::OrganError;
 use unfold::organs::mitral::{
     AnnulusMode, Config, InitMode, Outcome, RelaxMode, Report, ValveInput, run as run_mitral,
     run_series,
@@ -113,21 +111,6 @@ pub struct MitralArgs {
     /// Second cut at the posteromedial commissure (the leaflets drawn apart there).
     #[arg(long)]
     cut_posteromedial: bool,
-}
-
-/// A usage error naming `path`.
-fn at(path: &Path, msg: impl fmt::Display) -> CliError {
-    CliError::Usage(format!("{}: {msg}", path.display()))
-}
-
-fn organ(label: &str, source: OrganError) -> CliError {
-    match source {
-        OrganError::Config(_) => CliError::Usage(source.to_string()),
-        source => CliError::Organ {
-            path: label.to_string(),
-            source,
-        },
-    }
 }
 
 impl MitralArgs {

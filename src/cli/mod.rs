@@ -124,3 +124,20 @@ pub(crate) fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
         )))
     }
 }
+
+/// A usage error naming `path`.
+pub(crate) fn at(path: &std::path::Path, msg: impl std::fmt::Display) -> CliError {
+    CliError::Usage(format!("{}: {msg}", path.display()))
+}
+
+/// A pipeline error about the inputs called `label`; configuration errors
+/// are usage errors.
+pub(crate) fn organ(label: &str, source: OrganError) -> CliError {
+    match source {
+        OrganError::Config(_) => CliError::Usage(source.to_string()),
+        source => CliError::Organ {
+            path: label.to_string(),
+            source,
+        },
+    }
+}

@@ -32,7 +32,7 @@
 //! names, and no output path equal to an input. Tets with a negative
 //! orientation are reoriented (a repair that is reported, not an error).
 
-use super::{CliError, positive};
+use super::{CliError, at, positive};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -158,11 +158,6 @@ pub struct PlacentaArgs {
     /// 100000 for gd]. Not converging within it is not an error.
     #[arg(long, value_name = "N")]
     max_iterations: Option<usize>,
-}
-
-/// A usage error naming `path`.
-fn at(path: &Path, msg: impl fmt::Display) -> CliError {
-    CliError::Usage(format!("{}: {msg}", path.display()))
 }
 
 /// A pipeline error about the input `path` (the mesh, or an image),

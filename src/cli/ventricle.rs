@@ -33,11 +33,10 @@
 //! so that viewers show it. Progress lines (`ventricle: ...`) go to stderr
 //! when it is a terminal.
 
-use super::{CliError, positive};
+use super::{CliError, at, organ, positive};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::borrow::Cow;
-use std::fmt;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -45,7 +44,6 @@ use unfold::io::{WriteOptions, atomic_write, read_mesh, read_tri_mesh, write_mes
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
-use unfold::organs::OrganError;
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use unfold::organs::ventricle::{
@@ -165,23 +163,6 @@ fn parse_point(s: &str) -> Result<Point3<f64>, String> {
         x[k] = v;
     }
     Ok(Point3::new(x[0], x[1], x[2]))
-}
-
-/// A usage error naming `path`.
-fn at(path: &Path, msg: impl fmt::Display) -> CliError {
-    CliError::Usage(format!("{}: {msg}", path.display()))
-}
-
-/// A pipeline error about the inputs called `label`; configuration errors
-/// are usage errors.
-fn organ(label: &str, source: OrganError) -> CliError {
-    match source {
-        OrganError::Config(_) => CliError::Usage(source.to_string()),
-        source => CliError::Organ {
-            path: label.to_string(),
-            source,
-        },
-    }
 }
 
 impl VentricleArgs {

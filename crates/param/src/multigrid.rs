@@ -543,18 +543,23 @@ pub fn grid_prolongation(
 
     // Mark the active coarse nodes, then number them in linear-id order.
     let mut cindex = vec![u32::MAX; cx * cy * cz];
-    for &id in &node_of {
+    // The trilinear parents of fine node `id`: (coarse linear id, weight),
+    // k outer, i inner, i.e. by ascending coarse linear id.
+    let for_each_parent = |id: usize, f: &mut dyn FnMut(usize, f64)| {
         let (i, j, k) = (id % nx, (id / nx) % ny, id / (nx * ny));
         let (pi, ni) = parents_1d(i);
         let (pj, nj) = parents_1d(j);
         let (pk, nk) = parents_1d(k);
-        for &(ck, _) in &pk[..nk] {
-            for &(cj, _) in &pj[..nj] {
-                for &(ci, _) in &pi[..ni] {
-                    cindex[coarse_id(ci, cj, ck)] = 0;
+        for &(ck, wk) in &pk[..nk] {
+            for &(cj, wj) in &pj[..nj] {
+                for &(ci, wi) in &pi[..ni] {
+                    f(coarse_id(ci, cj, ck), wi * wj * wk);
                 }
             }
         }
+    };
+    for &id in &node_of {
+        for_each_parent(id, &mut |c, _| cindex[c] = 0);
     }
     let mut n_coarse = 0usize;
     for c in cindex.iter_mut().filter(|c| **c != u32::MAX) {
@@ -574,18 +579,10 @@ pub fn grid_prolongation(
     let mut col = Vec::with_capacity(node_of.len() * 4);
     let mut val = Vec::with_capacity(node_of.len() * 4);
     for &id in &node_of {
-        let (i, j, k) = (id % nx, (id / nx) % ny, id / (nx * ny));
-        let (pi, ni) = parents_1d(i);
-        let (pj, nj) = parents_1d(j);
-        let (pk, nk) = parents_1d(k);
-        for &(ck, wk) in &pk[..nk] {
-            for &(cj, wj) in &pj[..nj] {
-                for &(ci, wi) in &pi[..ni] {
-                    col.push(cindex[coarse_id(ci, cj, ck)]);
-                    val.push(wi * wj * wk);
-                }
-            }
-        }
+        for_each_parent(id, &mut |c, w| {
+            col.push(cindex[c]);
+            val.push(w);
+        });
         row_ptr.push(col.len());
     }
     let p = Csr {
