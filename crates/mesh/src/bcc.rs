@@ -114,47 +114,57 @@ impl BccLattice {
     /// `[r_0, r_1, b_m, b_{m+1}]` over the edges of the shared face.
     pub fn tets(&self) -> Vec<[u32; 4]> {
         let positions = self.positions();
-        let [nx, ny, nz] = self.n;
-        let mut out = Vec::with_capacity(12 * nx * ny * nz);
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let r0 = self.red(i, j, k);
-                    for a in 0..3 {
-                        let c = [i, j, k];
-                        if c[a] + 1 >= self.n[a] {
-                            continue;
-                        }
-                        let mut d = c;
-                        d[a] += 1;
-                        let r1 = self.red(d[0], d[1], d[2]);
-                        // the shared face: corner coordinate c[a] + 1 along a
-                        let (u, v) = match a {
-                            0 => (1, 2),
-                            1 => (0, 2),
-                            _ => (0, 1),
-                        };
-                        let corner = |du: usize, dv: usize| {
-                            let mut q = c;
-                            q[a] += 1;
-                            q[u] += du;
-                            q[v] += dv;
-                            self.black(q[0], q[1], q[2])
-                        };
-                        let ring = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
-                        for m in 0..4 {
-                            let mut t = [r0, r1, ring[m], ring[(m + 1) % 4]];
-                            let p = t.map(|x| positions[x as usize]);
-                            if tet_signed_volume(&p[0], &p[1], &p[2], &p[3]) < 0.0 {
-                                t.swap(2, 3);
-                            }
-                            out.push(t);
-                        }
+        let mut out = Vec::with_capacity(12 * self.num_red());
+        for k in 0..self.n[2] {
+            self.for_each_tet_in_slab(k, |mut t| {
+                let p = t.map(|x| positions[x as usize]);
+                if tet_signed_volume(&p[0], &p[1], &p[2], &p[3]) < 0.0 {
+                    t.swap(2, 3);
+                }
+                out.push(t);
+            });
+        }
+        out
+    }
+
+    /// Calls `visit` with the tets `[r_0, r_1, b_m, b_{m+1}]` of the red
+    /// edges from the cubes of layer `k` (`r_0` in cube `(i, j, k)`, `r_1`
+    /// in the next cube along x, y or z), in the order of
+    /// [`BccLattice::tets`] but not oriented. The layers `0 .. n[2]` visit
+    /// every tet once.
+    pub fn for_each_tet_in_slab(&self, k: usize, mut visit: impl FnMut([u32; 4])) {
+        let [nx, ny, _] = self.n;
+        for j in 0..ny {
+            for i in 0..nx {
+                let r0 = self.red(i, j, k);
+                for a in 0..3 {
+                    let c = [i, j, k];
+                    if c[a] + 1 >= self.n[a] {
+                        continue;
+                    }
+                    let mut d = c;
+                    d[a] += 1;
+                    let r1 = self.red(d[0], d[1], d[2]);
+                    // the shared face: corner coordinate c[a] + 1 along a
+                    let (u, v) = match a {
+                        0 => (1, 2),
+                        1 => (0, 2),
+                        _ => (0, 1),
+                    };
+                    let corner = |du: usize, dv: usize| {
+                        let mut q = c;
+                        q[a] += 1;
+                        q[u] += du;
+                        q[v] += dv;
+                        self.black(q[0], q[1], q[2])
+                    };
+                    let ring = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+                    for m in 0..4 {
+                        visit([r0, r1, ring[m], ring[(m + 1) % 4]]);
                     }
                 }
             }
         }
-        out
     }
 
     /// The lattice as a tet mesh (black vertices on the lattice's border
