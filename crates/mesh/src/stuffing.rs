@@ -544,10 +544,7 @@ pub fn check_closed_manifold(mesh: &TetMesh) -> Result<(), MeshError> {
         };
         let mut at = start;
         let mut steps = 0;
-        loop {
-            let Some(&(_, next)) = f.iter().find(|e| e.0 == at) else {
-                break;
-            };
+        while let Some(&(_, next)) = f.iter().find(|e| e.0 == at) {
             at = next;
             steps += 1;
             if at == start || steps > f.len() {
