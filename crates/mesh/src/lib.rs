@@ -9,7 +9,9 @@
 //! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
 //! - [`geodesic`]: Dijkstra along edges.
 //! - [`spatial`]: point location and closest points (BVH).
-//! - [`Volume`]: 3D / 4D images with their voxel-to-world affine.
+//! - [`Volume`]: 3D / 4D images with their voxel-to-world affine; [`mask`]
+//!   operations and [`mesher`]: tet meshes of segmentations by isosurface
+//!   [`stuffing`].
 //! - [`shapes`]: deterministic synthetic placenta, ventricle and valve.
 
 pub mod bcc;
@@ -19,6 +21,7 @@ pub mod field;
 pub mod geodesic;
 pub mod geometry;
 pub mod mask;
+pub mod mesher;
 pub mod repair;
 pub mod shapes;
 pub mod spatial;

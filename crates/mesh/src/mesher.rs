@@ -1,0 +1,364 @@
+//! Tet meshes from segmentations (ALGORITHMS 2.8; issue 7): the reference
+//! pipeline's mask preparation followed by isosurface stuffing.
+//!
+//! 1. The mask is cropped to its voxels plus a margin (so the work is
+//!    proportional to the object, not to the image).
+//! 2. Optionally dilated by the 3x3x3 box ([`mask::dilate_box`], `dilate`
+//!    times; the reference dilates once, which thickens the object by a
+//!    voxel on every side, so the default here is 0).
+//! 3. Smoothed by a Gaussian of `smooth_voxels` voxels (default 1.5, the
+//!    reference's) into `s` in `[0, 1]`.
+//! 4. The domain is a level set `s > c` in world coordinates,
+//!    `f(p) = c - s(A^-1 p)` with `s` interpolated trilinearly between
+//!    voxel centres (`A` the voxel-to-world affine), meshed by
+//!    [`stuffing::stuff`] with cube side `size_mm` (default: the smallest
+//!    voxel spacing).
+//!
+//! The level: the reference takes `c = 0.5` ([`IsoLevel::Fixed`]). Smoothing
+//! moves that level set inward where the surface curves, by about
+//! `sigma^2 (k1 + k2) / 2` (`k1`, `k2` the principal curvatures): a ball of
+//! 20 voxels loses 2.2 % of its volume, a placenta-like slab 26 mm thick at
+//! 3 mm voxels 3.2 %. The default, [`IsoLevel::PreserveVolume`], takes the
+//! `c` at which as many voxel centres have `s >= c` as the (dilated) mask
+//! has voxels, so the mesh keeps the mask's volume (within 0.5 % on those
+//! shapes) while its surface stays the smoothed one.
+//!
+//! The mesh is valid by construction (positive tets with dihedral angles
+//! bounded away from 0 and 180 degrees, a closed manifold boundary, checked
+//! before it is returned); one connected component is kept (the largest)
+//! unless all are asked for.
+
+use crate::geometry::{tet_dihedral_angles, total_volume};
+use crate::stuffing::{Implicit, Stuffed, stuff};
+use crate::{MeshError, TetMesh, Volume, mask};
+use nalgebra::{Matrix4, Point3, Vector4};
+use serde::Serialize;
+
+/// The level `c` of the smoothed mask `s` whose superlevel set `s > c` is
+/// meshed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum IsoLevel {
+    /// The `c` at which as many voxel centres have `s >= c` as the mask
+    /// (after dilation) has voxels: the mesh keeps the mask's volume.
+    PreserveVolume,
+    /// A fixed level in `(0, 1)` (the reference: 0.5).
+    Fixed(f64),
+}
+
+/// Options of [`mesh_mask`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaskMeshOptions {
+    /// Cube side of the lattice, mm (tet edges are this and `sqrt(3)/2` of
+    /// it); `None`: the smallest voxel spacing.
+    pub size_mm: Option<f64>,
+    /// Gaussian smoothing, voxels (0: none). Default 1.5.
+    pub smooth_voxels: f64,
+    /// Box dilations before smoothing. Default 0.
+    pub dilate: usize,
+    /// The level meshed. Default [`IsoLevel::PreserveVolume`].
+    pub level: IsoLevel,
+    /// Keep every connected component instead of the largest. Default
+    /// false.
+    pub keep_all_components: bool,
+}
+
+impl Default for MaskMeshOptions {
+    fn default() -> Self {
+        MaskMeshOptions {
+            size_mm: None,
+            smooth_voxels: 1.5,
+            dilate: 0,
+            level: IsoLevel::PreserveVolume,
+            keep_all_components: false,
+        }
+    }
+}
+
+/// Size and quality figures of a tet mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MeshQuality {
+    /// Vertices.
+    pub vertices: usize,
+    /// Tets.
+    pub tets: usize,
+    /// Boundary triangles.
+    pub boundary_triangles: usize,
+    /// Total volume, mm^3.
+    pub volume_mm3: f64,
+    /// Smallest dihedral angle, degrees.
+    pub min_dihedral_deg: f64,
+    /// Largest dihedral angle, degrees.
+    pub max_dihedral_deg: f64,
+}
+
+impl MeshQuality {
+    /// The figures of `mesh`.
+    ///
+    /// # Errors
+    /// As [`crate::topology::tet_boundary`].
+    pub fn of(mesh: &TetMesh) -> Result<MeshQuality, MeshError> {
+        let boundary = crate::topology::tet_boundary(mesh)?;
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        for t in 0..mesh.num_tets() {
+            for a in tet_dihedral_angles(&mesh.tet_points(t)) {
+                lo = lo.min(a.to_degrees());
+                hi = hi.max(a.to_degrees());
+            }
+        }
+        Ok(MeshQuality {
+            vertices: mesh.num_vertices(),
+            tets: mesh.num_tets(),
+            boundary_triangles: boundary.surface.triangles.len(),
+            volume_mm3: total_volume(mesh),
+            min_dihedral_deg: lo,
+            max_dihedral_deg: hi,
+        })
+    }
+}
+
+/// A mesh of a mask, see [`mesh_mask`].
+#[derive(Debug, Clone)]
+pub struct MaskMesh {
+    /// The tet mesh (mm, world frame of the mask).
+    pub mesh: TetMesh,
+    /// Connected components of the meshed domain.
+    pub components: usize,
+    /// Tet counts of the components left out, largest first.
+    pub dropped_components: Vec<usize>,
+    /// Lattice cube side used, mm.
+    pub size_mm: f64,
+    /// The level `c` meshed.
+    pub level: f64,
+    /// Voxels set in the mask.
+    pub mask_voxels: usize,
+    /// Their volume, mm^3 (voxel count times voxel volume).
+    pub mask_volume_mm3: f64,
+}
+
+/// A binary mask from an image: with a `threshold`, `value > threshold`;
+/// without, the image must hold only 0 and 1 (a label image with other
+/// values needs a threshold, so that nothing is guessed).
+///
+/// # Errors
+/// `Image` for a 4D image, a NaN voxel, or a non-binary image without a
+/// threshold (naming a value found); `InvalidArgument` for a threshold that
+/// is not finite.
+pub fn mask_from_image<T: Copy + Into<f64>>(
+    image: &Volume<T>,
+    threshold: Option<f64>,
+) -> Result<Volume<bool>, MeshError> {
+    let d = image.dims();
+    if d[3] != 1 {
+        return Err(MeshError::Image(format!(
+            "a mask must be a 3D image, got {} frames (dims {}x{}x{}x{})",
+            d[3], d[0], d[1], d[2], d[3]
+        )));
+    }
+    if let Some(t) = threshold
+        && !t.is_finite()
+    {
+        return Err(MeshError::InvalidArgument(format!(
+            "the threshold must be finite, got {t}"
+        )));
+    }
+    let mut bits = Vec::with_capacity(image.data().len());
+    for (i, &x) in image.data().iter().enumerate() {
+        let x: f64 = x.into();
+        if x.is_nan() {
+            return Err(MeshError::Image(format!("the mask has a NaN at voxel {i}")));
+        }
+        bits.push(match threshold {
+            Some(t) => x > t,
+            None if x == 0.0 => false,
+            None if x == 1.0 => true,
+            None => {
+                return Err(MeshError::Image(format!(
+                    "the mask is not binary (voxel {i} is {x}); give a threshold to \
+                     segment it (voxels above it are inside)"
+                )));
+            }
+        });
+    }
+    Volume::new(d, *image.affine(), bits)
+}
+
+/// `mask` restricted to the voxels `lo .. lo + dims` (indices may lie
+/// outside the image: those voxels are unset), the affine moved so every
+/// voxel keeps its world position.
+fn crop(mask: &Volume<bool>, lo: [i64; 3], dims: [usize; 3]) -> Result<Volume<bool>, MeshError> {
+    let src = mask.dims();
+    let mut data = vec![false; dims[0] * dims[1] * dims[2]];
+    for k in 0..dims[2] {
+        let sk = lo[2] + k as i64;
+        if sk < 0 || sk >= src[2] as i64 {
+            continue;
+        }
+        for j in 0..dims[1] {
+            let sj = lo[1] + j as i64;
+            if sj < 0 || sj >= src[1] as i64 {
+                continue;
+            }
+            for i in 0..dims[0] {
+                let si = lo[0] + i as i64;
+                if si >= 0 && si < src[0] as i64 {
+                    data[i + dims[0] * (j + dims[1] * k)] =
+                        mask.data()[mask.index(si as usize, sj as usize, sk as usize, 0)];
+                }
+            }
+        }
+    }
+    let mut affine: Matrix4<f64> = *mask.affine();
+    let shift = affine * Vector4::new(lo[0] as f64, lo[1] as f64, lo[2] as f64, 1.0);
+    affine[(0, 3)] = shift.x;
+    affine[(1, 3)] = shift.y;
+    affine[(2, 3)] = shift.z;
+    Volume::new([dims[0], dims[1], dims[2], 1], affine, data)
+}
+
+/// The smoothed mask as an implicit function: `c - s` (`s` = 0 outside the
+/// grid).
+struct SmoothedMask {
+    s: Volume<f64>,
+    c: f64,
+}
+
+impl Implicit for SmoothedMask {
+    fn value(&self, p: &Point3<f64>) -> f64 {
+        self.c - self.s.sample_world(p, 0).unwrap_or(0.0)
+    }
+}
+
+/// Meshes the mask (see the module doc).
+///
+/// # Errors
+/// `Image` for a 4D mask; `Empty` for a mask with no voxel set or one whose
+/// smoothed level set is empty (an object thinner than the smoothing
+/// removes); `InvalidArgument` for bad options; the errors of
+/// [`stuffing::stuff`](crate::stuffing::stuff).
+pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh, MeshError> {
+    let d = mask.dims();
+    if d[3] != 1 {
+        return Err(MeshError::Image(format!(
+            "a mask must be a 3D image, got {} frames",
+            d[3]
+        )));
+    }
+    if !(opts.smooth_voxels.is_finite() && opts.smooth_voxels >= 0.0) {
+        return Err(MeshError::InvalidArgument(format!(
+            "the smoothing must be finite and >= 0 voxels, got {}",
+            opts.smooth_voxels
+        )));
+    }
+    if let IsoLevel::Fixed(c) = opts.level
+        && !(c > 0.0 && c < 1.0)
+    {
+        return Err(MeshError::InvalidArgument(format!(
+            "the level must be in (0, 1), got {c}"
+        )));
+    }
+    if opts.dilate > 8 {
+        return Err(MeshError::InvalidArgument(format!(
+            "at most 8 dilations, got {}",
+            opts.dilate
+        )));
+    }
+    let spacing = mask.spacing();
+    let size = opts
+        .size_mm
+        .unwrap_or_else(|| spacing.iter().cloned().fold(f64::INFINITY, f64::min));
+    if !(size.is_finite() && size > 0.0) {
+        return Err(MeshError::InvalidArgument(format!(
+            "the element size must be finite and > 0 mm, got {size}"
+        )));
+    }
+    // the voxels set
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    let mut count = 0usize;
+    for k in 0..d[2] {
+        for j in 0..d[1] {
+            for i in 0..d[0] {
+                if mask.data()[mask.index(i, j, k, 0)] {
+                    count += 1;
+                    for (a, x) in [i, j, k].into_iter().enumerate() {
+                        lo[a] = lo[a].min(x);
+                        hi[a] = hi[a].max(x);
+                    }
+                }
+            }
+        }
+    }
+    if count == 0 {
+        return Err(MeshError::Empty {
+            what: "mask voxels (the mask has no voxel set)",
+        });
+    }
+    let voxel_volume = mask.affine().fixed_view::<3, 3>(0, 0).determinant().abs();
+    // crop with room for the dilations, the smoothing kernel and one voxel
+    let margin = (opts.dilate + (3.0 * opts.smooth_voxels).ceil() as usize + 2) as i64;
+    let start = lo.map(|x| x as i64 - margin);
+    let dims = [0, 1, 2].map(|a| hi[a] - lo[a] + 1 + 2 * margin as usize);
+    let mut m = crop(mask, start, dims)?;
+    for _ in 0..opts.dilate {
+        m = mask::dilate_box(&m)?;
+    }
+    let s = mask::gaussian_smooth(&m.map(|b| if b { 1.0 } else { 0.0 }), opts.smooth_voxels)?;
+    let c = match opts.level {
+        IsoLevel::Fixed(c) => c,
+        IsoLevel::PreserveVolume => {
+            let n = m.data().iter().filter(|&&b| b).count();
+            let mut v = s.data().to_vec();
+            let (_, nth, _) = v.select_nth_unstable_by(n - 1, |a, b| b.total_cmp(a));
+            *nth
+        }
+    };
+    // s > c only within one voxel of the (dilated) voxels set when c >= 0.5;
+    // lower levels reach farther
+    let c = c.clamp(1e-3, 1.0 - 1e-3);
+    let reach = (opts.dilate + 1) as f64
+        + if c < 0.5 {
+            (3.0 * opts.smooth_voxels).ceil()
+        } else {
+            0.0
+        };
+    let (mut bmin, mut bmax) = (
+        Point3::from([f64::INFINITY; 3]),
+        Point3::from([f64::NEG_INFINITY; 3]),
+    );
+    // in the crop's voxel coordinates the voxels set span
+    // [margin, margin + hi - lo] per axis
+    for c in 0..8 {
+        let corner = |a: usize| {
+            if c & (1 << a) == 0 {
+                margin as f64 - reach
+            } else {
+                (margin as usize + hi[a] - lo[a]) as f64 + reach
+            }
+        };
+        let w = s.voxel_to_world(&Point3::new(corner(0), corner(1), corner(2)));
+        for a in 0..3 {
+            bmin[a] = bmin[a].min(w[a]);
+            bmax[a] = bmax[a].max(w[a]);
+        }
+    }
+    let f = SmoothedMask { s, c };
+    let Stuffed {
+        mesh,
+        components,
+        dropped_components,
+        ..
+    } = stuff(&f, bmin, bmax, size, opts.keep_all_components).map_err(|e| match e {
+        MeshError::Empty { .. } => MeshError::Empty {
+            what: "tets (nothing of the mask is left above the level after smoothing)",
+        },
+        e => e,
+    })?;
+    Ok(MaskMesh {
+        mesh,
+        components,
+        dropped_components,
+        size_mm: size,
+        level: c,
+        mask_voxels: count,
+        mask_volume_mm3: count as f64 * voxel_volume,
+    })
+}
