@@ -621,6 +621,13 @@ fn bad_settings_are_clear_errors() {
             },
             "max_iterations",
         ),
+        (
+            Config {
+                half_thickness_mm: Some(-2.0),
+                ..Config::default()
+            },
+            "half_thickness_mm",
+        ),
     ] {
         let e = flatten(&m, &config).unwrap_err();
         assert!(matches!(e, OrganError::Config(_)), "{e}");

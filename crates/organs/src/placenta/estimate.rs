@@ -40,8 +40,12 @@ pub struct Estimates {
     pub rx_mm: f64,
     /// Mesh volume `V`, mm^3.
     pub volume_mm3: f64,
-    /// Interior points whose distances were used.
+    /// Interior points whose distances were used (0 when the half
+    /// thickness came from the segmentation).
     pub thickness_points: usize,
+    /// Where the half thickness came from: `"mesh"` (interior distances)
+    /// or `"segmentation"` (the mask's distance transform).
+    pub thickness_from: &'static str,
 }
 
 /// The 95th percentile of the distances from interior points (a
@@ -142,16 +146,49 @@ pub fn estimate(
     is_boundary: &[bool],
 ) -> Result<Estimates, OrganError> {
     let (h, thickness_points) = half_thickness(mesh, boundary, is_boundary)?;
+    with_thickness(mesh, boundary, h, thickness_points, "mesh")
+}
+
+/// The estimates with a half thickness `h` known from elsewhere (the
+/// segmentation's distance transform); `ry` and `rx` as in [`estimate`].
+///
+/// # Errors
+/// `Input` for an `h` that is not finite and `> 0`, a mesh without volume,
+/// or a boundary without two connected vertices.
+pub fn estimate_with_thickness(
+    mesh: &TetMesh,
+    boundary: &TriMesh,
+    h: f64,
+) -> Result<Estimates, OrganError> {
+    if !(h.is_finite() && h > 0.0) {
+        return Err(OrganError::Input(format!(
+            "the half thickness must be finite and > 0, got {h}"
+        )));
+    }
+    with_thickness(mesh, boundary, h, 0, "segmentation")
+}
+
+fn with_thickness(
+    mesh: &TetMesh,
+    boundary: &TriMesh,
+    h: f64,
+    thickness_points: usize,
+    thickness_from: &'static str,
+) -> Result<Estimates, OrganError> {
     let ry = half_geodesic_width(boundary)
         .filter(|r| *r > 0.0)
         .ok_or_else(|| OrganError::Input("the boundary has no two connected vertices".into()))?;
     let volume = total_volume(mesh);
+    if !(volume.is_finite() && volume > 0.0) {
+        return Err(OrganError::Input("the mesh has no volume".into()));
+    }
     Ok(Estimates {
         half_thickness_mm: h,
         ry_mm: ry,
         rx_mm: 3.0 * volume / (4.0 * std::f64::consts::PI * ry * h),
         volume_mm3: volume,
         thickness_points,
+        thickness_from,
     })
 }
 
@@ -208,6 +245,20 @@ mod tests {
         let v = 4.0 / 3.0 * std::f64::consts::PI * e.rx_mm * e.ry_mm * e.half_thickness_mm;
         assert!((v - e.volume_mm3).abs() < 1e-9 * e.volume_mm3);
         assert!((e.volume_mm3 - 40.0 * 30.0 * 8.0).abs() < 1e-6);
+        assert_eq!(e.thickness_from, "mesh");
+        // a half thickness from the segmentation: the same ry, rx again
+        // keeping the volume
+        let s = estimate_with_thickness(&mesh, &b.surface, 3.0).unwrap();
+        assert_eq!((s.half_thickness_mm, s.ry_mm), (3.0, e.ry_mm));
+        assert_eq!((s.thickness_from, s.thickness_points), ("segmentation", 0));
+        let v = 4.0 / 3.0 * std::f64::consts::PI * s.rx_mm * s.ry_mm * 3.0;
+        assert!((v - s.volume_mm3).abs() < 1e-9 * s.volume_mm3);
+        for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(
+                estimate_with_thickness(&mesh, &b.surface, h),
+                Err(OrganError::Input(_))
+            ));
+        }
     }
 
     #[test]

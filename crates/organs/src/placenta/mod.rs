@@ -28,7 +28,7 @@ pub mod pullback;
 
 use crate::OrganError;
 use align::{Alignment, TransformReport, align};
-use estimate::{Estimates, estimate};
+use estimate::{Estimates, estimate, estimate_with_thickness};
 use parcellation::{Parcellation, ParcellationConfig, ParcellationSummary, parcellate};
 use pullback::{PullbackTable, TemplateGrid};
 use serde::{Deserialize, Serialize};
@@ -123,6 +123,11 @@ pub struct Config {
     /// Boundary parcellation settings (margin, voxel size, ...). Its
     /// `voxel_mm` is also the voxel of `template_error_voxels`.
     pub parcellation: ParcellationConfig,
+    /// Half the placenta thickness (`h`, `rz`) when known from the
+    /// segmentation (the 95th percentile of its distance transform,
+    /// ALGORITHMS 2.4, see `unfold_mesh::mask::inside_distance_quantile`);
+    /// `None` (the default): estimated from the mesh.
+    pub half_thickness_mm: Option<f64>,
 }
 
 impl Default for Config {
@@ -135,6 +140,7 @@ impl Default for Config {
             max_iterations: None,
             max_seconds: None,
             parcellation: ParcellationConfig::default(),
+            half_thickness_mm: None,
         }
     }
 }
@@ -151,6 +157,13 @@ impl Config {
         {
             return Err(OrganError::Config(format!(
                 "max_seconds must be > 0, got {s}"
+            )));
+        }
+        if let Some(h) = self.half_thickness_mm
+            && !(h.is_finite() && h > 0.0)
+        {
+            return Err(OrganError::Config(format!(
+                "half_thickness_mm must be finite and > 0, got {h}"
             )));
         }
         self.parcellation.validate()
@@ -658,7 +671,10 @@ fn flatten_prepared_impl(
     for &v in &parcellation.boundary.to_volume {
         is_boundary[v as usize] = true;
     }
-    let estimates = estimate(&rest, &parcellation.boundary.surface, &is_boundary)?;
+    let estimates = match config.half_thickness_mm {
+        None => estimate(&rest, &parcellation.boundary.surface, &is_boundary)?,
+        Some(h) => estimate_with_thickness(&rest, &parcellation.boundary.surface, h)?,
+    };
     let pmesh = ParamMesh::from_tets(&rest)?;
     let x0: Vec<f64> = rest
         .positions
