@@ -163,6 +163,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         spacing_mm: None,
         dir: &dir.join("placenta"),
         progress: true,
+        segmentation: None,
     })?;
     println!("{summary}");
 

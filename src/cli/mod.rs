@@ -4,6 +4,7 @@ mod convert;
 mod deform;
 mod demo;
 mod info;
+mod mesh;
 mod mitral;
 mod placenta;
 mod ventricle;
@@ -76,6 +77,9 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
     Deform(deform::DeformArgs),
+    /// Mesh a segmentation (a NIfTI mask) into tets: smoothing, then isosurface stuffing
+    /// with bounded dihedral angles.
+    Mesh(mesh::MeshArgs),
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
     /// single plane), pulling images into the template frame.
     Placenta(placenta::PlacentaArgs),
@@ -95,6 +99,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Convert(a) => convert::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Deform(a) => deform::run(&a),
+        Command::Mesh(a) => mesh::run(&a),
         Command::Placenta(a) => placenta::run(&a),
         Command::Ventricle(a) => ventricle::run(&a),
         Command::Mitral(a) => mitral::run(&a),

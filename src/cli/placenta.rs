@@ -32,6 +32,7 @@
 //! names, and no output path equal to an input. Tets with a negative
 //! orientation are reoriented (a repair that is reported, not an error).
 
+use super::mesh::{MaskArgs, describe};
 use super::{CliError, at, positive};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,6 +45,8 @@ use unfold::io::{
     NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
 };
 use unfold::mesh::geometry::bounding_box;
+use unfold::mesh::mask::{dilate_box, inside_distance_quantile};
+use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, CellType, MeshError, TetMesh};
 use unfold::organs::OrganError;
 use unfold::organs::placenta::parcellation::ParcellationConfig;
@@ -102,7 +105,14 @@ interior, 1 fetal, 2 maternal, 3 margin), DIR/<name>_flat.nii.gz per image and D
 pub struct PlacentaArgs {
     /// Placenta tet mesh (.vtu .vtk .mesh .msh), millimetres, scanner frame.
     /// Boundary triangles and other lower-dimensional cells are ignored.
-    mesh: PathBuf,
+    mesh: Option<PathBuf>,
+    /// Start from a segmentation instead of a mesh: a 3D NIfTI mask of the
+    /// placenta, meshed as `unfold mesh` does (written as DIR/mesh.vtu);
+    /// its distance transform gives the initial half thickness.
+    #[arg(long, value_name = "MASK", conflicts_with = "mesh")]
+    seg: Option<PathBuf>,
+    #[command(flatten)]
+    mask: MaskArgs,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -127,14 +137,10 @@ pub struct PlacentaArgs {
     )]
     margin_mm: f64,
     /// Voxel size of the acquisition, mm: the unit of the margin's steps and
-    /// of the template error in voxels.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 3.0,
-        allow_negative_numbers = true
-    )]
-    voxel_mm: f64,
+    /// of the template error in voxels [default: the mean voxel spacing of
+    /// the --seg mask, else 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    voxel_mm: Option<f64>,
     /// Optimizer.
     #[arg(long, value_enum, default_value = "newton")]
     solver: SolverArg,
@@ -176,11 +182,12 @@ fn organ(path: &str, source: OrganError) -> CliError {
 }
 
 impl PlacentaArgs {
-    /// The pipeline settings, every flag checked.
-    fn config(&self) -> Result<Config, CliError> {
+    /// The pipeline settings, every flag checked; `voxel_mm` is the
+    /// default of `--voxel-mm`, `half_thickness_mm` the segmentation's.
+    fn config(&self, voxel_mm: f64, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
         let lambda = positive("--lambda", self.lambda)?;
         let margin_mm = positive("--margin-mm", self.margin_mm)?;
-        let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
+        let voxel_mm = positive("--voxel-mm", self.voxel_mm.unwrap_or(voxel_mm))?;
         let grad_tol = positive("--tol", self.tol)?;
         if let Some(s) = self.spacing_mm {
             positive("--spacing-mm", s)?;
@@ -202,6 +209,7 @@ impl PlacentaArgs {
                 voxel_mm,
                 ..ParcellationConfig::default()
             },
+            half_thickness_mm,
         };
         config
             .validate()
@@ -266,6 +274,8 @@ fn flat_name(name: &str) -> String {
 const ORIGINAL: &str = "original.vtu";
 const FLATTENED: &str = "flattened.vtu";
 const REPORT: &str = "report.json";
+/// The mesh of a `--seg` segmentation.
+const SEG_MESH: &str = "mesh.vtu";
 
 /// An image to pull into the template.
 #[derive(Debug, Clone)]
@@ -296,6 +306,36 @@ pub(crate) struct PipelineInput<'a> {
     pub dir: &'a Path,
     /// Show a progress spinner on stderr (only if stderr is a terminal).
     pub progress: bool,
+    /// How the mesh was made from a segmentation (`--seg`), for the report.
+    pub segmentation: Option<&'a SegReport>,
+}
+
+/// `segmentation` in `report.json`: how the mesh was made from a mask.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct SegReport {
+    /// The mask.
+    pub mask: String,
+    /// The mesh written.
+    pub mesh: String,
+    /// Voxels set, and their volume in mm^3.
+    pub mask_voxels: usize,
+    /// Volume of the voxels set, mm^3.
+    pub mask_volume_mm3: f64,
+    /// Lattice cube side, mm.
+    pub size_mm: f64,
+    /// Gaussian smoothing, voxels.
+    pub smooth_voxels: f64,
+    /// Box dilations.
+    pub dilate: u8,
+    /// Level of the smoothed mask meshed.
+    pub level: f64,
+    /// Tet counts of the components left out.
+    pub dropped_components: Vec<usize>,
+    /// Half thickness: the 95th percentile of the mask's distance
+    /// transform, mm.
+    pub half_thickness_mm: f64,
+    /// Size and quality of the mesh.
+    pub quality: MeshQuality,
 }
 
 /// One entry of `images` in `report.json`.
@@ -326,6 +366,8 @@ pub(crate) struct ImageReport {
 #[derive(Serialize)]
 struct FullReport<'a> {
     mesh: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    segmentation: Option<&'a SegReport>,
     #[serde(flatten)]
     report: &'a Report,
     images: &'a [ImageReport],
@@ -645,6 +687,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     let report_path = dir.join(REPORT);
     let full = FullReport {
         mesh: label,
+        segmentation: input.segmentation,
         report: &outcome.report,
         images: &image_reports,
     };
@@ -664,7 +707,23 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
 
 /// Runs `unfold placenta`.
 pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
-    let config = a.config()?;
+    let m = &a.mask;
+    if a.seg.is_none()
+        && (m.size_mm.is_some()
+            || m.threshold.is_some()
+            || m.level.is_some()
+            || m.dilate != 0
+            || m.smooth_voxels != 1.5)
+    {
+        return Err(CliError::Usage(
+            "--size-mm, --smooth-voxels, --dilate, --threshold and --level apply to --seg".into(),
+        ));
+    }
+    // every flag checked before any file is read
+    a.config(3.0, None)?;
+    if a.seg.is_some() {
+        m.options(false)?;
+    }
     let dir = a.output.as_path();
     if dir.exists() && !dir.is_dir() {
         return Err(at(
@@ -684,14 +743,22 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             .zip(&names)
             .map(|(p, n)| (p.as_path(), n.as_str())),
     )?;
+    let input = match (&a.mesh, &a.seg) {
+        (Some(p), None) | (None, Some(p)) => p,
+        _ => {
+            return Err(CliError::Usage(
+                "give a placenta tet mesh or --seg MASK (a segmentation to mesh)".into(),
+            ));
+        }
+    };
     // Never overwrite an input.
     let out_dir = super::canonical(dir);
-    let mut outputs: Vec<String> = [ORIGINAL, FLATTENED, REPORT]
+    let mut outputs: Vec<String> = [ORIGINAL, FLATTENED, REPORT, SEG_MESH]
         .iter()
         .map(|s| s.to_string())
         .collect();
     outputs.extend(names.iter().map(|n| flat_name(n)));
-    for input in std::iter::once(&a.mesh).chain(&a.images) {
+    for input in std::iter::once(input).chain(&a.images) {
         let c = super::canonical(input);
         if let Some(o) = outputs.iter().find(|o| out_dir.join(o) == c) {
             return Err(at(
@@ -704,10 +771,51 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         }
     }
 
-    let cells = read_mesh(&a.mesh)?;
-    let mesh = tets_of(&cells).map_err(|e| at(&a.mesh, e))?;
-    drop(cells);
-    let label = a.mesh.display().to_string();
+    let label = input.display().to_string();
+    let (mesh, config, seg) = match &a.seg {
+        None => {
+            let cells = read_mesh(input)?;
+            let mesh = tets_of(&cells).map_err(|e| at(input, e))?;
+            (mesh, a.config(3.0, None)?, None)
+        }
+        Some(seg) => {
+            let mask = m.read_mask(seg)?;
+            let spacing = mask.spacing();
+            let out = m.mesh(seg, &mask, false)?;
+            let quality = MeshQuality::of(&out.mesh)?;
+            println!("{}: {}", seg.display(), describe(&out, &quality));
+            let thick = if m.dilate > 0 {
+                dilate_box(&mask)?
+            } else {
+                mask
+            };
+            let h = inside_distance_quantile(&thick, 0.95)?
+                .filter(|h| *h > 0.0)
+                .ok_or_else(|| at(seg, "the mask has no inside voxel"))?;
+            super::ensure_dir(dir)?;
+            let mesh_path = dir.join(SEG_MESH);
+            write_mesh(
+                &mesh_path,
+                &CellMesh::from(&out.mesh),
+                &WriteOptions::default(),
+            )?;
+            let report = SegReport {
+                mask: label.clone(),
+                mesh: mesh_path.display().to_string(),
+                mask_voxels: out.mask_voxels,
+                mask_volume_mm3: out.mask_volume_mm3,
+                size_mm: out.size_mm,
+                smooth_voxels: m.smooth_voxels,
+                dilate: m.dilate,
+                level: out.level,
+                dropped_components: out.dropped_components.clone(),
+                half_thickness_mm: h,
+                quality,
+            };
+            let voxel = (spacing[0] + spacing[1] + spacing[2]) / 3.0;
+            (out.mesh, a.config(voxel, Some(h))?, Some(report))
+        }
+    };
     // Mesh problems first: an image cannot be judged against a broken mesh.
     let prepared = prepare_mesh(&mesh).map_err(|e| organ(&label, e))?;
     drop(mesh);
@@ -728,6 +836,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         spacing_mm: a.spacing_mm,
         dir,
         progress: true,
+        segmentation: seg.as_ref(),
     })?;
     println!("{summary}");
     Ok(())

@@ -1,0 +1,83 @@
+//! Meshing a segmentation (issue 7): a 128^3 mask at 3 mm voxels (a 384 mm
+//! field of view, as placenta MRI) holding a placenta-like shape, a curved
+//! disc 175 mm wide and 25 mm thick, tilted; default options (smoothing 1.5
+//! voxels, the volume-preserving level, 3 mm lattice), and at 1.5 mm.
+//!
+//! - `mesher/placenta_128_3mm`: [`mesh_mask`] with the defaults;
+//! - `mesher/placenta_128_1.5mm`: the same at `--size-mm 1.5`.
+//!
+//! Target: the default under 3 s on this machine.
+//!
+//! Run with `cargo bench --bench mesher`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::time::Duration;
+use unfold::mesh::Volume;
+use unfold::mesh::mesher::{MaskMeshOptions, MeshQuality, mesh_mask};
+use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3};
+
+/// The allocator the `unfold` command uses (see `src/main.rs`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
+/// 128^3 voxels of 3 mm centred on the origin; inside: within 12.5 mm of
+/// the bowl `z = rho^2 / 600` over a disc of radius 75 mm, tilted.
+fn placenta_mask() -> Volume<bool> {
+    let n = 128;
+    let mut a = Matrix4::identity();
+    for k in 0..3 {
+        a[(k, k)] = 3.0;
+        a[(k, 3)] = -3.0 * (n as f64 - 1.0) / 2.0;
+    }
+    let tilt = Rotation3::from_euler_angles(0.3, -0.2, 0.4).inverse();
+    let mut bits = Vec::with_capacity(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = a.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                let q = tilt * p.coords;
+                let rho = (q.x * q.x + q.y * q.y).sqrt();
+                let z = q.z - rho.min(75.0).powi(2) / 600.0;
+                bits.push(((rho - 75.0).max(0.0).powi(2) + z * z).sqrt() < 12.5);
+            }
+        }
+    }
+    Volume::new([n, n, n, 1], a, bits).expect("mask")
+}
+
+fn mesher(c: &mut Criterion) {
+    let mask = placenta_mask();
+    let fine = MaskMeshOptions {
+        size_mm: Some(1.5),
+        ..MaskMeshOptions::default()
+    };
+    for (name, opts) in [
+        ("placenta_128_3mm", MaskMeshOptions::default()),
+        ("placenta_128_1.5mm", fine),
+    ] {
+        let out = mesh_mask(&mask, &opts).expect("mesh");
+        let q = MeshQuality::of(&out.mesh).expect("quality");
+        println!(
+            "{name}: {} tets, {} vertices, {} boundary triangles, volume {:.0} mm^3 \
+             ({:+.2} % of the mask's), dihedral {:.2} .. {:.2} degrees, level {:.3}",
+            q.tets,
+            q.vertices,
+            q.boundary_triangles,
+            q.volume_mm3,
+            100.0 * (q.volume_mm3 / out.mask_volume_mm3 - 1.0),
+            q.min_dihedral_deg,
+            q.max_dihedral_deg,
+            out.level
+        );
+        let mut g = c.benchmark_group("mesher");
+        g.sample_size(10).measurement_time(Duration::from_secs(20));
+        g.bench_function(name, |b| {
+            b.iter(|| mesh_mask(black_box(&mask), &opts).expect("mesh"))
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, mesher);
+criterion_main!(benches);

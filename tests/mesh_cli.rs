@@ -1,0 +1,346 @@
+//! `unfold mesh` and `unfold placenta --seg` through the binary: a
+//! voxelized placenta-like slab is meshed (valid for `unfold info
+//! --strict`, the mask's volume kept), flattened from the segmentation with
+//! a synthetic image whose intensity is a known function of the depth
+//! across the slab, and every bad input is a one-line error.
+
+use std::path::Path;
+use std::process::{Command, Output};
+use unfold::io::{NiftiImage, read_image, read_mesh, write_image};
+use unfold::mesh::Volume;
+use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3};
+
+fn unfold(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unfold"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the unfold binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+fn assert_one_line_error(o: &Output, needle: &str) {
+    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
+    let err = stderr(o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
+    assert!(err.starts_with("unfold: error: "), "{err}");
+    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
+}
+
+/// The slab's frame: a tilt, so that nothing is axis-aligned.
+fn tilt() -> Rotation3<f64> {
+    Rotation3::from_euler_angles(0.25, 0.15, 0.0)
+}
+
+/// Signed distance to the slab: the points within `c` of a flat disc of
+/// radius `r` through the origin, tilted by [`tilt`].
+fn slab_distance(p: &Point3<f64>, r: f64, c: f64) -> f64 {
+    let q = tilt().inverse() * p.coords;
+    let rho = (q.x * q.x + q.y * q.y).sqrt();
+    ((rho - r).max(0.0).powi(2) + q.z * q.z).sqrt() - c
+}
+
+/// Depth across the slab: the coordinate along its normal.
+fn depth(p: &Point3<f64>) -> f64 {
+    (tilt().inverse() * p.coords).z
+}
+
+/// The test image's intensity: a linear profile across the slab.
+fn intensity(p: &Point3<f64>) -> f64 {
+    500.0 + 10.0 * depth(p)
+}
+
+/// A grid of `n^3` voxels of `v` mm centred on the origin.
+fn grid(n: usize, v: f64) -> Matrix4<f64> {
+    let mut a = Matrix4::identity();
+    for k in 0..3 {
+        a[(k, k)] = v;
+        a[(k, 3)] = -v * (n as f64 - 1.0) / 2.0;
+    }
+    a
+}
+
+/// Writes an image of `n^3` voxels of `v` mm filled by `value`.
+fn write_volume(
+    path: &Path,
+    n: usize,
+    v: f64,
+    frames: usize,
+    value: impl Fn(&Point3<f64>, usize) -> f64,
+) {
+    let a = grid(n, v);
+    let mut data = Vec::with_capacity(n * n * n * frames);
+    for t in 0..frames {
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    let p = a.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                    data.push(value(&p, t) as f32);
+                }
+            }
+        }
+    }
+    let vol = Volume::new([n, n, n, frames], a, data).unwrap();
+    write_image(path, &NiftiImage::new(vol)).unwrap();
+}
+
+/// A slab 2c thick and 2(r + c) wide voxelized at 3 mm (1 inside, 0
+/// outside).
+fn write_slab_mask(path: &Path, r: f64, c: f64) {
+    let n = ((2.0 * (r + c) + 24.0) / 3.0).ceil() as usize;
+    write_volume(path, n, 3.0, 1, |p, _| {
+        if slab_distance(p, r, c) < 0.0 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("report.json")).expect("report.json exists");
+    serde_json::from_str(&text).expect("report.json is JSON")
+}
+
+#[test]
+fn a_mask_is_meshed_into_a_valid_mesh_that_keeps_its_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let mask = dir.path().join("slab.nii.gz");
+    let (r, c) = (60.0, 12.0);
+    write_slab_mask(&mask, r, c);
+    let out = dir.path().join("slab.vtu");
+    let o = unfold(&["mesh", &s(&mask), "-o", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stderr.is_empty(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("tets") && text.contains("dihedral angles"),
+        "{text}"
+    );
+    // valid for `unfold info --strict`
+    let info = unfold(&["info", &s(&out), "--strict", "--json"]);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["valid"], true, "{v}");
+    // the analytic volume (Steiner) within 3 %
+    let exact = 2.0 * std::f64::consts::PI * r * r * c
+        + std::f64::consts::PI.powi(2) * r * c * c
+        + 4.0 / 3.0 * std::f64::consts::PI * c.powi(3);
+    let volume = v["volume_mm3"].as_f64().expect("volume in the info");
+    assert!((volume / exact - 1.0).abs() < 0.03, "{volume} vs {exact}");
+    let m = read_mesh(&out).unwrap();
+    assert!(m.num_cells() > 1000);
+}
+
+#[test]
+fn several_components_keep_the_largest_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let mask = dir.path().join("two.nii");
+    write_volume(&mask, 40, 1.0, 1, |p, _| {
+        let a = (p - Point3::new(-9.0, 0.0, 0.0)).norm() < 8.0;
+        let b = (p - Point3::new(10.0, 0.0, 0.0)).norm() < 5.0;
+        f64::from(u8::from(a || b))
+    });
+    let out = dir.path().join("two.vtu");
+    let o = unfold(&["mesh", &s(&mask), "-o", &s(&out), "--size-mm", "1.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("warning: ")
+            && err.contains("2 connected components")
+            && err.contains("--keep-all-components"),
+        "{err}"
+    );
+    let one = read_mesh(&out).unwrap().num_cells();
+    let o = unfold(&[
+        "mesh",
+        &s(&mask),
+        "-o",
+        &s(&out),
+        "--size-mm",
+        "1.5",
+        "--keep-all-components",
+    ]);
+    assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
+    let both = read_mesh(&out).unwrap().num_cells();
+    assert!(both > one, "{both} vs {one}");
+}
+
+#[test]
+fn bad_masks_and_flags_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("m.vtu");
+    let empty = d.join("empty.nii");
+    write_volume(&empty, 8, 1.0, 1, |_, _| 0.0);
+    assert_one_line_error(
+        &unfold(&["mesh", &s(&empty), "-o", &s(&out)]),
+        "no voxel set",
+    );
+
+    let labels = d.join("labels.nii.gz");
+    write_volume(&labels, 24, 1.0, 1, |p, _| {
+        if p.coords.norm() < 8.0 { 2.0 } else { 0.0 }
+    });
+    let o = unfold(&["mesh", &s(&labels), "-o", &s(&out)]);
+    assert_one_line_error(&o, "not binary");
+    assert!(stderr(&o).contains("--threshold"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("labels.nii.gz"), "{}", stderr(&o));
+    let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), "--threshold", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let series = d.join("series.nii");
+    write_volume(&series, 8, 1.0, 2, |p, _| {
+        f64::from(u8::from(p.coords.norm() < 3.0))
+    });
+    assert_one_line_error(&unfold(&["mesh", &s(&series), "-o", &s(&out)]), "3D image");
+
+    for (flag, value, needle) in [
+        ("--size-mm", "0", "--size-mm"),
+        ("--smooth-voxels", "-1", "--smooth-voxels"),
+        ("--dilate", "2", "--dilate"),
+        ("--level", "1.5", "--level"),
+        ("--threshold", "nan", "--threshold"),
+    ] {
+        let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), flag, value]);
+        assert_one_line_error(&o, needle);
+    }
+    assert_one_line_error(
+        &unfold(&["mesh", &s(&labels), "-o", &s(&labels)]),
+        "overwrite",
+    );
+    assert_one_line_error(
+        &unfold(&["mesh", &s(&d.join("missing.nii")), "-o", &s(&out)]),
+        "missing.nii",
+    );
+}
+
+/// The published pipeline from images: a voxelized slab and an image whose
+/// intensity grows linearly across it. In the template the slab lies
+/// between the planes `z = -h` and `z = h`, so the flattened image must
+/// grow linearly with `z` (one way or the other: which side is fetal is the
+/// parcellation's call) and not with `x` or `y`.
+#[test]
+fn placenta_from_a_segmentation_flattens_the_image_as_expected() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mask = d.join("seg.nii.gz");
+    let (r, c) = (45.0, 10.0);
+    write_slab_mask(&mask, r, c);
+    let bold = d.join("bold.nii.gz");
+    let n = ((2.0 * (r + c) + 30.0) / 3.0).ceil() as usize;
+    write_volume(&bold, n, 3.0, 2, |p, t| intensity(p) + 50.0 * t as f64);
+    let out = d.join("out");
+    let o = unfold(&[
+        "placenta",
+        "--seg",
+        &s(&mask),
+        "--image",
+        &s(&bold),
+        "-o",
+        &s(&out),
+        "--size-mm",
+        "6",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stderr.is_empty(), "{}", stderr(&o));
+    let rep = report(&out);
+    let seg = &rep["segmentation"];
+    assert_eq!(seg["mask"], s(&mask));
+    assert_eq!(seg["size_mm"], 6.0);
+    assert!(
+        seg["quality"]["min_dihedral_deg"].as_f64().unwrap() >= 10.0,
+        "{seg}"
+    );
+    // the half thickness from the distance transform: within a voxel of c
+    let h = seg["half_thickness_mm"].as_f64().unwrap();
+    assert!((h - c).abs() <= 3.0, "{h}");
+    assert_eq!(rep["estimates"]["thickness_from"], "segmentation");
+    assert_eq!(rep["estimates"]["half_thickness_mm"].as_f64(), Some(h));
+    assert_eq!(rep["inverted_tets"], 0);
+    assert!(out.join("mesh.vtu").exists());
+    let mesh = read_mesh(out.join("mesh.vtu")).unwrap();
+    let original = read_mesh(out.join("original.vtu")).unwrap();
+    assert_eq!(mesh.positions, original.positions);
+
+    let flat = read_image(out.join("bold_flat.nii.gz")).unwrap();
+    let v = &flat.volume;
+    let dims = v.dims();
+    assert_eq!(dims[3], 2);
+    let len = v.frame_len();
+    // least squares fit of value = a + b x + c y + e z over the voxels inside
+    let mut rows = Vec::new();
+    for idx in 0..len {
+        let val = f64::from(v.data()[idx]);
+        if val == 0.0 {
+            continue;
+        }
+        let (i, j, k) = (
+            idx % dims[0],
+            (idx / dims[0]) % dims[1],
+            idx / (dims[0] * dims[1]),
+        );
+        let p = v.voxel_to_world(&Point3::new(i as f64, j as f64, k as f64));
+        rows.push((p, val, f64::from(v.data()[len + idx])));
+    }
+    assert!(rows.len() > 500, "{}", rows.len());
+    let mut ata = unfold::mesh::nalgebra::Matrix4::<f64>::zeros();
+    let mut atb = unfold::mesh::nalgebra::Vector4::<f64>::zeros();
+    for (p, val, _) in &rows {
+        let x = unfold::mesh::nalgebra::Vector4::new(1.0, p.x, p.y, p.z);
+        ata += x * x.transpose();
+        atb += x * *val;
+    }
+    let coef = ata.try_inverse().unwrap() * atb;
+    let (gx, gy, gz) = (coef[1], coef[2], coef[3]);
+    // across the slab: 10 per mm (up to the map's stretch); along it: flat
+    assert!(gz.abs() > 8.0 && gz.abs() < 12.5, "slope across {gz}");
+    assert!(gx.abs() < 0.5 && gy.abs() < 0.5, "slopes along {gx}, {gy}");
+    let resid = rows
+        .iter()
+        .map(|(p, val, _)| (val - (coef[0] + gx * p.x + gy * p.y + gz * p.z)).powi(2))
+        .sum::<f64>()
+        / rows.len() as f64;
+    assert!(resid.sqrt() < 15.0, "rms residual {}", resid.sqrt());
+    // the second frame is the first plus 50
+    for (_, a, b) in &rows {
+        assert!((b - a - 50.0).abs() < 1e-2, "{a} {b}");
+    }
+    println!(
+        "{} tets; flattened image: {} voxels, slopes {gx:.3} {gy:.3} {gz:.3} per mm, rms residual {:.3}",
+        seg["quality"]["tets"],
+        rows.len(),
+        resid.sqrt()
+    );
+}
+
+#[test]
+fn placenta_segmentation_flags_need_seg_and_exclude_a_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mask = d.join("seg.nii");
+    write_volume(&mask, 8, 3.0, 1, |_, _| 0.0);
+    let out = d.join("out");
+    assert_one_line_error(
+        &unfold(&["placenta", "x.vtu", "--size-mm", "2", "-o", &s(&out)]),
+        "apply to --seg",
+    );
+    let o = unfold(&["placenta", "x.vtu", "--seg", &s(&mask), "-o", &s(&out)]);
+    assert_one_line_error(&o, "--seg");
+    assert_one_line_error(&unfold(&["placenta", "-o", &s(&out)]), "--seg");
+    assert_one_line_error(
+        &unfold(&["placenta", "--seg", &s(&mask), "-o", &s(&out)]),
+        "no voxel set",
+    );
+}
