@@ -187,7 +187,7 @@ fn check(s: &Shape, half: f64, voxel: f64) -> (f64, f64) {
     let hausdorff = to_shape.max(to_mesh) / voxel;
     println!(
         "{}: {} tets, {} boundary triangles, volume {:.4} % off, Hausdorff {:.3} voxel \
-         (mesh->shape {:.3}, shape->mesh {:.3} mm), dihedral {:.2} .. {:.2} degrees",
+         (mesh->shape {:.3}, shape->mesh {:.3} mm), dihedral {:.2} .. {:.2} degrees, level {:.3}",
         s.name,
         q.tets,
         q.boundary_triangles,
@@ -196,7 +196,8 @@ fn check(s: &Shape, half: f64, voxel: f64) -> (f64, f64) {
         to_shape,
         to_mesh,
         q.min_dihedral_deg,
-        q.max_dihedral_deg
+        q.max_dihedral_deg,
+        out.level
     );
     assert!(
         err.abs() < 0.03,
