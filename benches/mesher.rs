@@ -4,7 +4,8 @@
 //! voxels, the volume-preserving level, 3 mm lattice), and at 1.5 mm.
 //!
 //! - `mesher/placenta_128_3mm`: [`mesh_mask`] with the defaults;
-//! - `mesher/placenta_128_1.5mm`: the same at `--size-mm 1.5`.
+//! - `mesher/placenta_128_1.5mm`: the same at `--size-mm 1.5`;
+//! - `mesher/placenta_128_3mm_graded`: the default with `--grade`.
 //!
 //! Target: the default under 3 s on this machine.
 //!
@@ -52,9 +53,14 @@ fn mesher(c: &mut Criterion) {
         size_mm: Some(1.5),
         ..MaskMeshOptions::default()
     };
+    let graded = MaskMeshOptions {
+        grade: true,
+        ..MaskMeshOptions::default()
+    };
     for (name, opts) in [
         ("placenta_128_3mm", MaskMeshOptions::default()),
         ("placenta_128_1.5mm", fine),
+        ("placenta_128_3mm_graded", graded),
     ] {
         let out = mesh_mask(&mask, &opts).expect("mesh");
         let q = MeshQuality::of(&out.mesh).expect("quality");

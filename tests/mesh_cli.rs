@@ -141,6 +141,23 @@ fn a_mask_is_meshed_into_a_valid_mesh_that_keeps_its_volume() {
     assert!((volume / exact - 1.0).abs() < 0.03, "{volume} vs {exact}");
     let m = read_mesh(&out).unwrap();
     assert!(m.num_cells() > 1000);
+    // --grade: fewer tets, still valid, the same volume (the boundary is
+    // kept)
+    let graded = dir.path().join("graded.vtu");
+    let o = unfold(&["mesh", &s(&mask), "-o", &s(&graded), "--grade"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("graded:"), "{}", stdout(&o));
+    let info = unfold(&["info", &s(&graded), "--strict", "--json"]);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let g: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let gv = g["volume_mm3"].as_f64().unwrap();
+    assert!((gv / volume - 1.0).abs() < 1e-9, "{gv} vs {volume}");
+    let cells = read_mesh(&graded).unwrap().num_cells();
+    assert!(
+        cells < m.num_cells() * 3 / 4,
+        "{cells} vs {}",
+        m.num_cells()
+    );
 }
 
 #[test]
@@ -332,10 +349,13 @@ fn placenta_segmentation_flags_need_seg_and_exclude_a_mesh() {
     let mask = d.join("seg.nii");
     write_volume(&mask, 8, 3.0, 1, |_, _| 0.0);
     let out = d.join("out");
-    assert_one_line_error(
-        &unfold(&["placenta", "x.vtu", "--size-mm", "2", "-o", &s(&out)]),
-        "apply to --seg",
-    );
+    for flag in [&["--size-mm", "2"][..], &["--grade"], &["--dilate", "1"]] {
+        let mut args = vec!["placenta", "x.vtu", "-o"];
+        let o = s(&out);
+        args.push(&o);
+        args.extend_from_slice(flag);
+        assert_one_line_error(&unfold(&args), "apply to --seg");
+    }
     let o = unfold(&["placenta", "x.vtu", "--seg", &s(&mask), "-o", &s(&out)]);
     assert_one_line_error(&o, "--seg");
     assert_one_line_error(&unfold(&["placenta", "-o", &s(&out)]), "--seg");

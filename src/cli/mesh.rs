@@ -43,6 +43,11 @@ pub(crate) struct MaskArgs {
     /// [default: the level that keeps the mask's volume].
     #[arg(long, value_name = "C", allow_negative_numbers = true)]
     pub level: Option<f64>,
+    /// Coarser tets inside: edges grow from the cube side at the boundary
+    /// by half the depth below it (the boundary is kept; dihedral angles
+    /// stay within 10..165 degrees).
+    #[arg(long)]
+    pub grade: bool,
 }
 
 impl MaskArgs {
@@ -79,6 +84,7 @@ impl MaskArgs {
             dilate: usize::from(self.dilate),
             level,
             keep_all_components,
+            grade: self.grade,
         })
     }
 
@@ -155,13 +161,21 @@ pub struct MeshArgs {
 /// One line of figures about a mask's mesh.
 pub(crate) fn describe(out: &MaskMesh, q: &MeshQuality) -> String {
     format!(
-        "{} tets, {} vertices, {} boundary triangles (cube side {:.3} mm, level {:.3}); \
+        "{} tets, {} vertices, {} boundary triangles (cube side {:.3} mm, level {:.3}{}); \
          volume {:.1} mm^3 ({:+.2} % of the mask's {:.1}); dihedral angles {:.1} .. {:.1} degrees",
         q.tets,
         q.vertices,
         q.boundary_triangles,
         out.size_mm,
         out.level,
+        if out.graded_collapses > 0 {
+            format!(
+                ", graded: {} interior vertices removed",
+                out.graded_collapses
+            )
+        } else {
+            String::new()
+        },
         q.volume_mm3,
         100.0 * (q.volume_mm3 / out.mask_volume_mm3 - 1.0),
         out.mask_volume_mm3,

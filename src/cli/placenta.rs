@@ -329,6 +329,8 @@ pub(crate) struct SegReport {
     pub dilate: u8,
     /// Level of the smoothed mask meshed.
     pub level: f64,
+    /// Interior vertices removed by `--grade`.
+    pub graded_collapses: usize,
     /// Tet counts of the components left out.
     pub dropped_components: Vec<usize>,
     /// Half thickness: the 95th percentile of the mask's distance
@@ -713,10 +715,12 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             || m.threshold.is_some()
             || m.level.is_some()
             || m.dilate != 0
+            || m.grade
             || m.smooth_voxels != 1.5)
     {
         return Err(CliError::Usage(
-            "--size-mm, --smooth-voxels, --dilate, --threshold and --level apply to --seg".into(),
+            "--size-mm, --smooth-voxels, --dilate, --threshold, --level and --grade apply to --seg"
+                .into(),
         ));
     }
     // every flag checked before any file is read
@@ -808,6 +812,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
                 smooth_voxels: m.smooth_voxels,
                 dilate: m.dilate,
                 level: out.level,
+                graded_collapses: out.graded_collapses,
                 dropped_components: out.dropped_components.clone(),
                 half_thickness_mm: h,
                 quality,

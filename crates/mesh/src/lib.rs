@@ -16,6 +16,7 @@
 
 pub mod bcc;
 pub mod cells;
+pub mod coarsen;
 mod error;
 pub mod field;
 pub mod geodesic;

@@ -11,7 +11,7 @@
 //! 4. The domain is a level set `s > c` in world coordinates,
 //!    `f(p) = c - s(A^-1 p)` with `s` interpolated trilinearly between
 //!    voxel centres (`A` the voxel-to-world affine), meshed by
-//!    [`stuffing::stuff`] with cube side `size_mm` (default: the smallest
+//!    [`crate::stuffing::stuff`] with cube side `size_mm` (default: the smallest
 //!    voxel spacing).
 //!
 //! The level: the reference takes `c = 0.5` ([`IsoLevel::Fixed`]). Smoothing
@@ -23,12 +23,18 @@
 //! has voxels, so the mesh keeps the mask's volume (within 0.5 % on those
 //! shapes) while its surface stays the smoothed one.
 //!
+//! 5. With `grade`, the interior is coarsened by edge collapses
+//!    ([`crate::coarsen::coarsen_interior`]) towards edges of
+//!    `size + d / 2` at depth `d` below the boundary, which is kept exactly
+//!    (the dihedral angles then stay within `[10, 165]` degrees).
+//!
 //! The mesh is valid by construction (positive tets with dihedral angles
 //! bounded away from 0 and 180 degrees, a closed manifold boundary, checked
 //! before it is returned); one connected component is kept (the largest)
 //! unless all are asked for.
 
 use crate::geometry::{tet_dihedral_angles, total_volume};
+use crate::spatial::ClosestPointQuery;
 use crate::stuffing::{Implicit, Stuffed, stuff};
 use crate::{MeshError, TetMesh, Volume, mask};
 use nalgebra::{Matrix4, Point3, Vector4};
@@ -60,6 +66,9 @@ pub struct MaskMeshOptions {
     /// Keep every connected component instead of the largest. Default
     /// false.
     pub keep_all_components: bool,
+    /// Coarser tets inside: target edge length `size + d / 2` at depth `d`
+    /// below the boundary. Default false.
+    pub grade: bool,
 }
 
 impl Default for MaskMeshOptions {
@@ -70,6 +79,7 @@ impl Default for MaskMeshOptions {
             dilate: 0,
             level: IsoLevel::PreserveVolume,
             keep_all_components: false,
+            grade: false,
         }
     }
 }
@@ -129,6 +139,8 @@ pub struct MaskMesh {
     pub size_mm: f64,
     /// The level `c` meshed.
     pub level: f64,
+    /// Interior vertices removed by grading (0 without).
+    pub graded_collapses: usize,
     /// Voxels set in the mask.
     pub mask_voxels: usize,
     /// Their volume, mm^3 (voxel count times voxel volume).
@@ -228,13 +240,36 @@ impl Implicit for SmoothedMask {
     }
 }
 
+/// Coarsens the interior of `mesh` towards edges of `size + d / 2` at
+/// depth `d` below its boundary ([`crate::coarsen::coarsen_interior`] with
+/// its default angle bounds), then checks the boundary again.
+///
+/// # Errors
+/// As [`crate::coarsen::coarsen_interior`] and
+/// [`crate::stuffing::check_closed_manifold`].
+pub fn grade(mesh: &TetMesh, size: f64) -> Result<crate::coarsen::Coarsened, MeshError> {
+    let boundary = crate::topology::tet_boundary(mesh)?;
+    let query = ClosestPointQuery::new(&boundary.surface);
+    let target = |p: &Point3<f64>| match query.closest(p) {
+        Some(c) => size + 0.5 * c.distance,
+        None => size,
+    };
+    let out = crate::coarsen::coarsen_interior(
+        mesh,
+        &target,
+        &crate::coarsen::CoarsenOptions::default(),
+    )?;
+    crate::stuffing::check_closed_manifold(&out.mesh)?;
+    Ok(out)
+}
+
 /// Meshes the mask (see the module doc).
 ///
 /// # Errors
 /// `Image` for a 4D mask; `Empty` for a mask with no voxel set or one whose
 /// smoothed level set is empty (an object thinner than the smoothing
 /// removes); `InvalidArgument` for bad options; the errors of
-/// [`stuffing::stuff`](crate::stuffing::stuff).
+/// [`stuff`].
 pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh, MeshError> {
     let d = mask.dims();
     if d[3] != 1 {
@@ -352,8 +387,15 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
         },
         e => e,
     })?;
+    let (mesh, graded_collapses) = if opts.grade {
+        let g = grade(&mesh, size)?;
+        (g.mesh, g.collapses)
+    } else {
+        (mesh, 0)
+    };
     Ok(MaskMesh {
         mesh,
+        graded_collapses,
         components,
         dropped_components,
         size_mm: size,

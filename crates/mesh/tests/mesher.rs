@@ -14,12 +14,15 @@ use unfold_mesh::stuffing::check_closed_manifold;
 use unfold_mesh::topology::tet_boundary;
 use unfold_mesh::{MeshError, Volume};
 
+type Inside = Box<dyn Fn(&Point3<f64>) -> bool>;
+type Distance = Box<dyn Fn(&Point3<f64>) -> f64>;
+
 /// An analytic shape: inside test, exact distance to its surface, points
 /// spread over its surface, and its volume.
 struct Shape {
     name: &'static str,
-    inside: Box<dyn Fn(&Point3<f64>) -> bool>,
-    distance: Box<dyn Fn(&Point3<f64>) -> f64>,
+    inside: Inside,
+    distance: Distance,
     samples: Vec<Point3<f64>>,
     volume: f64,
 }
@@ -349,4 +352,58 @@ fn the_reference_level_shrinks_a_curved_shape_and_the_default_does_not() {
     assert!(eh < -0.015 && eh > -0.04, "{eh}");
     assert!(ek.abs() < 0.01, "{ek}");
     assert!(keep.mask_voxels > 0 && (keep.mask_volume_mm3 / ball.volume - 1.0).abs() < 0.01);
+}
+
+/// `--grade` keeps the boundary exactly (same triangles at the same
+/// positions, so the same volume) and removes interior vertices, with every
+/// angle still in [10, 165] degrees.
+#[test]
+fn grading_coarsens_the_inside_and_keeps_the_boundary() {
+    let s = slab(80.0, 13.0);
+    let mask = voxelize(&s, 100.0, 3.0, &rotation());
+    let uniform = mesh_mask(&mask, &MaskMeshOptions::default()).unwrap();
+    let graded = mesh_mask(
+        &mask,
+        &MaskMeshOptions {
+            grade: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (u, g) = (&uniform.mesh, &graded.mesh);
+    assert!(graded.graded_collapses > 0 && uniform.graded_collapses == 0);
+    assert_eq!(g.num_vertices() + graded.graded_collapses, u.num_vertices());
+    let qu = MeshQuality::of(u).unwrap();
+    let qg = MeshQuality::of(g).unwrap();
+    println!(
+        "slab at 3 mm: {} tets uniform, {} graded ({} interior vertices removed), \
+         graded dihedral {:.2} .. {:.2} degrees",
+        qu.tets, qg.tets, graded.graded_collapses, qg.min_dihedral_deg, qg.max_dihedral_deg
+    );
+    assert!(qg.tets < qu.tets * 3 / 4, "{} vs {}", qg.tets, qu.tets);
+    assert!(qg.min_dihedral_deg >= 10.0 && qg.max_dihedral_deg <= 165.0);
+    assert!(g.validate().is_ok());
+    check_closed_manifold(g).unwrap();
+    assert!((qg.volume_mm3 / qu.volume_mm3 - 1.0).abs() < 1e-9);
+    let key = |m: &unfold_mesh::TetMesh| {
+        let b = tet_boundary(m).unwrap();
+        let mut t: Vec<[[u64; 3]; 3]> = b
+            .surface
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut c = t.map(|v| {
+                    b.surface.positions[v as usize]
+                        .coords
+                        .map(f64::to_bits)
+                        .into()
+                });
+                c.sort_unstable();
+                c
+            })
+            .collect();
+        t.sort_unstable();
+        t
+    };
+    assert_eq!(key(u), key(g));
 }
