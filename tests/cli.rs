@@ -2,40 +2,17 @@
 //! one-line errors with a non-zero exit.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::*;
 
 const HEART_VTU: &str = "../shared/data/ldrb-ellipsoid/heart.vtu";
 const COBIVECO: &str = "../shared/data/cobiveco-geo2";
-
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn info_json(path: &str) -> serde_json::Value {
     let o = unfold(&["info", path, "--json"]);
     assert!(o.status.success(), "info {path}: {}", stderr(&o));
     serde_json::from_str(&stdout(&o)).expect("info --json prints JSON")
-}
-
-/// Fails with a single stderr line naming `needle`.
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
 }
 
 #[test]

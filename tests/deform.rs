@@ -12,7 +12,6 @@
 //! thick bowl into an 8 mm slab by pressing it straight down.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
 use unfold::mesh::{CellMesh, Field, TetMesh};
@@ -22,30 +21,8 @@ use unfold::param::solver::NoObserver;
 use unfold::param::template::PointTargets;
 use unfold::param::{Objective, ParamMesh, ProjectedNewton, Solver, Stopping, TemplateTerm};
 
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Fails with a single stderr line naming `needle`.
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
-}
+mod common;
+use common::*;
 
 /// The flattening targets of the shell: top -> `(x, y, +4)`, bottom ->
 /// `(x, y, -4)`.

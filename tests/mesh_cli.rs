@@ -5,38 +5,12 @@
 //! across the slab, and every bad input is a one-line error.
 
 use std::path::Path;
-use std::process::{Command, Output};
 use unfold::io::{NiftiImage, read_image, read_mesh, write_image};
 use unfold::mesh::Volume;
 use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3};
 
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
-}
+mod common;
+use common::*;
 
 /// The slab's frame: a tilt, so that nothing is axis-aligned.
 fn tilt() -> Rotation3<f64> {

@@ -2,36 +2,15 @@
 //! errors for inputs that do not fit the contract.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::repair::compact_vertices;
 use unfold::mesh::shapes::{ValveParams, ValveShape, mitral_valve};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
-/// Fails with a single stderr line naming `needle`.
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure");
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
-}
+mod common;
+use common::*;
 
 fn ring_mesh(points: &[Point3<f64>]) -> CellMesh {
     let mut m = CellMesh::from_points(points.to_vec());

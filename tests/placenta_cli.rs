@@ -6,46 +6,13 @@
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use unfold::io::{NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh};
 use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
 
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
-/// Fails with a single stderr line naming `needle`.
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure, got: {}", stdout(o));
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
-}
-
-/// Succeeds with nothing on stderr (no progress output when not a terminal).
-fn assert_ok(o: &Output) {
-    assert!(o.status.success(), "{}", stderr(o));
-    assert!(o.stderr.is_empty(), "stderr: {}", stderr(o));
-}
+mod common;
+use common::*;
 
 /// A small placenta slab (`18 n^2 m` tets).
 fn slab_mesh(cells_radial: usize, cells_through: usize) -> TetMesh {

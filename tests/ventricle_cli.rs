@@ -4,45 +4,18 @@
 //! contract.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::{Point3, Vector3};
 use unfold::mesh::shapes::{Pose, VentricleParams, VentricleShape, uv_sphere, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, FieldValues, TriMesh};
 
-fn unfold(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_unfold"))
-        .args(args)
-        .output()
-        .expect("the unfold binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
+mod common;
+use common::*;
 
 /// `x,y,z` with every digit (so the point is exactly the one meant).
 fn pt(p: &Point3<f64>) -> String {
     format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
-
-/// Fails non-zero with a single stderr line naming `needle`.
-fn assert_one_line_error(o: &Output, needle: &str) {
-    assert!(!o.status.success(), "expected failure: {}", stderr(o));
-    let err = stderr(o);
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err:?}");
-    assert!(err.starts_with("unfold: error: "), "{err}");
-    assert!(err.contains(needle), "{err:?} should mention {needle:?}");
-}
-
-/// Succeeds with nothing on stderr (progress lines only on a terminal).
-fn assert_ok(o: &Output) {
-    assert!(o.status.success(), "{}", stderr(o));
-    assert!(o.stderr.is_empty(), "stderr: {}", stderr(o));
 }
 
 fn cup() -> VentricleShape {
