@@ -3,6 +3,8 @@
 //! This facade re-exports the workspace crates; the `unfold` binary is the
 //! command-line tool built on them.
 
+pub mod figures;
+
 pub use unfold_io as io;
 pub use unfold_mesh as mesh;
 pub use unfold_organs as organs;

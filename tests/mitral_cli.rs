@@ -74,6 +74,16 @@ fn a_valve_gives_both_maps_and_a_report() {
     let o = run_files(&files, &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let n = v.anterior.positions.len() + v.posterior.positions.len();
+    // the figures, one per map, as PNG of the default size
+    for name in [
+        "map_carpentier.png",
+        "map_coaptation.png",
+        "map_tenting_mm.png",
+    ] {
+        let png = std::fs::read(out.join("figures").join(name)).unwrap();
+        let img = unfold::figures::render::Image::from_png(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (960, 400), "{name}");
+    }
     for name in ["valve3d.vtp", "valve2d.vtp"] {
         let m = read_mesh(out.join(name)).unwrap();
         assert_eq!(m.positions.len(), n, "{name}");
@@ -151,8 +161,13 @@ fn the_ring_may_be_a_text_file_in_any_order() {
     let ring = dir.path().join("ring.csv");
     std::fs::write(&ring, text).unwrap();
     let out = dir.path().join("out");
-    let o = run_files(&[files[0].clone(), files[1].clone(), ring], &out, &[]);
+    let o = run_files(
+        &[files[0].clone(), files[1].clone(), ring],
+        &out,
+        &["--no-figures"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!out.join("figures").exists(), "--no-figures writes none");
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     // The anterolateral commissure found from the geometry alone.

@@ -209,7 +209,38 @@ fn planes_writes_meshes_and_a_full_report() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["flattened.vtu", "original.vtu", "report.json"]);
+    assert_eq!(
+        names,
+        ["figures", "flattened.vtu", "original.vtu", "report.json"]
+    );
+    // the figures (no image given: no depth slices), PNG of the asked size
+    let mut figs: Vec<String> = std::fs::read_dir(out.join("figures"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    figs.sort();
+    assert_eq!(
+        figs,
+        [
+            "distortion.png",
+            "flattened_profile.png",
+            "meshes_log2_det_j.png",
+            "meshes_side.png"
+        ]
+    );
+    let png = std::fs::read(out.join("figures/flattened_profile.png")).unwrap();
+    let img = unfold::figures::render::Image::from_png(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (960, 400));
+    // --no-figures writes none
+    let bare = dir.path().join("bare");
+    assert_ok(&unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "-o",
+        &s(&bare),
+        "--no-figures",
+    ]));
+    assert!(!bare.join("figures").exists());
 }
 
 #[test]

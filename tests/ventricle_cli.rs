@@ -515,3 +515,26 @@ fn the_demo_runs_the_ventricle_pipeline() {
         "{stdout}"
     );
 }
+
+#[test]
+fn figures_are_written_unless_asked_not_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = cup();
+    let (anatomy, surface) = (dir.path().join("anatomy.vtp"), dir.path().join("s.vtp"));
+    write(&anatomy, &CellMesh::from(&v.anatomy));
+    write(&surface, &CellMesh::from(&v.surface));
+    let out = dir.path().join("out");
+    assert_ok(&run(&anatomy, &surface, &v, &out, &[]));
+    for name in ["bullseye.png", "disk_aha.png", "cylinder.png"] {
+        let png = std::fs::read(out.join("figures").join(name)).unwrap();
+        let img = unfold::figures::render::Image::from_png(&png).unwrap();
+        assert!(img.width() >= 480 && img.height() == 400, "{name}");
+    }
+    let bare = dir.path().join("bare");
+    assert_ok(&run(&anatomy, &surface, &v, &bare, &["--no-figures"]));
+    assert!(!bare.join("figures").exists());
+    assert_one_line_error(
+        &run(&anatomy, &surface, &v, &bare, &["--bullseye-array", "nope"]),
+        "no point array \"nope\"",
+    );
+}

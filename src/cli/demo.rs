@@ -164,6 +164,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         dir: &dir.join("placenta"),
         progress: true,
         segmentation: None,
+        figures: true,
     })?;
     println!("{summary}");
 
@@ -178,6 +179,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         &files,
         &unfold::organs::mitral::Config::default(),
         &mitral_dir,
+        true,
     )?;
     println!(
         "built-in mitral valve: {}",
@@ -206,6 +208,8 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         config,
         transfer: None,
         dir: &ventricle_dir,
+        figures: true,
+        bullseye_array: None,
     })?;
     println!(
         "built-in ventricle cup: {}",

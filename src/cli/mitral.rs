@@ -22,6 +22,7 @@ use super::{CliError, at, organ};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use unfold::figures::FigureOptions;
 use unfold::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::{CellMesh, CellType, TriMesh};
@@ -71,6 +72,9 @@ enum RelaxArg {
                   --series, one such set per time step and DIR/series.csv."
 )]
 pub struct MitralArgs {
+    /// Do not write the PNG figures into DIR/figures/.
+    #[arg(long)]
+    no_figures: bool,
     /// Anterior leaflet (triangle mesh, disk topology).
     #[arg(long, value_name = "AL", required_unless_present = "series")]
     anterior: Option<PathBuf>,
@@ -298,11 +302,13 @@ impl ValveFiles {
 }
 
 /// Reads one valve and runs the pipeline; writes `valve3d.vtp`,
-/// `valve2d.vtp` and `report.json` into `dir`.
+/// `valve2d.vtp`, `report.json` and (with `figures`) `figures/*.png` into
+/// `dir`.
 pub(crate) fn run_valve(
     files: &ValveFiles,
     config: &Config,
     dir: &Path,
+    figures: bool,
 ) -> Result<Outcome, CliError> {
     let anterior = read_leaflet(&files.anterior)?;
     let posterior = read_leaflet(&files.posterior)?;
@@ -317,7 +323,7 @@ pub(crate) fn run_valve(
         config,
     )
     .map_err(|e| organ(&label, e))?;
-    write_outcome(&outcome, dir, &label)?;
+    write_outcome(&outcome, dir, &label, figures)?;
     Ok(outcome)
 }
 
@@ -329,8 +335,14 @@ struct FullReport<'a> {
     report: &'a Report,
 }
 
-/// Writes one outcome's files into `dir` (created if missing).
-pub(crate) fn write_outcome(outcome: &Outcome, dir: &Path, label: &str) -> Result<(), CliError> {
+/// Writes one outcome's files into `dir` (created if missing), with its
+/// figures in `dir/figures/` when `figures`.
+pub(crate) fn write_outcome(
+    outcome: &Outcome,
+    dir: &Path,
+    label: &str,
+    figures: bool,
+) -> Result<(), CliError> {
     super::ensure_dir(dir)?;
     let opts = WriteOptions::default();
     write_mesh(
@@ -350,6 +362,11 @@ pub(crate) fn write_outcome(outcome: &Outcome, dir: &Path, label: &str) -> Resul
     })
     .map_err(|e| at(&path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&path, format!("{json}\n").as_bytes())?;
+    if figures {
+        let figs = unfold::figures::mitral::figures(outcome, &FigureOptions::default())
+            .map_err(|e| at(dir, e))?;
+        super::write_figures(dir, &figs)?;
+    }
     Ok(())
 }
 
@@ -497,7 +514,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
             annulus: annulus.clone(),
         };
         check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
-        let outcome = run_valve(&files, &config, out)?;
+        let outcome = run_valve(&files, &config, out, !a.no_figures)?;
         println!("{}", summary(&outcome.report));
         for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
             println!("wrote {}", out.join(f).display());
@@ -535,7 +552,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         let dir = out.join(name);
         let label = files.label();
         let outcome = outcome.map_err(|e| organ(&label, e))?;
-        write_outcome(&outcome, &dir, &label)?;
+        write_outcome(&outcome, &dir, &label, !a.no_figures)?;
         let r = &outcome.report;
         println!("{name}: {}", summary(r));
         rows.push(SeriesRow {

@@ -146,3 +146,24 @@ pub(crate) fn organ(label: &str, source: OrganError) -> CliError {
         },
     }
 }
+
+/// Writes `figures` as PNG files into `dir/figures/` (created if missing),
+/// each atomically; returns the paths written.
+pub(crate) fn write_figures(
+    dir: &std::path::Path,
+    figures: &[unfold::figures::Figure],
+) -> Result<Vec<PathBuf>, CliError> {
+    let out = dir.join("figures");
+    ensure_dir(&out)?;
+    let mut written = Vec::with_capacity(figures.len());
+    for f in figures {
+        let path = out.join(&f.name);
+        let png = f
+            .image
+            .to_png()
+            .map_err(|e| at(&path, format!("cannot encode the figure: {e}")))?;
+        unfold::io::atomic_write(&path, &png)?;
+        written.push(path);
+    }
+    Ok(written)
+}

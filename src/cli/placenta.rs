@@ -41,6 +41,8 @@ use std::fmt;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+use unfold::figures::FigureOptions;
+use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::{
     NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
 };
@@ -113,6 +115,9 @@ pub struct PlacentaArgs {
     seg: Option<PathBuf>,
     #[command(flatten)]
     mask: MaskArgs,
+    /// Do not write the PNG figures into DIR/figures/.
+    #[arg(long)]
+    no_figures: bool,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -308,6 +313,8 @@ pub(crate) struct PipelineInput<'a> {
     pub progress: bool,
     /// How the mesh was made from a segmentation (`--seg`), for the report.
     pub segmentation: Option<&'a SegReport>,
+    /// Write the figures into `dir/figures/`.
+    pub figures: bool,
 }
 
 /// `segmentation` in `report.json`: how the mesh was made from a mask.
@@ -639,6 +646,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
 
     let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
     let mut image_reports = Vec::with_capacity(input.images.len());
+    let mut flats: Vec<(String, unfold::mesh::Volume<f32>)> = Vec::new();
     for img in input.images {
         let in_path = img.path.display().to_string();
         let spacing = match input.spacing_mm {
@@ -672,6 +680,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         out.description = "unfold placenta: pulled back into the template".into();
         let out_path = dir.join(flat_name(&img.name));
         write_image(&out_path, &out)?;
+        flats.push((img.name.clone(), out.volume));
         image_reports.push(ImageReport {
             input: in_path,
             output: out_path.display().to_string(),
@@ -685,6 +694,18 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         });
         written.push(out_path);
     }
+
+    if input.figures {
+        progress.set("figures");
+        let images: Vec<FlatImage<'_>> = flats
+            .iter()
+            .map(|(name, volume)| FlatImage { name, volume })
+            .collect();
+        let figs = placenta_figures(&outcome, &images, &FigureOptions::default())
+            .map_err(|e| at(dir, e))?;
+        written.extend(super::write_figures(dir, &figs)?);
+    }
+    drop(flats);
 
     let report_path = dir.join(REPORT);
     let full = FullReport {
@@ -842,6 +863,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         dir,
         progress: true,
         segmentation: seg.as_ref(),
+        figures: !a.no_figures,
     })?;
     println!("{summary}");
     Ok(())

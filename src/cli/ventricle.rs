@@ -78,6 +78,13 @@ impl From<ChamberArg> for Chamber {
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
 pub struct VentricleArgs {
+    /// Do not write the PNG figures into DIR/figures/.
+    #[arg(long)]
+    no_figures: bool,
+    /// A point array of the anatomy to show on the bull's-eye (LV), as its
+    /// mean per AHA segment [default: the depth].
+    #[arg(long, value_name = "NAME")]
+    bullseye_array: Option<String>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
     /// mapped; its cells are kept.
@@ -235,6 +242,11 @@ pub(crate) struct PipelineInput<'a> {
     pub transfer: Option<TransferInput<'a>>,
     /// Output directory (created if missing).
     pub dir: &'a Path,
+    /// Write the figures into `dir/figures/`.
+    pub figures: bool,
+    /// The point array of the anatomy shown on the bull's-eye (LV);
+    /// `None`: the depth.
+    pub bullseye_array: Option<&'a str>,
 }
 
 /// `report.json`: `inputs`, the library's report and the optional transfer.
@@ -422,6 +434,37 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
     .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_path, format!("{json}\n").as_bytes())?;
     written.push(report_path);
+    if input.figures {
+        let values = match input.bullseye_array {
+            None => None,
+            Some(name) => {
+                let field = input.anatomy.point_data.get(name).ok_or_else(|| {
+                    at(
+                        Path::new(input.anatomy_label),
+                        format!("has no point array {name:?} for the bull's-eye"),
+                    )
+                })?;
+                if field.components() != 1 {
+                    return Err(at(
+                        Path::new(input.anatomy_label),
+                        format!(
+                            "point array {name:?} has {} components; the bull's-eye needs 1",
+                            field.components()
+                        ),
+                    ));
+                }
+                Some((name, field.values().to_f64()))
+            }
+        };
+        let figs = unfold::figures::ventricle::figures(
+            &outcome,
+            input.config.chart.chamber,
+            values.as_ref().map(|(n, v)| (*n, v.as_slice())),
+            &unfold::figures::FigureOptions::default(),
+        )
+        .map_err(|e| at(dir, e))?;
+        written.extend(super::write_figures(dir, &figs)?);
+    }
     Ok(RunResult {
         outcome,
         transfer,
@@ -594,6 +637,8 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         config,
         transfer,
         dir: out,
+        figures: !a.no_figures,
+        bullseye_array: a.bullseye_array.as_deref(),
     })?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
     if let Some(t) = &result.transfer {

@@ -76,14 +76,16 @@ pub fn draw_colorbar(
         (1.0, scale.hi),
     ] {
         let y = (y_bot as f64 - t * span).round() as i64;
-        for x in x0 + bar_w..x0 + bar_w + 4 {
+        // a short tick and a wide gap, so that the tick does not read as
+        // a minus sign of the label
+        for x in x0 + bar_w..x0 + bar_w + 3 {
             if rect.contains(x, y) {
                 img.put(x, y, ink);
             }
         }
         let label = format_value(v);
         img.draw_text_clipped(
-            clamp32(x0 + bar_w + 6),
+            clamp32(x0 + bar_w + 9),
             clamp32(y - lh / 2),
             &label,
             text_scale,
