@@ -878,15 +878,10 @@ fn landmark_positions(outcome: &Outcome) -> Option<[[f64; 2]; 3]> {
     ])
 }
 
-/// [`DISK_AHA_PNG`].
-fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure, FigureError> {
-    const F: &str = DISK_AHA_PNG;
-    let (w, h) = figure_size(opts, 2, 1)?;
-    let layout = disk_layout(Chamber::Lv, opts)?;
-    let (aw, ah) = disk_area(Chamber::Lv, opts)?;
-    let disk = &outcome.disk;
-    let labels: Vec<u8> = disk
-        .triangles
+/// The `(x, y)` centroid of every triangle of `disk` (NaN where a vertex
+/// index is out of range).
+fn centroids(disk: &unfold_mesh::TriMesh) -> Vec<[f64; 2]> {
+    disk.triangles
         .iter()
         .map(|t| {
             let mut c = [0.0; 2];
@@ -898,9 +893,19 @@ fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure, FigureErr
                 c[0] += p[0] / 3.0;
                 c[1] += p[1] / 3.0;
             }
-            aha_segment(c)
+            c
         })
-        .collect();
+        .collect()
+}
+
+/// [`DISK_AHA_PNG`].
+fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure, FigureError> {
+    const F: &str = DISK_AHA_PNG;
+    let (w, h) = figure_size(opts, 2, 1)?;
+    let layout = disk_layout(Chamber::Lv, opts)?;
+    let (aw, ah) = disk_area(Chamber::Lv, opts)?;
+    let disk = &outcome.disk;
+    let labels: Vec<u8> = centroids(disk).into_iter().map(aha_segment).collect();
     let color = |l: u8| {
         if (1..=17).contains(&l) {
             AHA_COLORS[l as usize - 1]
@@ -1143,22 +1148,7 @@ fn disk_angle(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure, FigureE
     let scale = ColorScale::new(ANGLE_COLORMAP, -90.0, 90.0);
     // Per triangle, at its centroid: the angle is singular at the middle
     // of the septal edge, where vertex colours would smear.
-    let angles: Vec<f64> = disk
-        .triangles
-        .iter()
-        .map(|t| {
-            let mut c = [0.0; 2];
-            for &v in t {
-                let p = disk
-                    .positions
-                    .get(v as usize)
-                    .map_or([f64::NAN; 2], |p| [p.x, p.y]);
-                c[0] += p[0] / 3.0;
-                c[1] += p[1] / 3.0;
-            }
-            rv_angle(c)
-        })
-        .collect();
+    let angles: Vec<f64> = centroids(disk).into_iter().map(rv_angle).collect();
     let colors = scale.colors(&angles);
     let mut r = disk_renderer(&layout, aw, ah).map_err(FigureError::render(F))?;
     r.draw_mesh(
