@@ -1,11 +1,17 @@
-//! The error type of unfold-organs.
+//! The error types of unfold-organs.
+//!
+//! [`OrganError`] is what every pipeline returns. It carries no free text:
+//! each failure is a variant of the organ's own error type (or of
+//! [`ConfigError`] for a setting out of range) holding the indices and
+//! numbers that explain it, so a caller can `match` on "vertex out of range"
+//! as against "a longitude starts off the annulus" (parry's style). Each
+//! message is one line a user can act on.
 
 use thiserror::Error;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
 
-/// Everything that can go wrong in an organ pipeline. Messages are one line
-/// a user can act on (what was wrong, what was expected).
+/// Everything that can go wrong in an organ pipeline.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
 pub enum OrganError {
@@ -15,30 +21,138 @@ pub enum OrganError {
     /// The parameterization framework failed (setup or solve).
     #[error(transparent)]
     Param(#[from] ParamError),
+    /// A setting is out of its range.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A setting is out of its range (free text). Being replaced by
+    /// [`OrganError::Config`].
+    #[error("invalid configuration: {0}")]
+    ConfigText(String),
     /// The input does not fit the pipeline (a surface where a volume is
-    /// needed, too few vertices, ...).
+    /// needed, too few vertices, ...). Being replaced by the organs' own
+    /// typed errors.
     #[error("{0}")]
     Input(String),
-    /// A configuration value is out of range.
-    #[error("invalid configuration: {0}")]
-    Config(String),
     /// The boundary could not be split into fetal and maternal sides.
+    /// Being replaced by the placenta's own typed errors.
     #[error("parcellation: {0}")]
     Parcellation(String),
     /// An image cannot be used (does not overlap the mesh, empty, ...).
+    /// Being replaced by the placenta's own typed errors.
     #[error("image: {0}")]
     Image(String),
 }
 
-impl OrganError {
-    /// [`OrganError::Config`] for the first `(name, value)` that is not
-    /// finite and `> 0`: "`name` must be finite and > 0, got `value`".
-    pub(crate) fn check_positive(values: &[(&str, f64)]) -> Result<(), OrganError> {
-        match values.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-            Some((name, value)) => Err(OrganError::Config(format!(
-                "{name} must be finite and > 0, got {value}"
-            ))),
-            None => Ok(()),
+/// What a setting must satisfy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Requirement {
+    /// Finite and `> 0`.
+    Positive,
+    /// Finite and `>= 0`.
+    NonNegative,
+    /// Finite and `>= min`.
+    AtLeast(f64),
+    /// Finite and in `[min, max]`.
+    Within(f64, f64),
+    /// Finite and in `(min, max)`.
+    Between(f64, f64),
+    /// An integer count `>= min`.
+    CountAtLeast(usize),
+}
+
+impl std::fmt::Display for Requirement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Requirement::Positive => write!(f, "finite and > 0"),
+            Requirement::NonNegative => write!(f, "finite and >= 0"),
+            Requirement::AtLeast(min) => write!(f, "finite and >= {min}"),
+            Requirement::Within(lo, hi) => write!(f, "in [{lo}, {hi}]"),
+            Requirement::Between(lo, hi) => write!(f, "in ({lo}, {hi})"),
+            Requirement::CountAtLeast(min) => write!(f, ">= {min}"),
         }
+    }
+}
+
+impl Requirement {
+    /// Whether `value` meets the requirement.
+    pub fn holds(self, value: f64) -> bool {
+        value.is_finite()
+            && match self {
+                Requirement::Positive => value > 0.0,
+                Requirement::NonNegative => value >= 0.0,
+                Requirement::AtLeast(min) => value >= min,
+                Requirement::Within(lo, hi) => (lo..=hi).contains(&value),
+                Requirement::Between(lo, hi) => value > lo && value < hi,
+                Requirement::CountAtLeast(min) => value >= min as f64,
+            }
+    }
+}
+
+/// A setting of a pipeline is out of its range: "invalid configuration:
+/// `name` must be `requirement`, got `value`".
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+#[error("invalid configuration: {name} must be {requirement}, got {value}")]
+pub struct ConfigError {
+    /// The setting (as the library names it, e.g. `lambda`).
+    pub name: &'static str,
+    /// The value given.
+    pub value: f64,
+    /// What it must be.
+    pub requirement: Requirement,
+}
+
+impl ConfigError {
+    /// Checks one setting.
+    ///
+    /// # Errors
+    /// [`ConfigError`] when `value` does not meet `requirement`.
+    pub fn check(name: &'static str, value: f64, requirement: Requirement) -> Result<(), Self> {
+        if requirement.holds(value) {
+            Ok(())
+        } else {
+            Err(ConfigError {
+                name,
+                value,
+                requirement,
+            })
+        }
+    }
+
+    /// Checks that every `(name, value)` is finite and `> 0`; the error
+    /// names the first that is not.
+    ///
+    /// # Errors
+    /// [`ConfigError`] with [`Requirement::Positive`].
+    pub fn check_positive(values: &[(&'static str, f64)]) -> Result<(), Self> {
+        values
+            .iter()
+            .try_for_each(|&(name, value)| Self::check(name, value, Requirement::Positive))
+    }
+}
+
+impl OrganError {
+    /// [`ConfigError::check_positive`] as an [`OrganError`].
+    pub(crate) fn check_positive(values: &[(&'static str, f64)]) -> Result<(), OrganError> {
+        Ok(ConfigError::check_positive(values)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_errors_name_the_setting_and_the_requirement() {
+        let e = ConfigError::check_positive(&[("lambda", 1.0), ("grad_tol", -2.0)]).unwrap_err();
+        assert_eq!(e.name, "grad_tol");
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: grad_tol must be finite and > 0, got -2"
+        );
+        assert!(ConfigError::check("x", f64::NAN, Requirement::NonNegative).is_err());
+        assert!(ConfigError::check("x", 0.0, Requirement::NonNegative).is_ok());
+        assert!(ConfigError::check("x", 1.0, Requirement::Between(0.0, 1.0)).is_err());
+        assert!(ConfigError::check("x", 1.0, Requirement::Within(0.0, 1.0)).is_ok());
+        assert!(ConfigError::check("n", 2.0, Requirement::CountAtLeast(3)).is_err());
     }
 }

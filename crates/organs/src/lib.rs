@@ -15,6 +15,6 @@ pub mod mitral;
 pub mod placenta;
 pub mod ventricle;
 
-pub use error::OrganError;
+pub use error::{ConfigError, OrganError, Requirement};
 pub use unfold_mesh as mesh;
 pub use unfold_param as param;

@@ -129,12 +129,7 @@ const NAMES: [&str; 2] = ["anterior leaflet", "posterior leaflet"];
 /// not meet at two commissures, an undecidable atrial side).
 pub fn prepare(input: &ValveInput<'_>, tolerance_mm: f64) -> Result<PreparedValve, OrganError> {
     let tol = tolerance_mm;
-    if !(tol.is_finite() && tol > 0.0) {
-        return Err(OrganError::Config(format!(
-            "tolerance_mm = {tol} must be a finite distance > 0 mm (default \
-             {DEFAULT_TOLERANCE_MM} mm)"
-        )));
-    }
+    OrganError::check_positive(&[("tolerance_mm", tol)])?;
     let ring = Ring::new(ring_points(input.annulus)?)?;
     let frame = ring_frame(&ring)?;
     let meshes = [input.anterior, input.posterior];
@@ -1121,9 +1116,7 @@ mod tests {
         };
         for t in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             match prepare(&input, t) {
-                Err(OrganError::Config(msg)) => {
-                    assert!(msg.starts_with("tolerance_mm = "), "{msg}")
-                }
+                Err(OrganError::Config(e)) => assert_eq!(e.name, "tolerance_mm", "{e}"),
                 other => panic!("{t}: {other:?}"),
             }
         }

@@ -185,12 +185,11 @@ impl Default for Config {
 impl Config {
     /// Checks the values the steps do not check themselves.
     pub fn validate(&self) -> Result<(), OrganError> {
-        if !(self.cut_gap_mm.is_finite() && self.cut_gap_mm >= 0.0) {
-            return Err(OrganError::Config(format!(
-                "cut_gap_mm must be finite and >= 0, got {}",
-                self.cut_gap_mm
-            )));
-        }
+        crate::ConfigError::check(
+            "cut_gap_mm",
+            self.cut_gap_mm,
+            crate::Requirement::NonNegative,
+        )?;
         OrganError::check_positive(&[("tolerance_mm", self.tolerance_mm)])
     }
 }

@@ -26,7 +26,7 @@ pub mod estimate;
 pub mod parcellation;
 pub mod pullback;
 
-use crate::OrganError;
+use crate::{ConfigError, OrganError, Requirement};
 use align::{Alignment, TransformReport, align};
 use estimate::{Estimates, estimate, estimate_with_thickness};
 use parcellation::{Parcellation, ParcellationConfig, ParcellationSummary, parcellate};
@@ -149,22 +149,21 @@ impl Config {
     /// Checks every value; the error names the offending one.
     pub fn validate(&self) -> Result<(), OrganError> {
         OrganError::check_positive(&[("lambda", self.lambda), ("grad_tol", self.grad_tol)])?;
-        if self.max_iterations == Some(0) {
-            return Err(OrganError::Config("max_iterations must be >= 1".into()));
+        if let Some(n) = self.max_iterations {
+            ConfigError::check("max_iterations", n as f64, Requirement::CountAtLeast(1))?;
         }
         if let Some(s) = self.max_seconds
             && (s.is_nan() || s <= 0.0)
         {
-            return Err(OrganError::Config(format!(
-                "max_seconds must be > 0, got {s}"
-            )));
+            return Err(ConfigError {
+                name: "max_seconds",
+                value: s,
+                requirement: Requirement::Positive,
+            }
+            .into());
         }
-        if let Some(h) = self.half_thickness_mm
-            && !(h.is_finite() && h > 0.0)
-        {
-            return Err(OrganError::Config(format!(
-                "half_thickness_mm must be finite and > 0, got {h}"
-            )));
+        if let Some(h) = self.half_thickness_mm {
+            ConfigError::check("half_thickness_mm", h, Requirement::Positive)?;
         }
         self.parcellation.validate()
     }

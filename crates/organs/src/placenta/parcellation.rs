@@ -80,7 +80,7 @@ impl ParcellationConfig {
     /// Checks every value; the error names the offending one.
     pub fn validate(&self) -> Result<(), OrganError> {
         let bad = |what: &str, v: f64, want: &str| {
-            Err(OrganError::Config(format!(
+            Err(OrganError::ConfigText(format!(
                 "parcellation {what} must be {want}, got {v}"
             )))
         };

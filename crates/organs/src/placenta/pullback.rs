@@ -66,7 +66,7 @@ impl TemplateGrid {
     pub fn covering(points: &[Point3<f64>], spacing: [f64; 3]) -> Result<Self, OrganError> {
         check_spacing(spacing)?;
         if points.is_empty() {
-            return Err(OrganError::Config(
+            return Err(OrganError::ConfigText(
                 "the template grid must cover at least one point, got none".into(),
             ));
         }
@@ -90,7 +90,7 @@ impl TemplateGrid {
                 ),
                 None => String::new(),
             };
-            return Err(OrganError::Config(format!(
+            return Err(OrganError::ConfigText(format!(
                 "a template grid of [{}] voxels at spacing [{}] mm covering [{}] - [{}] mm \
                  exceeds the limit of {MAX_VOXELS} voxels{hint}",
                 counts.map(|c| format!("{c}")).join(", "),
@@ -116,7 +116,7 @@ impl TemplateGrid {
     pub fn validate(&self) -> Result<(), OrganError> {
         check_spacing(self.spacing)?;
         if !self.origin.iter().all(|x| x.is_finite()) {
-            return Err(OrganError::Config(format!(
+            return Err(OrganError::ConfigText(format!(
                 "the template grid's origin must be finite, got [{}]",
                 fmt3(&self.origin)
             )));
@@ -127,7 +127,7 @@ impl TemplateGrid {
             .try_fold(1usize, |acc, &d| acc.checked_mul(d))
             .unwrap_or(usize::MAX);
         if n == 0 || n > MAX_VOXELS {
-            return Err(OrganError::Config(format!(
+            return Err(OrganError::ConfigText(format!(
                 "the template grid must have between 1 and {MAX_VOXELS} voxels, got dims {:?}",
                 self.dims
             )));
@@ -427,7 +427,7 @@ fn check_spacing(spacing: [f64; 3]) -> Result<(), OrganError> {
     if spacing.iter().all(|s| s.is_finite() && *s > 0.0) {
         Ok(())
     } else {
-        Err(OrganError::Config(format!(
+        Err(OrganError::ConfigText(format!(
             "the template voxel spacing must be finite and positive, got [{}] mm",
             fmt3(&spacing)
         )))
@@ -936,12 +936,12 @@ mod tests {
         ] {
             assert!(matches!(
                 TemplateGrid::covering(&pts, s),
-                Err(OrganError::Config(_))
+                Err(OrganError::ConfigText(_))
             ));
         }
         assert!(matches!(
             TemplateGrid::covering(&[], [1.0; 3]),
-            Err(OrganError::Config(_))
+            Err(OrganError::ConfigText(_))
         ));
         assert!(matches!(
             TemplateGrid::covering(&[Point3::new(f64::NAN, 0.0, 0.0)], [1.0; 3]),
@@ -957,7 +957,7 @@ mod tests {
         // Too many voxels: the message names a spacing that fits.
         let far = [Point3::origin(), Point3::new(1000.0, 1000.0, 1000.0)];
         match TemplateGrid::covering(&far, [1.0; 3]) {
-            Err(OrganError::Config(msg)) => {
+            Err(OrganError::ConfigText(msg)) => {
                 assert!(msg.contains("would fit"), "{msg}");
                 assert!(msg.contains("[1.957, 1.957, 1.957]"), "{msg}");
             }
@@ -1009,7 +1009,7 @@ mod tests {
         ] {
             assert!(matches!(
                 PullbackTable::new(bad, pos, &mesh.tets, pos),
-                Err(OrganError::Config(_))
+                Err(OrganError::ConfigText(_))
             ));
         }
         // A grid missing the mesh gives an empty table, which cannot be

@@ -336,7 +336,7 @@ impl LaplaceField {
         let total = match total {
             Some(t) if t <= MAX_GRID_NODES => t,
             _ => {
-                return Err(OrganError::Config(format!(
+                return Err(OrganError::ConfigText(format!(
                     "a {h} mm grid over S needs {}x{}x{} nodes (more than {MAX_GRID_NODES}); \
                      use a coarser grid",
                     dims[0], dims[1], dims[2]
@@ -1272,7 +1272,9 @@ mod tests {
         let (s, l) = (&h.cup.surface, &h.landmarks);
         let solve = |c: FieldConfig| err_of(LaplaceField::solve(s, l, &c));
         let config_error = |e: OrganError, want: &str| match e {
-            OrganError::Config(m) => assert!(m.contains(want), "{m}"),
+            e @ (OrganError::Config(_) | OrganError::ConfigText(_)) => {
+                assert!(e.to_string().contains(want), "{e}")
+            }
             e => panic!("expected a Config error about {want}, got {e:?}"),
         };
         let input_error = |e: OrganError, want: &str| match e {

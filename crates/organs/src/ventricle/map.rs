@@ -700,14 +700,18 @@ mod tests {
                 trace_tolerance_mm: bad,
                 ..config(Chamber::Lv, 2.0)
             }) {
-                Err(OrganError::Config(m)) => assert!(m.contains("trace tolerance"), "{m}"),
+                Err(e @ OrganError::Config(_)) => {
+                    assert!(e.to_string().contains("trace tolerance"), "{e}")
+                }
                 other => panic!("{other:?}"),
             }
             match new(ChartConfig {
                 on_surface_mm: bad,
                 ..config(Chamber::Lv, 2.0)
             }) {
-                Err(OrganError::Config(m)) => assert!(m.contains("on-surface distance"), "{m}"),
+                Err(e @ OrganError::Config(_)) => {
+                    assert!(e.to_string().contains("on-surface distance"), "{e}")
+                }
                 other => panic!("{other:?}"),
             }
         }

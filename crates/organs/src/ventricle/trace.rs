@@ -911,12 +911,14 @@ mod tests {
         let h = hemi();
         for bad in [0.0, -1e-8, f64::NAN, f64::INFINITY] {
             match Tracer::new(&h.field, &h.index, bad, MAX_LENGTH) {
-                Err(OrganError::Config(m)) => assert!(m.contains("trace tolerance"), "{m}"),
+                Err(e @ OrganError::Config(_)) => {
+                    assert!(e.to_string().contains("trace tolerance"), "{e}")
+                }
                 other => panic!("tolerance {bad}: {other:?}"),
             }
             match Tracer::new(&h.field, &h.index, 1e-8, bad) {
-                Err(OrganError::Config(m)) => {
-                    assert!(m.contains("largest streamline length"), "{m}")
+                Err(e @ OrganError::Config(_)) => {
+                    assert!(e.to_string().contains("largest streamline length"), "{e}")
                 }
                 other => panic!("max length {bad}: {other:?}"),
             }
