@@ -34,10 +34,10 @@ use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::topology::tet_boundary;
 use unfold::param::energy::SymmetricDirichlet;
 use unfold::param::metrics::inverted_count;
-use unfold::param::solver::NoObserver;
 use unfold::param::template::ParallelPlanes;
 use unfold::param::{
-    GradientDescent, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver, TemplateTerm,
+    Executor, GradientDescent, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver,
+    TemplateTerm,
 };
 
 /// The allocator the `unfold` command uses (see `src/main.rs`).
@@ -88,8 +88,8 @@ impl Slab {
             .expect("objective");
         let mut x = self.mesh.rest_flat();
         let mut theta = [1.0];
-        let report = solver
-            .solve(&mut objective, &mut x, &mut theta, &mut NoObserver)
+        let report = Executor::new(solver)
+            .run(&mut objective, &mut x, &mut theta)
             .expect("solve");
         (x, report, t0.elapsed().as_secs_f64())
     }
@@ -122,7 +122,7 @@ fn param_slab(c: &mut Criterion) {
     assert_eq!(large.mesh.num_elements(), 60_552);
 
     // The baseline, once (over a thousand iterations; not sampled).
-    let (gd, gd_seconds) = small.check(&GradientDescent::default(), "gradient descent 7k");
+    let (gd, gd_seconds) = small.check(&GradientDescent, "gradient descent 7k");
     println!(
         "gradient descent, 7,200 tets (one run): {gd_seconds:.2} s, {} iterations",
         gd.iterations

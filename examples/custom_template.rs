@@ -28,8 +28,7 @@ use unfold::param::metrics::{
     Summary, dirichlet_excess_percent, inverted_count, log2_det_j, min_det_j,
     template_matching_error,
 };
-use unfold::param::solver::NoObserver;
-use unfold::param::{Objective, ParamMesh, ProjectedNewton, Solver, Template, TemplateTerm};
+use unfold::param::{Executor, Objective, ParamMesh, ProjectedNewton, Template, TemplateTerm};
 
 /// `T = (d - r)^2` on the vertices labelled `label`, `d` the distance to an
 /// axis parallel to y through `(axis_x, *, axis_z)`; `theta = [r]`.
@@ -180,7 +179,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     let report =
-        ProjectedNewton::default().solve(&mut objective, &mut x, &mut theta, &mut NoObserver)?;
+        Executor::new(&ProjectedNewton::default()).run(&mut objective, &mut x, &mut theta)?;
     println!(
         "newton: {:?} after {} iterations, {:.2} s, |grad| {:.1e}",
         report.reason, report.iterations, report.seconds, report.grad_norm

@@ -17,9 +17,8 @@ use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
 use unfold::mesh::{CellMesh, Field, TetMesh};
 use unfold::param::energy::SymmetricDirichlet;
 use unfold::param::metrics::inverted_count;
-use unfold::param::solver::NoObserver;
 use unfold::param::template::PointTargets;
-use unfold::param::{Objective, ParamMesh, ProjectedNewton, Solver, Stopping, TemplateTerm};
+use unfold::param::{Executor, Objective, ParamMesh, ProjectedNewton, Stopping, TemplateTerm};
 
 mod common;
 use common::*;
@@ -151,18 +150,16 @@ fn deform_flattens_the_7k_bowl_to_the_true_minimum() {
         weights: &weights,
     };
     let mut obj = Objective::new(&rest, &SymmetricDirichlet, 1.0, Some(term), &[]).unwrap();
-    let tight = ProjectedNewton {
-        stopping: Stopping {
-            grad_tol: 1e-12,
-            decrement_tol: 0.0,
-            max_iterations: 500,
-            ..Stopping::default()
-        },
-        ..ProjectedNewton::default()
+    let tight = Stopping {
+        grad_tol: 1e-12,
+        decrement_tol: 0.0,
+        max_iterations: 500,
+        ..Stopping::default()
     };
     let mut x = rest.rest_flat();
-    let best = tight
-        .solve(&mut obj, &mut x, &mut [], &mut NoObserver)
+    let best = Executor::new(&ProjectedNewton::default())
+        .stopping(tight)
+        .run(&mut obj, &mut x, &mut [])
         .unwrap();
     assert_eq!(inverted_count(&rest, &x), 0);
     let f_min = obj.value(&x, &[]).min(best.value);

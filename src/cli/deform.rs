@@ -38,17 +38,11 @@ use super::{CliError, at};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 use unfold::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::MeshError;
-use unfold::mesh::nalgebra::Point3;
-use unfold::param::energy::energy_by_name;
-use unfold::param::metrics::{inverted_count, min_det_j};
-use unfold::param::solver::NoObserver;
-use unfold::param::template::PointTargets;
+use unfold::param::energy::{Arap, SymmetricDirichlet};
 use unfold::param::{
-    GradientDescent, Objective, ParamError, ParamMesh, ProjectedNewton, SolveReport, Solver,
-    StopReason, Stopping, TemplateTerm,
+    Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver, StopReason,
 };
 
 /// Distortion energies `D` of `unfold deform`.
@@ -60,15 +54,6 @@ enum Energy {
     Arap,
 }
 
-impl Energy {
-    fn name(self) -> &'static str {
-        match self {
-            Energy::SymmetricDirichlet => "symmetric-dirichlet",
-            Energy::Arap => "arap",
-        }
-    }
-}
-
 /// Solvers of `unfold deform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum SolverKind {
@@ -77,11 +62,6 @@ enum SolverKind {
     /// Gradient descent (the placenta paper's baseline; slow).
     Gd,
 }
-
-/// Iteration limit of Newton unless `--max-iterations` is given.
-const NEWTON_MAX_ITERATIONS: usize = 200;
-/// Iteration limit of gradient descent unless `--max-iterations` is given.
-const GD_MAX_ITERATIONS: usize = 100_000;
 
 /// Arguments of `unfold deform`.
 #[derive(Debug, Args)]
@@ -115,52 +95,17 @@ pub struct DeformArgs {
     max_iterations: Option<usize>,
 }
 
-/// What `OUT.report.json` holds.
+/// What `OUT.report.json` holds: the files, then the library's report.
 #[derive(Debug, Serialize)]
-struct Report {
+struct Report<'a> {
     /// The input mesh.
     mesh: String,
     /// The targets file.
     targets_file: String,
     /// The output mesh.
     output: String,
-    /// `distortion + target_term` at the result.
-    objective: f64,
-    /// `sum_k V_k D(J_k)` (volume weights summing to 1).
-    distortion: f64,
-    /// `W sum_b |x_b - t_b|^2`.
-    target_term: f64,
-    /// Iterations taken.
-    iterations: usize,
-    /// Wall-clock seconds of the optimization: rest data, objective set-up
-    /// and the solve (not reading or writing files).
-    seconds: f64,
-    /// Whether the solver met its convergence test.
-    converged: bool,
-    /// Tets with `det J <= 0` at the result (0 for a valid map).
-    inverted_tets: usize,
-    /// `newton` or `gd`.
-    solver: &'static str,
-    /// The distortion energy's name.
-    energy: &'static str,
-    /// W.
-    weight: f64,
-    /// Number of target vertices.
-    targets: usize,
-    /// The gradient tolerance.
-    tol: f64,
-    /// The iteration limit.
-    max_iterations: usize,
-    /// Why the solver stopped.
-    stop_reason: StopReason,
-    /// `|grad|_F` at the result.
-    grad_norm: f64,
-    /// Smallest `det J` at the result.
-    min_det_j: f64,
-    /// Largest distance of a target vertex from its target.
-    target_error_max: f64,
-    /// Root mean square distance of the target vertices from their targets.
-    target_error_rms: f64,
+    #[serde(flatten)]
+    report: &'a DeformReport,
 }
 
 /// `path` with `.report.json` appended to its file name.
@@ -255,18 +200,32 @@ fn parse_targets(
     Ok(pairs)
 }
 
-/// A parameterization error about the mesh at `path`, worded for this
-/// command.
-fn mesh_problem(path: &Path, e: ParamError) -> CliError {
+/// A pipeline error, worded for this command and attributed to the file
+/// it is about.
+fn deform_problem(a: &DeformArgs, e: ParamError) -> CliError {
     match e {
         ParamError::Mesh(MeshError::InvertedElement { element, volume }) => at(
-            path,
+            &a.mesh,
             format!(
                 "tet {element} is inverted (signed volume {volume:e}); the input shape is the \
                  rest state and the starting point, so every tet must be positively oriented"
             ),
         ),
-        e => at(path, e),
+        e @ (ParamError::TargetNotFinite { .. }
+        | ParamError::TargetRepeated { .. }
+        | ParamError::Length { .. }) => at(&a.targets, e),
+        e @ (ParamError::Mesh(_) | ParamError::Setting { .. }) => at(&a.mesh, e),
+        e => at(
+            &a.mesh,
+            format!("the {} solver failed: {e}", solver_name(a.solver)),
+        ),
+    }
+}
+
+fn solver_name(s: SolverKind) -> &'static str {
+    match s {
+        SolverKind::Newton => "newton",
+        SolverKind::Gd => "gd",
     }
 }
 
@@ -322,100 +281,38 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     })?;
     let pairs = parse_targets(&text, &a.targets, n)?;
 
-    let t0 = Instant::now();
-    let rest = ParamMesh::from_tets(&tet_mesh).map_err(|e| mesh_problem(&a.mesh, e))?;
-    let targets = PointTargets::from_pairs(n, 3, &pairs).map_err(|e| at(&a.targets, e))?;
-    let labels = vec![0u8; n];
-    let mut weights = vec![0.0; n];
-    for &(v, _) in &pairs {
-        weights[v] = a.weight;
+    let mut stopping = match a.solver {
+        SolverKind::Newton => ProjectedNewton::default().default_stopping(),
+        SolverKind::Gd => GradientDescent.default_stopping(),
+    };
+    stopping.grad_tol = a.tol;
+    if let Some(n) = a.max_iterations {
+        stopping.max_iterations = n;
     }
-    // Vertices in no tet and without a target have no term: keep them.
-    let mut used = vec![false; n];
-    for t in &tet_mesh.tets {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    let fixed: Vec<bool> = (0..n).map(|v| !used[v] && weights[v] == 0.0).collect();
-    let fixed: &[bool] = if fixed.iter().any(|&f| f) {
-        &fixed
-    } else {
-        &[]
+    let pipeline = Deform::new().weight(a.weight).stopping(stopping);
+    let pipeline = match a.energy {
+        Energy::SymmetricDirichlet => pipeline.energy(SymmetricDirichlet),
+        Energy::Arap => pipeline.energy(Arap),
     };
-    let energy = energy_by_name(a.energy.name())
-        .ok_or_else(|| CliError::Usage(format!("unknown energy {}", a.energy.name())))?;
-    let term = TemplateTerm {
-        template: &targets,
-        labels: &labels,
-        weights: &weights,
+    let pipeline = match a.solver {
+        SolverKind::Newton => pipeline.solver(ProjectedNewton::default()),
+        SolverKind::Gd => pipeline.solver(GradientDescent),
     };
-    let mut objective = Objective::new(&rest, energy.as_ref(), 1.0, Some(term), fixed)
-        .map_err(|e| at(&a.mesh, e))?;
-    let max_iterations = a.max_iterations.unwrap_or(match a.solver {
-        SolverKind::Newton => NEWTON_MAX_ITERATIONS,
-        SolverKind::Gd => GD_MAX_ITERATIONS,
-    });
-    let stopping = Stopping {
-        grad_tol: a.tol,
-        max_iterations,
-        ..Stopping::default()
-    };
-    let solver: Box<dyn Solver> = match a.solver {
-        SolverKind::Newton => Box::new(ProjectedNewton {
-            stopping,
-            ..ProjectedNewton::default()
-        }),
-        SolverKind::Gd => Box::new(GradientDescent {
-            stopping,
-            ..GradientDescent::default()
-        }),
-    };
-    let mut x = rest.rest_flat();
-    let solved: SolveReport = solver
-        .solve(&mut objective, &mut x, &mut [], &mut NoObserver)
-        .map_err(|e| at(&a.mesh, format!("the {} solver failed: {e}", solver.name())))?;
-    let seconds = t0.elapsed().as_secs_f64();
+    let outcome = pipeline
+        .run(&tet_mesh, &pairs)
+        .map_err(|e| deform_problem(a, e))?;
+    let report = &outcome.report;
 
-    let distortion = objective.distortion(&x);
-    let target_term = objective.template_value(&x, &[]);
-    let (mut err_max, mut err_sq) = (0.0f64, 0.0);
-    for (v, t) in &pairs {
-        let d2: f64 = (0..3).map(|c| (x[3 * v + c] - t[c]).powi(2)).sum();
-        err_max = err_max.max(d2.sqrt());
-        err_sq += d2;
-    }
-    let report = Report {
+    let mut deformed = cells;
+    deformed.positions = outcome.positions.clone();
+    write_mesh(&a.output, &deformed, &WriteOptions::default())?;
+    let full = Report {
         mesh: a.mesh.display().to_string(),
         targets_file: a.targets.display().to_string(),
         output: a.output.display().to_string(),
-        objective: distortion + target_term,
-        distortion,
-        target_term,
-        iterations: solved.iterations,
-        seconds,
-        converged: solved.converged,
-        inverted_tets: inverted_count(&rest, &x),
-        solver: solver.name(),
-        energy: a.energy.name(),
-        weight: a.weight,
-        targets: pairs.len(),
-        tol: a.tol,
-        max_iterations,
-        stop_reason: solved.reason,
-        grad_norm: solved.grad_norm,
-        min_det_j: min_det_j(&rest, &x),
-        target_error_max: err_max,
-        target_error_rms: (err_sq / pairs.len() as f64).sqrt(),
+        report,
     };
-
-    let mut deformed = cells;
-    deformed.positions = x
-        .chunks_exact(3)
-        .map(|p| Point3::new(p[0], p[1], p[2]))
-        .collect();
-    write_mesh(&a.output, &deformed, &WriteOptions::default())?;
-    let json = serde_json::to_string_pretty(&report)
+    let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_file, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_file, format!("{json}\n").as_bytes())?;
 

@@ -110,6 +110,26 @@ pub enum MeshError {
         /// Number of components.
         count: usize,
     },
+    /// A triangle mesh that should be a disk is closed (no boundary loop).
+    #[error("the surface is closed (no boundary loop); cut it open first")]
+    ClosedSurface,
+    /// A triangle mesh that should be a disk has several boundary loops.
+    #[error(
+        "the surface has {} boundary loops (lengths {lengths:?}), expected exactly 1 (disk \
+         topology); fill the holes first",
+        lengths.len()
+    )]
+    BoundaryLoops {
+        /// The vertex count of every loop.
+        lengths: Vec<usize>,
+    },
+    /// A triangle mesh with one boundary loop that is not a disk (it has
+    /// handles).
+    #[error("Euler characteristic {euler}, expected 1 for a disk (the surface has handles)")]
+    NotADisk {
+        /// `V - E + F`.
+        euler: i64,
+    },
     /// A named field has the wrong number of values for what it is attached to.
     #[error("field '{name}' has {found} tuples, expected {expected}")]
     FieldLength {
@@ -173,6 +193,9 @@ impl MeshError {
             MeshError::NonManifoldFace { .. } => "non_manifold_face",
             MeshError::InconsistentOrientation { .. } => "inconsistent_orientation",
             MeshError::MultipleComponents { .. } => "multiple_components",
+            MeshError::ClosedSurface => "closed_surface",
+            MeshError::BoundaryLoops { .. } => "boundary_loops",
+            MeshError::NotADisk { .. } => "not_a_disk",
             MeshError::FieldLength { .. } => "field_length",
             MeshError::FieldComponents { .. } => "field_components",
             MeshError::WrongCellType { .. } => "wrong_cell_type",

@@ -466,6 +466,43 @@ pub fn euler_characteristic(mesh: &TriMesh) -> i64 {
 }
 
 /// Breadth-first hop distance from `v` (`usize::MAX` where unreachable).
+/// The boundary loop of a disk-topology triangle mesh: the mesh must be
+/// connected, have exactly one boundary loop and Euler characteristic
+/// `V - E + F = 1`.
+///
+/// # Errors
+/// [`MeshError::Empty`] without triangles, [`MeshError::IndexOutOfRange`],
+/// [`MeshError::MultipleComponents`], [`MeshError::ClosedSurface`],
+/// [`MeshError::BoundaryLoops`], [`MeshError::NotADisk`] (handles), or the
+/// error of [`boundary_loops`] (a non-manifold boundary).
+pub fn disk_boundary_loop(mesh: &TriMesh) -> Result<Vec<u32>, MeshError> {
+    if mesh.triangles.is_empty() {
+        return Err(MeshError::Empty { what: "triangles" });
+    }
+    crate::geometry::check_indices(mesh.num_vertices(), &mesh.triangles)?;
+    let components = connected_components(mesh.num_vertices(), &mesh.triangles);
+    if components.count != 1 {
+        return Err(MeshError::MultipleComponents {
+            count: components.count,
+        });
+    }
+    let mut loops = boundary_loops(mesh)?;
+    match loops.len() {
+        0 => return Err(MeshError::ClosedSurface),
+        1 => {}
+        _ => {
+            return Err(MeshError::BoundaryLoops {
+                lengths: loops.iter().map(Vec::len).collect(),
+            });
+        }
+    }
+    let euler = euler_characteristic(mesh);
+    if euler != 1 {
+        return Err(MeshError::NotADisk { euler });
+    }
+    Ok(loops.swap_remove(0))
+}
+
 #[cfg(test)]
 pub(crate) fn hop_distances(adj: &Adjacency, v: u32) -> Vec<usize> {
     let mut d = vec![usize::MAX; adj.num_vertices()];

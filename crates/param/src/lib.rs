@@ -1,6 +1,6 @@
 //! unfold-param: the parameterization framework.
 //!
-//! The problem is always (DESIGN.md, ALGORITHMS 1-2)
+//! The problem is always (ALGORITHMS 1-2)
 //!
 //! ```text
 //! minimize  sum_m w_m T(x_m, theta)  +  lambda sum_k V_k D(J_k)
@@ -10,13 +10,21 @@
 //! and its pieces are traits, so a method developer adds one without
 //! touching the rest: [`DistortionEnergy`] (a function of the singular values
 //! of `J`), [`Template`] (the boundary penalty), [`Initializer`] (a valid
-//! starting map), [`LineSearch`] (bounded by the first flip) and the solvers
-//! (gradient descent, the placenta paper's baseline; projected Newton, the
-//! default) reporting every iteration to [`Observer`]s.
+//! starting map under the pipeline's [`Constraints`]), [`LineSearch`]
+//! (bounded by the first flip) and [`Solver`] (gradient descent, the
+//! placenta paper's baseline; projected Newton, the default). An
+//! [`Executor`] runs a solver with a line search, applies the [`Stopping`]
+//! rules and reports every iteration to [`Observer`]s (argmin's split of
+//! problem, solver and observer).
+//!
+//! "ALGORITHMS x.y" in the documentation is section x.y of
+//! `docs/ALGORITHMS.md` in the repository.
 
+pub mod deform;
 pub mod eigen;
 pub mod energy;
 mod error;
+pub mod flips;
 pub mod initializer;
 pub mod linesearch;
 pub mod metrics;
@@ -28,15 +36,16 @@ pub mod solver;
 pub mod sparse;
 pub mod template;
 
+pub use deform::{Deform, DeformOutcome, DeformReport};
 pub use energy::DistortionEnergy;
-pub use error::ParamError;
-pub use initializer::Initializer;
+pub use error::{Elements, ParamError};
+pub use initializer::{Constraints, InitialMap, Initializer, Pin};
 pub use linesearch::{Backtracking, LineSearch, LineSearchResult};
 pub use objective::{HessianLayout, Objective, TemplateTerm};
 pub use rest::{ParamMesh, RestElements};
 pub use solver::{
-    GradientDescent, History, Iteration, Observer, ProjectedNewton, SolveReport, Solver,
-    StopReason, Stopping,
+    Executor, GradientDescent, History, Iteration, NoObserver, Observer, ProjectedNewton,
+    SolveReport, Solver, State, Step, StopReason, Stopping,
 };
 pub use template::Template;
 pub use unfold_mesh as mesh;

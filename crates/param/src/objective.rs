@@ -123,9 +123,11 @@ impl<'a> Objective<'a> {
     ) -> Result<Self, ParamError> {
         let n = mesh.num_vertices();
         if !(lambda.is_finite() && lambda >= 0.0) {
-            return Err(ParamError::InvalidArgument(format!(
-                "lambda must be finite and >= 0, got {lambda}"
-            )));
+            return Err(ParamError::Setting {
+                name: "lambda",
+                value: lambda,
+                expected: "finite and >= 0",
+            });
         }
         if let Some(t) = &template {
             for (what, len) in [
@@ -140,10 +142,13 @@ impl<'a> Objective<'a> {
                     });
                 }
             }
-            if t.weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
-                return Err(ParamError::InvalidArgument(
-                    "template weights must be finite and >= 0".into(),
-                ));
+            if let Some((vertex, &weight)) = t
+                .weights
+                .iter()
+                .enumerate()
+                .find(|(_, w)| !w.is_finite() || **w < 0.0)
+            {
+                return Err(ParamError::TemplateWeight { vertex, weight });
             }
         }
         let fixed = if fixed.is_empty() {
@@ -196,9 +201,11 @@ impl<'a> Objective<'a> {
     }
 
     /// Whether the template parameters are unknowns of the Newton system
-    /// (a template with parameters that wants them optimized).
+    /// (a template with parameters that wants them optimized; any number of
+    /// them: the Newton step eliminates them through their dense `p x p`
+    /// Schur complement, at a cost of `p` extra solves per iteration).
     pub fn joint_theta(&self, theta: &[f64]) -> bool {
-        matches!(&self.template, Some(t) if !theta.is_empty() && theta.len() <= 5 && t.template.optimize_theta())
+        matches!(&self.template, Some(t) if !theta.is_empty() && t.template.optimize_theta())
     }
 
     /// The template term, if any.
@@ -360,13 +367,11 @@ impl<'a> Objective<'a> {
     /// analysis.
     ///
     /// # Errors
-    /// [`ParamError::InvalidArgument`] when `layout` does not
+    /// [`ParamError::LayoutMismatch`] when `layout` does not
     /// [`fit`](HessianLayout::fits) this mesh and fixed set.
     pub fn with_layout(mut self, layout: Arc<HessianLayout>) -> Result<Self, ParamError> {
         if !layout.fits(self.mesh, &self.fixed) {
-            return Err(ParamError::InvalidArgument(
-                "the Hessian layout was built for another connectivity or fixed set".into(),
-            ));
+            return Err(ParamError::LayoutMismatch);
         }
         self.vertex_slots = self.template_slots(&layout.pattern);
         self.layout = Some(layout);
@@ -377,9 +382,9 @@ impl<'a> Objective<'a> {
         if self.layout.is_none() {
             self.build_pattern()?;
         }
-        self.layout
-            .as_ref()
-            .ok_or_else(|| ParamError::Factorization("no pattern".into()))
+        self.layout.as_ref().ok_or(ParamError::Internal {
+            what: "the Hessian layout was not built",
+        })
     }
 
     /// Stores a freshly built pattern and slots as this objective's layout.
@@ -609,7 +614,8 @@ impl<'a> Objective<'a> {
             for (i, (v, _)) in self.vertex_slots.iter().enumerate() {
                 slot_of[*v as usize] = Some(i);
             }
-            let mut gt = [0.0; 8];
+            let mut gt = vec![0.0; p];
+            let mut ct = vec![0.0; if joint { p * p } else { 0 }];
             for v in 0..self.mesh.num_vertices() {
                 let w = t.weights[v];
                 if w <= 0.0 {
@@ -618,17 +624,15 @@ impl<'a> Objective<'a> {
                 let xv = &x[d * v..d * v + d];
                 if joint {
                     t.template
-                        .theta_gradient(v, t.labels[v], xv, theta, &mut gt[..p]);
-                    for (gj, gtj) in tb.g.iter_mut().zip(&gt[..p]) {
+                        .theta_gradient(v, t.labels[v], xv, theta, &mut gt);
+                    for (gj, gtj) in tb.g.iter_mut().zip(&gt) {
                         *gj += w * gtj;
                     }
                 }
                 if self.fixed[v] {
                     if joint {
-                        let mut c = [0.0; 64];
-                        t.template
-                            .theta_hessian(v, t.labels[v], xv, theta, &mut c[..p * p]);
-                        for (k, cv) in c[..p * p].iter().enumerate() {
+                        t.template.theta_hessian(v, t.labels[v], xv, theta, &mut ct);
+                        for (k, cv) in ct.iter().enumerate() {
                             tb.c[k] += w * cv;
                         }
                     }
@@ -917,11 +921,11 @@ fn joint_block(t: &dyn Template, v: usize, label: u8, x: &[f64], theta: &[f64]) 
     let (d, p) = (x.len(), theta.len());
     let m = d + p;
     let mut hx = [0.0; 9];
-    let mut mixed = [0.0; 24];
-    let mut c = [0.0; 64];
+    let mut mixed = vec![0.0; d * p];
+    let mut c = vec![0.0; p * p];
     t.hessian(v, label, x, theta, &mut hx[..d * d]);
-    t.mixed_hessian(v, label, x, theta, &mut mixed[..d * p]);
-    t.theta_hessian(v, label, x, theta, &mut c[..p * p]);
+    t.mixed_hessian(v, label, x, theta, &mut mixed);
+    t.theta_hessian(v, label, x, theta, &mut c);
     let mut full = nalgebra::DMatrix::<f64>::zeros(m, m);
     for r in 0..d {
         for k in 0..d {
@@ -1076,7 +1080,7 @@ mod tests {
         assert!(layout.fits(&pm, &fixed));
         assert!(!layout.fits(&pm, &[]));
         let err = |o: Result<Objective<'_>, ParamError>| match o {
-            Err(ParamError::InvalidArgument(m)) => m,
+            Err(e @ ParamError::LayoutMismatch) => e.to_string(),
             other => panic!("expected an error, got {other:?}"),
         };
         // Another fixed set.

@@ -36,18 +36,22 @@ pub trait Template: Send + Sync + Debug {
     }
     /// `d2T/dtheta2` (row-major `p x p`, `p = theta.len()`) written into
     /// `out`. The default differentiates [`Template::theta_gradient`]
-    /// numerically (central differences); override with a closed form.
+    /// numerically (central differences, step `1e-6 (1 + |theta_j|)`);
+    /// override with a closed form. Any number of parameters works: the
+    /// default's buffers live on the stack up to 8 parameters and on the
+    /// heap beyond.
     fn theta_hessian(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
         let p = theta.len();
-        let mut th = [0.0; 8];
-        let (mut gp, mut gm) = ([0.0; 8], [0.0; 8]);
-        th[..p].copy_from_slice(theta);
+        let mut buffers = Scratch::new(3 * p);
+        let (th, rest) = buffers.as_mut().split_at_mut(p);
+        let (gp, gm) = rest.split_at_mut(p);
+        th.copy_from_slice(theta);
         for j in 0..p {
             let h = 1e-6 * (1.0 + theta[j].abs());
             th[j] = theta[j] + h;
-            self.theta_gradient(vertex, label, x, &th[..p], &mut gp[..p]);
+            self.theta_gradient(vertex, label, x, th, gp);
             th[j] = theta[j] - h;
-            self.theta_gradient(vertex, label, x, &th[..p], &mut gm[..p]);
+            self.theta_gradient(vertex, label, x, th, gm);
             th[j] = theta[j];
             for i in 0..p {
                 out[i * p + j] = (gp[i] - gm[i]) / (2.0 * h);
@@ -63,19 +67,20 @@ pub trait Template: Send + Sync + Debug {
     }
     /// The mixed derivative `d2T/(dx_i dtheta_j)` (row-major `d x p`)
     /// written into `out`. The default differentiates
-    /// [`Template::theta_gradient`] numerically in `x`; override with a
-    /// closed form.
+    /// [`Template::theta_gradient`] numerically in `x` (any number of
+    /// parameters); override with a closed form.
     fn mixed_hessian(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
         let (d, p) = (x.len(), theta.len());
         let mut xx = [0.0; 3];
-        let (mut gp, mut gm) = ([0.0; 8], [0.0; 8]);
+        let mut buffers = Scratch::new(2 * p);
+        let (gp, gm) = buffers.as_mut().split_at_mut(p);
         xx[..d].copy_from_slice(x);
         for i in 0..d {
             let h = 1e-6 * (1.0 + x[i].abs());
             xx[i] = x[i] + h;
-            self.theta_gradient(vertex, label, &xx[..d], theta, &mut gp[..p]);
+            self.theta_gradient(vertex, label, &xx[..d], theta, gp);
             xx[i] = x[i] - h;
-            self.theta_gradient(vertex, label, &xx[..d], theta, &mut gm[..p]);
+            self.theta_gradient(vertex, label, &xx[..d], theta, gm);
             xx[i] = x[i];
             for j in 0..p {
                 out[i * p + j] = (gp[j] - gm[j]) / (2.0 * h);
@@ -97,6 +102,72 @@ pub trait Template: Send + Sync + Debug {
     ) -> bool {
         let _ = (labels, xs, dim, weights, theta);
         false
+    }
+}
+
+/// A boxed template is a template (so pipelines can hold and take
+/// `Box<dyn Template>`).
+impl<T: Template + ?Sized> Template for Box<T> {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn parameter_names(&self) -> Vec<&'static str> {
+        (**self).parameter_names()
+    }
+    fn value(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64]) -> f64 {
+        (**self).value(vertex, label, x, theta)
+    }
+    fn gradient(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
+        (**self).gradient(vertex, label, x, theta, out)
+    }
+    fn hessian(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
+        (**self).hessian(vertex, label, x, theta, out)
+    }
+    fn theta_gradient(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
+        (**self).theta_gradient(vertex, label, x, theta, out)
+    }
+    fn optimize_theta(&self) -> bool {
+        (**self).optimize_theta()
+    }
+    fn theta_hessian(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
+        (**self).theta_hessian(vertex, label, x, theta, out)
+    }
+    fn mixed_hessian(&self, vertex: usize, label: u8, x: &[f64], theta: &[f64], out: &mut [f64]) {
+        (**self).mixed_hessian(vertex, label, x, theta, out)
+    }
+    fn update_theta(
+        &self,
+        labels: &[u8],
+        xs: &[f64],
+        dim: usize,
+        weights: &[f64],
+        theta: &mut [f64],
+    ) -> bool {
+        (**self).update_theta(labels, xs, dim, weights, theta)
+    }
+}
+
+/// A scratch buffer of `len` zeros: on the stack up to 24 values, on the
+/// heap beyond (the numeric template derivatives of any parameter count).
+enum Scratch {
+    Stack([f64; 24], usize),
+    Heap(Vec<f64>),
+}
+
+impl Scratch {
+    fn new(len: usize) -> Self {
+        if len <= 24 {
+            Scratch::Stack([0.0; 24], len)
+        } else {
+            Scratch::Heap(vec![0.0; len])
+        }
+    }
+
+    fn as_mut(&mut self) -> &mut [f64] {
+        match self {
+            Scratch::Stack(a, len) => &mut a[..*len],
+            Scratch::Heap(v) => v,
+        }
     }
 }
 
@@ -174,13 +245,15 @@ fn update_args_ok(labels: &[u8], xs: &[f64], dim: usize, weights: &[f64], min_di
     dim >= min_dim && labels.len() == weights.len() && xs.len() == dim * labels.len()
 }
 
-fn check_weight(name: &str, w: f64) -> Result<(), ParamError> {
+fn check_weight(name: &'static str, w: f64) -> Result<(), ParamError> {
     if w.is_finite() && w >= 0.0 {
         Ok(())
     } else {
-        Err(ParamError::InvalidArgument(format!(
-            "{name} must be finite and non-negative, got {w}"
-        )))
+        Err(ParamError::Setting {
+            name,
+            value: w,
+            expected: "finite and non-negative",
+        })
     }
 }
 
@@ -688,17 +761,16 @@ impl PointTargets {
     /// Targets per vertex; `dim` must be 2 or 3 and every target finite.
     pub fn new(targets: Vec<Option<[f64; 3]>>, dim: usize) -> Result<Self, ParamError> {
         if dim != 2 && dim != 3 {
-            return Err(ParamError::InvalidArgument(format!(
-                "point targets: dim must be 2 or 3, got {dim}"
-            )));
+            return Err(ParamError::Dimension {
+                what: "point targets",
+                dim,
+            });
         }
         if let Some(v) = targets
             .iter()
             .position(|t| t.is_some_and(|t| t.iter().any(|c| !c.is_finite())))
         {
-            return Err(ParamError::InvalidArgument(format!(
-                "point targets: the target of vertex {v} is not finite"
-            )));
+            return Err(ParamError::TargetNotFinite { vertex: v });
         }
         Ok(PointTargets { targets, dim })
     }
@@ -722,9 +794,7 @@ impl PointTargets {
                 });
             }
             if targets[v].is_some() {
-                return Err(ParamError::InvalidArgument(format!(
-                    "point targets: vertex {v} has two targets"
-                )));
+                return Err(ParamError::TargetRepeated { vertex: v });
             }
             targets[v] = Some(t);
         }

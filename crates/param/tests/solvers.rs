@@ -9,7 +9,7 @@ use unfold_param::ParamMesh;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::inverted_count;
 use unfold_param::objective::{Objective, TemplateTerm};
-use unfold_param::solver::{GradientDescent, History, ProjectedNewton, Solver, Stopping};
+use unfold_param::solver::{Executor, GradientDescent, History, ProjectedNewton, Solver, Stopping};
 use unfold_param::template::ParallelPlanes;
 
 /// The slab's rest data, labels (its ground-truth sides) and normalized
@@ -113,6 +113,7 @@ proptest! {
 
 fn solve(
     solver: &dyn Solver,
+    stopping: Stopping,
     mesh: &ParamMesh,
     labels: &[u8],
     weights: &[f64],
@@ -127,8 +128,10 @@ fn solve(
     let mut x = mesh.rest_flat();
     let mut theta = [1.0];
     let mut history = History::default();
-    let report = solver
-        .solve(&mut obj, &mut x, &mut theta, &mut history)
+    let report = Executor::new(solver)
+        .stopping(stopping)
+        .observer(&mut history)
+        .run(&mut obj, &mut x, &mut theta)
         .unwrap();
     assert_eq!(
         inverted_count(mesh, &x),
@@ -144,28 +147,23 @@ fn solve(
 #[test]
 fn newton_and_gradient_descent_reach_the_same_optimum() {
     let (mesh, labels, weights) = slab(3, 2);
-    let newton = ProjectedNewton {
-        stopping: Stopping {
-            grad_tol: 1e-9,
-            decrement_tol: 0.0,
-            ..Stopping::default()
-        },
-        ..ProjectedNewton::default()
+    let tight = Stopping {
+        grad_tol: 1e-9,
+        decrement_tol: 0.0,
+        ..Stopping::default()
     };
-    let (_, h_newton, hn, ok_n) = solve(&newton, &mesh, &labels, &weights);
+    let (_, h_newton, hn, ok_n) =
+        solve(&ProjectedNewton::default(), tight, &mesh, &labels, &weights);
     // |grad|_F < 1e-4 (the source's rule) can leave gradient descent short
     // of the optimum along flat directions; a tighter tolerance makes the
     // comparison to 1e-6 meaningful ("give gradient descent enough
     // iterations").
-    let gd = GradientDescent {
-        stopping: Stopping {
-            grad_tol: 1e-6,
-            max_iterations: 1_000_000,
-            ..Stopping::default()
-        },
-        ..GradientDescent::default()
+    let gd_stopping = Stopping {
+        grad_tol: 1e-6,
+        max_iterations: 1_000_000,
+        ..GradientDescent.default_stopping()
     };
-    let (_, h_gd, hg, ok_g) = solve(&gd, &mesh, &labels, &weights);
+    let (_, h_gd, hg, ok_g) = solve(&GradientDescent, gd_stopping, &mesh, &labels, &weights);
     assert!(
         ok_n && ok_g,
         "newton {ok_n} ({} its), gd {ok_g} ({} its)",
@@ -206,15 +204,18 @@ fn newton_and_gradient_descent_reach_the_same_optimum() {
 #[test]
 fn the_decrement_stop_takes_its_newton_step() {
     let (mesh, labels, weights) = slab(3, 2);
-    let newton = ProjectedNewton {
-        stopping: Stopping {
-            grad_tol: 1e-12,
-            decrement_tol: f64::INFINITY,
-            ..Stopping::default()
-        },
-        ..ProjectedNewton::default()
+    let stopping = Stopping {
+        grad_tol: 1e-12,
+        decrement_tol: f64::INFINITY,
+        ..Stopping::default()
     };
-    let (_, _, h, converged) = solve(&newton, &mesh, &labels, &weights);
+    let (_, _, h, converged) = solve(
+        &ProjectedNewton::default(),
+        stopping,
+        &mesh,
+        &labels,
+        &weights,
+    );
     assert!(converged);
     assert_eq!(h.0.len(), 2, "start and one step: {:?}", h.0);
     assert!(h.0[1].step > 0.0);
@@ -231,17 +232,13 @@ fn step_expansion_reaches_the_same_optimum_and_checks_its_factor() {
         decrement_tol: 0.0,
         ..Stopping::default()
     };
-    let plain = ProjectedNewton {
-        stopping: tight,
-        ..ProjectedNewton::default()
-    };
+    let plain = ProjectedNewton::default();
     let expanding = ProjectedNewton {
-        stopping: tight,
         expand: 1.5,
         ..ProjectedNewton::default()
     };
-    let (_, h_plain, hp, ok_p) = solve(&plain, &mesh, &labels, &weights);
-    let (_, h_exp, he, ok_e) = solve(&expanding, &mesh, &labels, &weights);
+    let (_, h_plain, hp, ok_p) = solve(&plain, tight, &mesh, &labels, &weights);
+    let (_, h_exp, he, ok_e) = solve(&expanding, tight, &mesh, &labels, &weights);
     assert!(ok_p && ok_e);
     for w in he.0.windows(2) {
         assert!(w[1].value <= w[0].value, "{} -> {}", w[0].value, w[1].value);
@@ -264,10 +261,11 @@ fn step_expansion_reaches_the_same_optimum_and_checks_its_factor() {
         let mut obj = Objective::new(&mesh, &SymmetricDirichlet, 1.0, Some(term), &[]).unwrap();
         let mut x = mesh.rest_flat();
         let mut theta = [1.0];
-        let e = solver
-            .solve(&mut obj, &mut x, &mut theta, &mut History::default())
+        let e = Executor::new(&solver)
+            .run(&mut obj, &mut x, &mut theta)
             .unwrap_err();
         assert!(e.to_string().contains("expansion"), "{e}");
         assert_eq!(x, mesh.rest_flat(), "x unchanged on error");
+        assert_eq!(theta, [1.0], "theta unchanged on error");
     }
 }

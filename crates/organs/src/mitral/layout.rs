@@ -40,8 +40,7 @@ use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::initializer::disk_boundary_loop;
 use unfold_param::linesearch::max_step_tris;
 use unfold_param::operators::{mean_value_weights, solve_dirichlet_weights};
-use unfold_param::solver::NoObserver;
-use unfold_param::{Objective, ParamMesh, ProjectedNewton, Solver, Stopping};
+use unfold_param::{Executor, Objective, ParamMesh, ProjectedNewton, Stopping};
 
 /// The `(u, v)` of every annulus vertex of a leaflet: `q_k =
 /// map.at(leaflet.annulus_s[k])` (linear interpolation along the annulus
@@ -695,13 +694,11 @@ fn tutte_homotopy(
         fixed[v as usize] = true;
     }
     let mut objective = Objective::new(&pm, &energy, 1.0, None, &fixed)?;
-    let newton = ProjectedNewton {
-        stopping: Stopping {
-            max_iterations: RELAX_ITERATIONS,
-            grad_tol: 1e-9,
-            ..Stopping::default()
-        },
-        ..ProjectedNewton::default()
+    let newton = ProjectedNewton::default();
+    let stopping = Stopping {
+        max_iterations: RELAX_ITERATIONS,
+        grad_tol: 1e-9,
+        ..Stopping::default()
     };
     let mut x: Vec<f64> = start.iter().flatten().copied().collect();
     let mut d = vec![0.0; x.len()];
@@ -757,7 +754,9 @@ fn tutte_homotopy(
         }
         // Relax the interior and the free edge (never flips; the annulus
         // stays where it is).
-        newton.solve(&mut objective, &mut x, &mut [], &mut NoObserver)?;
+        Executor::new(&newton)
+            .stopping(stopping)
+            .run(&mut objective, &mut x, &mut [])?;
         if arrived {
             let q: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
             return Ok(q);
@@ -837,7 +836,7 @@ mod tests {
     use unfold_mesh::nalgebra::Point3;
     use unfold_mesh::shapes::{Pose, ValveParams, ValveShape, mitral_valve, uv_sphere};
     use unfold_mesh::topology::boundary_loops;
-    use unfold_param::initializer::check_no_flips;
+    use unfold_param::flips::check_no_flips;
 
     const MODES: [AnnulusMode; 3] = [
         AnnulusMode::Straight,

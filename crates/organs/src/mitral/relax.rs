@@ -41,9 +41,8 @@ use std::time::Instant;
 use unfold_mesh::TriMesh;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
-use unfold_param::solver::NoObserver;
 use unfold_param::{
-    HessianLayout, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver, Stopping,
+    Executor, HessianLayout, Objective, ParamMesh, ProjectedNewton, SolveReport, Stopping,
 };
 
 /// Largest move of a vertex in one [`spring`] step, as a fraction of its
@@ -472,13 +471,13 @@ pub fn symmetric_dirichlet_cached(
             }
         };
     }
+    let stopping = Stopping {
+        grad_tol: config.grad_tol / total_area.sqrt(),
+        max_iterations: config.max_iterations,
+        decrement_tol: config.decrement_tol,
+        ..Stopping::default()
+    };
     let solver = ProjectedNewton {
-        stopping: Stopping {
-            grad_tol: config.grad_tol / total_area.sqrt(),
-            max_iterations: config.max_iterations,
-            decrement_tol: config.decrement_tol,
-            ..Stopping::default()
-        },
         // The unprojected Hessian does not pay here: on the generator's
         // valves it is indefinite for the first iterations (the attempt
         // costs a Hessian and a failed factorization), and where it does
@@ -488,7 +487,10 @@ pub fn symmetric_dirichlet_cached(
         expand: STEP_EXPANSION,
         ..ProjectedNewton::default()
     };
-    let report: SolveReport = solver.solve(&mut objective, &mut x, &mut [], &mut NoObserver)?;
+    let report: SolveReport =
+        Executor::new(&solver)
+            .stopping(stopping)
+            .run(&mut objective, &mut x, &mut [])?;
     let mut q = uv.to_vec();
     for (i, qi) in q.iter_mut().enumerate() {
         if !pinned[i] {
@@ -513,7 +515,7 @@ mod tests {
     use proptest::prelude::*;
     use unfold_mesh::nalgebra::Point3;
     use unfold_mesh::shapes::{ValveParams, mitral_valve};
-    use unfold_param::initializer::check_no_flips;
+    use unfold_param::flips::check_no_flips;
     use unfold_param::metrics::{angle_energy, area_energy, inverted_count, length_energy};
 
     /// A leaflet with a starting layout and its pinned annulus.
@@ -853,17 +855,20 @@ mod tests {
             let mut obj = Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &c.fixed).unwrap();
             let mut x: Vec<f64> = c.uv.iter().flat_map(|q| [q[0], q[1]]).collect();
             let solver = ProjectedNewton {
-                stopping: Stopping {
-                    grad_tol: 1e-9,
-                    decrement_tol: 1e-12,
-                    ..Stopping::default()
-                },
                 exact_first: false,
                 expand,
                 ..ProjectedNewton::default()
             };
             let mut h = unfold_param::History::default();
-            let r = solver.solve(&mut obj, &mut x, &mut [], &mut h).unwrap();
+            let r = Executor::new(&solver)
+                .stopping(Stopping {
+                    grad_tol: 1e-9,
+                    decrement_tol: 1e-12,
+                    ..Stopping::default()
+                })
+                .observer(&mut h)
+                .run(&mut obj, &mut x, &mut [])
+                .unwrap();
             assert!(r.converged);
             h
         };

@@ -43,8 +43,8 @@ use unfold_param::metrics::{
 };
 use unfold_param::template::{Ellipsoid, LABEL_INTERIOR, ParallelPlanes, SinglePlane};
 use unfold_param::{
-    GradientDescent, Iteration, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver,
-    StopReason, Stopping, Template, TemplateTerm,
+    Executor, GradientDescent, Iteration, Objective, ParamMesh, ProjectedNewton, SolveReport,
+    Solver, StopReason, Stopping, Template, TemplateTerm,
 };
 
 /// The canonical templates (ALGORITHMS 2.3).
@@ -181,14 +181,8 @@ impl Config {
 
     fn solver(&self) -> Box<dyn Solver> {
         match self.solver {
-            SolverKind::Newton => Box::new(ProjectedNewton {
-                stopping: self.stopping(),
-                ..ProjectedNewton::default()
-            }),
-            SolverKind::Gd => Box::new(GradientDescent {
-                stopping: self.stopping(),
-                ..GradientDescent::default()
-            }),
+            SolverKind::Newton => Box::new(ProjectedNewton::default()),
+            SolverKind::Gd => Box::new(GradientDescent),
         }
     }
 }
@@ -346,9 +340,11 @@ fn stage(
     )?;
     let theta_initial = named(&template.parameter_names(), theta);
     let mut forward = |it: &Iteration| observer.iteration(it);
-    let solve = config
-        .solver()
-        .solve(&mut objective, x, theta, &mut forward)?;
+    let solver = config.solver();
+    let solve = Executor::new(solver.as_ref())
+        .stopping(config.stopping())
+        .observer(&mut forward)
+        .run(&mut objective, x, theta)?;
     Ok(StageReport {
         template: template.name(),
         theta_initial,

@@ -1,0 +1,293 @@
+//! Projected Newton, the default solver (ALGORITHMS 1.5).
+
+use super::executor::{below_roundoff, relative_decrement};
+use super::{Solver, State, Step, Stopping, line_value};
+use crate::ParamError;
+use crate::energy::HessianMode;
+use crate::linesearch::LineSearch;
+use crate::objective::{Objective, ThetaBlock};
+use crate::sparse::SpdFactor;
+
+/// Projected Newton: solve `H d = -g` with `H` the sum of the PSD-projected
+/// element Hessians and the template Hessian (sparse Cholesky; the symbolic
+/// analysis is done once, a diagonal shift is added when a factorization
+/// fails), then search along `d` from `a_init = 1` (ALGORITHMS 1.5). With
+/// template parameters optimized jointly, `theta` is eliminated by its Schur
+/// complement ([`eliminate_theta`]).
+///
+/// With `exact_first`, once the previous step was a full Newton step
+/// (`a = 1`), an iteration first tries the unprojected Hessian and keeps it
+/// when it factorizes without shift (positive definite) and gives a
+/// descent direction: near the optimum this restores Newton's quadratic
+/// convergence, which clamping the element eigenvalues loses. After the
+/// first failed attempt a solve stops trying.
+///
+/// Each iteration reports its relative decrement `-g·d / (2 |phi|)` for the
+/// executor's [`Stopping::decrement_tol`](super::Stopping::decrement_tol).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProjectedNewton {
+    /// Relative diagonal shift tried first when a factorization fails.
+    pub shift: f64,
+    /// Step expansion: when the line search accepts the full Newton step
+    /// (`a = 1`), also try `a = expand, expand^2, ...` while each lowers
+    /// `phi` further and stays below `0.9 a_max` (so flip-free), and keep
+    /// the last that did. The projected Hessian overestimates the curvature
+    /// where element Hessians were clamped, so the full step often falls
+    /// short; one extra objective value is cheap against a Newton
+    /// iteration. `1` (the default) turns it off; finite and `>= 1`.
+    pub expand: f64,
+    /// Try the exact (unprojected) Hessian before the projected one.
+    pub exact_first: bool,
+}
+
+impl Default for ProjectedNewton {
+    /// Shift 1e-10, no expansion, exact Hessian first.
+    fn default() -> Self {
+        ProjectedNewton {
+            shift: 1e-10,
+            expand: 1.0,
+            exact_first: true,
+        }
+    }
+}
+
+/// Per-solve buffers and flags.
+struct Work {
+    /// Newton direction.
+    d: Vec<f64>,
+    /// Line-search positions.
+    buf: Vec<f64>,
+    /// Hessian values in the pattern's slots.
+    values: Vec<f64>,
+    /// The factor's storage, reused by every factorization.
+    factor: Option<SpdFactor>,
+    /// Whether the exact Hessian is still worth trying.
+    try_exact: bool,
+}
+
+impl Solver for ProjectedNewton {
+    fn name(&self) -> &'static str {
+        "newton"
+    }
+
+    /// [`Stopping::default`] with 200 iterations (projected Newton
+    /// converges in tens; the limit keeps a stuck solve bounded).
+    fn default_stopping(&self) -> Stopping {
+        Stopping {
+            max_iterations: 200,
+            ..Stopping::default()
+        }
+    }
+
+    fn init(&self, _objective: &mut Objective<'_>, _state: &mut State) -> Result<(), ParamError> {
+        if !(self.expand.is_finite() && self.expand >= 1.0) {
+            return Err(ParamError::Setting {
+                name: "Newton step expansion",
+                value: self.expand,
+                expected: "finite and >= 1",
+            });
+        }
+        Ok(())
+    }
+
+    fn next_iter(
+        &self,
+        objective: &mut Objective<'_>,
+        state: &mut State,
+        line_search: &dyn LineSearch,
+    ) -> Result<Step, ParamError> {
+        let n = state.x.len();
+        let mut work = state.take_workspace(|| Work {
+            d: vec![0.0; n],
+            buf: Vec::with_capacity(n),
+            values: Vec::new(),
+            factor: None,
+            try_exact: self.exact_first,
+        });
+        let result = self.iterate(objective, state, line_search, &mut work);
+        state.put_workspace(work);
+        result
+    }
+}
+
+impl ProjectedNewton {
+    fn iterate(
+        &self,
+        objective: &mut Objective<'_>,
+        state: &mut State,
+        line_search: &dyn LineSearch,
+        work: &mut Work,
+    ) -> Result<Step, ParamError> {
+        let Work {
+            d,
+            buf,
+            values,
+            factor: storage,
+            try_exact,
+        } = work;
+        let f = state.value;
+        state.relative_decrement = None;
+        // The exact Hessian first (quadratic convergence near the optimum,
+        // where the total Hessian is positive definite although element
+        // Hessians may not be); the projected one when it is not positive
+        // definite or gives no descent direction.
+        let modes: &[HessianMode] = if *try_exact && state.iteration > 0 && state.step == 1.0 {
+            &[HessianMode::Exact, HessianMode::Projected]
+        } else {
+            &[HessianMode::Projected]
+        };
+        let mut dtheta = Vec::new();
+        let mut theta_slope = 0.0;
+        let mut slope = f64::NAN;
+        for &mode in modes {
+            let projected = mode == HessianMode::Projected;
+            let block = objective.hessian_with(&state.x, &state.theta, values, mode)?;
+            let pattern = objective.pattern()?;
+            let factor = storage.get_or_insert_with(|| pattern.new_factor());
+            let factored =
+                pattern.refactorize(factor, values, self.shift, if projected { 16 } else { 0 });
+            let used = match factored {
+                Ok(used) => used,
+                Err(e) if projected => return Err(e),
+                Err(_) => {
+                    // Not positive definite here: do not pay for the
+                    // attempt again in this solve.
+                    *try_exact = false;
+                    continue;
+                }
+            };
+            state.shift = used;
+            for (di, gi) in d.iter_mut().zip(&state.grad) {
+                *di = -gi;
+            }
+            factor.solve_in_place(d)?;
+            dtheta.clear();
+            theta_slope = 0.0;
+            if let Some(tb) = &block {
+                dtheta = eliminate_theta(factor, tb, d)?;
+                theta_slope = tb.g.iter().zip(&dtheta).map(|(a, b)| a * b).sum();
+            }
+            slope = dot(&state.grad, d) + theta_slope;
+            if slope < 0.0 {
+                break;
+            }
+        }
+        if !slope.is_finite() {
+            return Err(ParamError::DirectionNotFinite {
+                iteration: state.iteration,
+            });
+        }
+        if slope >= 0.0 {
+            // Not a descent direction (numerically singular system): fall
+            // back to steepest descent for this step.
+            for (di, gi) in d.iter_mut().zip(&state.grad) {
+                *di = -gi;
+            }
+            dtheta.clear();
+            theta_slope = 0.0;
+        } else {
+            state.relative_decrement = Some(relative_decrement(slope, f));
+        }
+        let slope = dot(&state.grad, d) + theta_slope;
+        let a_max = objective.max_step(&state.x, d);
+        state.max_step = a_max;
+        let (x, theta) = (&state.x, &state.theta);
+        let r = line_search.search(
+            &mut |a| line_value(objective, (x, d), (theta, &dtheta), a, buf),
+            f,
+            slope,
+            a_max,
+            1.0,
+        );
+        if !r.success {
+            return Ok(Step::Stalled {
+                below_roundoff: below_roundoff(slope, f),
+            });
+        }
+        let mut step = r.step;
+        if step == 1.0 && self.expand > 1.0 {
+            let mut best = r.value;
+            let mut a = self.expand;
+            while a < 0.9 * a_max {
+                let v = line_value(objective, (x, d), (theta, &dtheta), a, buf);
+                if v.is_nan() || v >= best {
+                    break;
+                }
+                (best, step) = (v, a);
+                a *= self.expand;
+            }
+        }
+        for (xi, di) in state.x.iter_mut().zip(d.iter()) {
+            *xi += step * di;
+        }
+        for (ti, dti) in state.theta.iter_mut().zip(&dtheta) {
+            *ti += step * dti;
+        }
+        state.step = step;
+        objective.update_theta(&state.x, &mut state.theta);
+        Ok(Step::Moved)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Eliminates the template parameters from the joint Newton system
+/// `[A B; B^T C] [dx; dt] = -[g; g_t]` given the factor of `A` and
+/// `d = -A^-1 g`: `S = C - B^T A^-1 B`, `dt = S^-1 (-g_t - B^T d)`,
+/// `dx = d - A^-1 B dt`. Returns `dt` and updates `d` in place. `S` is
+/// dense `p x p` (any number `p` of parameters), factored by Cholesky with
+/// a growing diagonal shift when it is not positive definite.
+fn eliminate_theta(
+    factor: &SpdFactor,
+    tb: &ThetaBlock,
+    d: &mut [f64],
+) -> Result<Vec<f64>, ParamError> {
+    let (n, p) = (d.len(), tb.p);
+    let mut y = tb.b.clone();
+    for j in 0..p {
+        factor.solve_in_place(&mut y[j * n..(j + 1) * n])?;
+    }
+    let mut s = nalgebra::DMatrix::<f64>::zeros(p, p);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(p);
+    for i in 0..p {
+        let bi = &tb.b[i * n..(i + 1) * n];
+        rhs[i] = -tb.g[i] - dot(bi, d);
+        for j in 0..p {
+            s[(i, j)] = tb.c[i * p + j] - dot(bi, &y[j * n..(j + 1) * n]);
+        }
+    }
+    let scale = (0..p)
+        .map(|i| s[(i, i)].abs())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut shift = 0.0;
+    let dt = loop {
+        let mut sm = s.clone();
+        for i in 0..p {
+            sm[(i, i)] += shift;
+        }
+        if let Some(ch) = sm.cholesky() {
+            break ch.solve(&rhs);
+        }
+        shift = if shift == 0.0 {
+            1e-12 * scale
+        } else {
+            shift * 10.0
+        };
+        if shift > scale {
+            return Err(ParamError::ThetaBlockIndefinite {
+                parameters: p,
+                shift,
+            });
+        }
+    };
+    for j in 0..p {
+        let yj = &y[j * n..(j + 1) * n];
+        for (di, yi) in d.iter_mut().zip(yj) {
+            *di -= yi * dt[j];
+        }
+    }
+    Ok(dt.iter().copied().collect())
+}
