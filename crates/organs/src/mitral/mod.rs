@@ -356,31 +356,27 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
     flipped(&areas, majority_sign(&areas)).len()
 }
 
-/// A per-leaflet map with its name (static, for [`MitralError::MergedFieldTypes`]).
+/// A per-leaflet map with its name (static, for
+/// [`MitralError::MergedFieldTypes`]).
 type NamedField = (&'static str, Field);
 
 fn leaflet_fields(m: &maps::LeafletMaps, n: usize) -> (Vec<NamedField>, Vec<NamedField>) {
-    let named = |name: &'static str, make: &dyn Fn(&'static str) -> Field| (name, make(name));
+    let labels = |name: &'static str, v: Vec<i32>| (name, Field::labels(name, v));
+    let scalars = |name: &'static str, v: Vec<f64>| (name, Field::scalars(name, v));
     let point = vec![
-        named("leaflet", &|s| Field::labels(s, vec![m.leaflet; n])),
-        named("u_gradient", &|s| Field::vectors(s, &m.u_gradient)),
-        named("u_interval", &|s| Field::labels(s, m.u_interval.clone())),
-        named("checker", &|s| Field::labels(s, m.checker.clone())),
-        named("carpentier", &|s| Field::labels(s, m.carpentier.clone())),
-        named("length_energy", &|s| {
-            Field::scalars(s, m.length_energy.clone())
-        }),
-        named("coaptation", &|s| Field::labels(s, m.coaptation.clone())),
-        named("coaptation_distance_mm", &|s| {
-            Field::scalars(s, m.coaptation_distance_mm.clone())
-        }),
-        named("tenting_mm", &|s| Field::scalars(s, m.tenting_mm.clone())),
+        labels("leaflet", vec![m.leaflet; n]),
+        ("u_gradient", Field::vectors("u_gradient", &m.u_gradient)),
+        labels("u_interval", m.u_interval.clone()),
+        labels("checker", m.checker.clone()),
+        labels("carpentier", m.carpentier.clone()),
+        scalars("length_energy", m.length_energy.clone()),
+        labels("coaptation", m.coaptation.clone()),
+        scalars("coaptation_distance_mm", m.coaptation_distance_mm.clone()),
+        scalars("tenting_mm", m.tenting_mm.clone()),
     ];
     let cell = vec![
-        named("area_energy", &|s| Field::scalars(s, m.area_energy.clone())),
-        named("angle_energy", &|s| {
-            Field::scalars(s, m.angle_energy.clone())
-        }),
+        scalars("area_energy", m.area_energy.clone()),
+        scalars("angle_energy", m.angle_energy.clone()),
     ];
     (point, cell)
 }
@@ -395,7 +391,7 @@ fn concat((name, a): &NamedField, (_, b): &NamedField) -> Result<Field, OrganErr
         (FieldValues::I32(x), FieldValues::I32(y)) => {
             FieldValues::I32(x.iter().chain(y).copied().collect())
         }
-        _ => return Err(MitralError::MergedFieldTypes { field: *name }.into()),
+        _ => return Err(MitralError::MergedFieldTypes { field: name }.into()),
     };
     Ok(Field::new(a.name(), a.components(), values)?)
 }
@@ -651,4 +647,26 @@ fn run_cached(
         maps: leaflet_maps,
         report,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn merging_maps_of_different_types_is_an_internal_error() {
+        let a = ("checker", Field::labels("checker", vec![1, 2]));
+        let b = ("checker", Field::scalars("checker", vec![1.0]));
+        let e = concat(&a, &b).unwrap_err();
+        assert_eq!(
+            e,
+            OrganError::Mitral(MitralError::MergedFieldTypes { field: "checker" })
+        );
+        assert_eq!(
+            e.to_string(),
+            "field checker has different types per leaflet"
+        );
+        let c = ("checker", Field::labels("checker", vec![3]));
+        assert_eq!(concat(&a, &c).unwrap().tuples(), 3);
+    }
 }
