@@ -7,6 +7,7 @@
 //! as against "a longitude starts off the annulus" (parry's style). Each
 //! message is one line a user can act on.
 
+use crate::mitral::MitralError;
 use thiserror::Error;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
@@ -24,6 +25,9 @@ pub enum OrganError {
     /// A setting is out of its range.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The mitral valve pipeline rejected its input (see [`MitralError`]).
+    #[error(transparent)]
+    Mitral(#[from] MitralError),
     /// A setting is out of its range (free text). Being replaced by
     /// [`OrganError::Config`].
     #[error("invalid configuration: {0}")]

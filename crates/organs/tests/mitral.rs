@@ -6,8 +6,10 @@
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::shapes::{Pose, ValveParams, ValveShape, mitral_valve};
+use unfold_organs::OrganError;
 use unfold_organs::mitral::{
-    ANTERIOR, AnnulusMode, Config, Outcome, POSTERIOR, RelaxMode, ValveInput, run, run_series,
+    ANTERIOR, AnnulusMode, Config, ContractError, InitMode, LayoutError, LeafletSide, MitralError,
+    Outcome, POSTERIOR, RelaxMode, ValveInput, run, run_series,
 };
 
 /// Splits every `every`-th triangle at its centroid: the leaflet keeps its
@@ -508,7 +510,59 @@ fn a_series_gives_each_step_exactly_its_single_run() {
             single.report.relax_reports[0].iterations
         );
     }
-    let e = series[3].as_ref().unwrap_err().to_string();
-    let single = run(&inputs[3], &config).unwrap_err().to_string();
-    assert_eq!(e, single);
+    let e = series[3].as_ref().unwrap_err();
+    let single = run(&inputs[3], &config).unwrap_err();
+    assert_eq!(e, &single);
+    assert_eq!(e.to_string(), single.to_string());
+    assert!(
+        matches!(
+            e,
+            OrganError::Mitral(MitralError::Contract(ContractError::LeafletOffRing {
+                leaflet: LeafletSide::Anterior,
+                ..
+            }))
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn longitudes_asked_for_but_missing_name_the_leaflet() {
+    let shape = mitral_valve(&ValveParams {
+        annulus_segments: 32,
+        depth_segments: 6,
+        ..ValveParams::default()
+    })
+    .unwrap();
+    let posterior = without_longitudes(&shape.posterior, 7);
+    let input = ValveInput {
+        anterior: &shape.anterior,
+        posterior: &posterior,
+        annulus: &shape.annulus,
+    };
+    let config = Config {
+        init: InitMode::Longitudes,
+        ..Config::default()
+    };
+    let e = run(&input, &config).unwrap_err();
+    assert_eq!(
+        e,
+        OrganError::Mitral(MitralError::Layout(LayoutError::NoLongitudes {
+            leaflet: LeafletSide::Posterior
+        }))
+    );
+    assert_eq!(
+        e.to_string(),
+        "the posterior leaflet has no longitudes (one vertex chain per annulus vertex down to \
+         the free edge); use --init tutte or auto"
+    );
+    // Auto falls back to Tutte there.
+    let config = Config {
+        init: InitMode::Auto,
+        ..Config::default()
+    };
+    assert_eq!(
+        run(&input, &config).unwrap().report.init,
+        ["longitudes", "tutte"]
+    );
 }

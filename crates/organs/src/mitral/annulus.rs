@@ -18,7 +18,7 @@
 //! |p_i - p_{i-1}|` (always true: `v` is a 1-Lipschitz function of the
 //! position), and the saddle shape shows as heights.
 
-use super::{AnnulusMode, Plane, PreparedValve};
+use super::{AnnulusError, AnnulusMode, Plane, PreparedValve};
 use crate::OrganError;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
 
@@ -85,34 +85,34 @@ impl AnnulusMap {
 /// Checks what every mode needs: at least 3 finite ring points, the
 /// posteromedial commissure strictly inside the ring, a finite non-zero
 /// atrial direction. Returns the unit atrial direction.
-fn check_valve(valve: &PreparedValve) -> Result<Vector3<f64>, OrganError> {
+fn check_valve(valve: &PreparedValve) -> Result<Vector3<f64>, AnnulusError> {
     let n = valve.ring.len();
     if n < 3 {
-        return Err(OrganError::Input(format!(
-            "the annulus ring has {n} points, at least 3 are needed"
-        )));
+        return Err(AnnulusError::TooFewPoints { count: n });
     }
-    if let Some(i) = valve
+    if let Some((index, p)) = valve
         .ring
         .iter()
-        .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+        .enumerate()
+        .find(|(_, p)| !p.coords.iter().all(|c| c.is_finite()))
     {
-        return Err(OrganError::Input(format!(
-            "annulus ring point {i} is not finite"
-        )));
+        return Err(AnnulusError::PointNotFinite {
+            index,
+            point: [p.x, p.y, p.z],
+        });
     }
     if valve.posteromedial == 0 || valve.posteromedial >= n {
-        return Err(OrganError::Input(format!(
-            "the posteromedial commissure index {} must be in 1..{n} (the ring has {n} points)",
-            valve.posteromedial
-        )));
+        return Err(AnnulusError::PosteromedialOutOfRange {
+            index: valve.posteromedial,
+            ring_points: n,
+        });
     }
     let norm = valve.atrium.norm();
     if !(norm.is_finite() && norm > 0.0) {
-        return Err(OrganError::Input(format!(
-            "the atrial direction {:?} is not a finite non-zero vector",
-            valve.atrium.as_slice()
-        )));
+        let a = valve.atrium;
+        return Err(AnnulusError::AtriumNotUsable {
+            atrium: [a.x, a.y, a.z],
+        });
     }
     Ok(valve.atrium / norm)
 }
@@ -122,14 +122,14 @@ fn check_valve(valve: &PreparedValve) -> Result<Vector3<f64>, OrganError> {
 fn orient(
     normal: Vector3<f64>,
     atrium: &Vector3<f64>,
-    what: &str,
-) -> Result<Vector3<f64>, OrganError> {
+    mode: AnnulusMode,
+) -> Result<Vector3<f64>, AnnulusError> {
     let c = normal.dot(atrium);
     if c.is_nan() || c.abs() <= 1e-9 {
-        return Err(OrganError::Input(format!(
-            "the {what} plane's normal is perpendicular to the atrial direction; cannot tell \
-             its atrial side"
-        )));
+        return Err(AnnulusError::NormalPerpendicularToAtrium {
+            mode,
+            normal: [normal.x, normal.y, normal.z],
+        });
     }
     Ok(if c > 0.0 { normal } else { -normal })
 }
@@ -152,11 +152,12 @@ fn orient(
 ///   `v = 0`.
 ///
 /// # Errors
-/// `Input` for an unusable ring (fewer than 3 points, non-finite points,
-/// posteromedial index out of `1..n`, zero atrial direction), a posterior arc
-/// without points between the commissures, collinear landmarks (`|(B - A) x
-/// (C - A)| <= 1e-9 |B - A| |C - A|`), ring points on a line (least
-/// squares), or a plane normal perpendicular to the atrial direction.
+/// An [`AnnulusError`] (in [`OrganError::Mitral`]) for an unusable ring
+/// (fewer than 3 points, non-finite points, posteromedial index out of
+/// `1..n`, zero atrial direction), a posterior arc without points between
+/// the commissures, collinear landmarks (`|(B - A) x (C - A)| <= 1e-9 |B -
+/// A| |C - A|`), ring points on a line (least squares), or a plane normal
+/// perpendicular to the atrial direction.
 pub fn plane(valve: &PreparedValve, mode: AnnulusMode) -> Result<Option<Plane>, OrganError> {
     let atrium = check_valve(valve)?;
     let ring = &valve.ring;
@@ -175,12 +176,13 @@ pub fn plane(valve: &PreparedValve, mode: AnnulusMode) -> Result<Option<Plane>, 
             idx.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
             let (l_mid, l_max) = (eig.eigenvalues[idx[1]], eig.eigenvalues[idx[2]]);
             if !(l_max > 0.0 && l_mid > COLLINEAR_REL * l_max) {
-                return Err(OrganError::Input(
-                    "the annulus ring points lie on a line: no least-squares plane".into(),
-                ));
+                return Err(AnnulusError::PointsOnALine {
+                    spreads_mm2: [l_mid, l_max],
+                }
+                .into());
             }
             let normal = eig.eigenvectors.column(idx[0]).into_owned();
-            let normal = orient(normal.normalize(), &atrium, "least-squares")?;
+            let normal = orient(normal.normalize(), &atrium, mode)?;
             Ok(Some(Plane { point: c, normal }))
         }
         AnnulusMode::Landmark => {
@@ -188,11 +190,7 @@ pub fn plane(valve: &PreparedValve, mode: AnnulusMode) -> Result<Option<Plane>, 
             let b = ring[valve.posteromedial];
             let posterior = &ring[valve.posteromedial + 1..];
             if posterior.is_empty() {
-                return Err(OrganError::Input(
-                    "the posterior annulus has no points between the commissures: no landmark \
-                     plane"
-                        .into(),
-                ));
+                return Err(AnnulusError::NoPosteriorPoints.into());
             }
             let c = Point3::from(
                 posterior.iter().map(|p| p.coords).sum::<Vector3<f64>>() / posterior.len() as f64,
@@ -201,13 +199,12 @@ pub fn plane(valve: &PreparedValve, mode: AnnulusMode) -> Result<Option<Plane>, 
             let cross = ab.cross(&ac);
             let scale = ab.norm() * ac.norm();
             if !(scale > 0.0 && cross.norm() > COLLINEAR_REL * scale) {
-                return Err(OrganError::Input(
-                    "the landmark points (both commissures and the posterior annulus barycentre) \
-                     are collinear: no landmark plane; use the least-squares or straight mode"
-                        .into(),
-                ));
+                return Err(AnnulusError::LandmarksCollinear {
+                    landmarks: [a, b, c].map(|p| [p.x, p.y, p.z]),
+                }
+                .into());
             }
-            let normal = orient(cross.normalize(), &atrium, "landmark")?;
+            let normal = orient(cross.normalize(), &atrium, mode)?;
             Ok(Some(Plane { point: a, normal }))
         }
     }
@@ -221,7 +218,9 @@ pub fn plane(valve: &PreparedValve, mode: AnnulusMode) -> Result<Option<Plane>, 
 /// distance to [`plane`] (0 in straight mode), `s` the 3D arc length.
 ///
 /// # Errors
-/// Those of [`plane`]; `Input` when the ring has zero or non-finite length.
+/// Those of [`plane`]; [`AnnulusError::Length`] when the ring has zero or
+/// non-finite length, [`AnnulusError::LayoutNotFinite`] when a `(u, v)` is
+/// not finite.
 pub fn parameterize(valve: &PreparedValve, mode: AnnulusMode) -> Result<AnnulusMap, OrganError> {
     let plane = plane(valve, mode)?;
     let ring = &valve.ring;
@@ -243,12 +242,13 @@ pub fn parameterize(valve: &PreparedValve, mode: AnnulusMode) -> Result<AnnulusM
     }
     let length = s[n];
     if !(length.is_finite() && length > 0.0) {
-        return Err(OrganError::Input(format!(
-            "the annulus ring has length {length} mm"
-        )));
+        return Err(AnnulusError::Length { length_mm: length }.into());
     }
-    if !uv.iter().flatten().all(|c| c.is_finite()) {
-        return Err(OrganError::Input("the annulus layout is not finite".into()));
+    if let Some(index) = uv
+        .iter()
+        .position(|q| !(q[0].is_finite() && q[1].is_finite()))
+    {
+        return Err(AnnulusError::LayoutNotFinite { index }.into());
     }
     Ok(AnnulusMap {
         plane,
@@ -533,8 +533,17 @@ pub(crate) mod tests {
         valve
     }
 
+    /// The annulus error of `r`.
+    fn annulus_err<T: std::fmt::Debug>(r: Result<T, OrganError>) -> AnnulusError {
+        match r {
+            Err(OrganError::Mitral(crate::mitral::MitralError::Annulus(e))) => e,
+            other => panic!("expected an annulus error, got {other:?}"),
+        }
+    }
+
     #[test]
     fn mitral_annulus_errors() {
+        use AnnulusError as E;
         // The only posterior point lies on the commissural line.
         let v = small_ring(
             &[
@@ -545,9 +554,17 @@ pub(crate) mod tests {
             ],
             2,
         );
-        let e = plane(&v, AnnulusMode::Landmark).unwrap_err();
+        let e = annulus_err(plane(&v, AnnulusMode::Landmark));
+        assert!(
+            matches!(e, E::LandmarksCollinear { landmarks } if landmarks[0] == [-1.0, 0.0, 0.0]
+                && landmarks[1] == [1.0, 0.0, 0.0] && landmarks[2] == [0.2, 0.0, 0.0]),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("collinear"), "{e}");
-        assert!(parameterize(&v, AnnulusMode::Landmark).is_err());
+        assert!(matches!(
+            annulus_err(parameterize(&v, AnnulusMode::Landmark)),
+            E::LandmarksCollinear { .. }
+        ));
         // The other modes still work there.
         assert!(parameterize(&v, AnnulusMode::LeastSquares).is_ok());
         assert!(parameterize(&v, AnnulusMode::Straight).is_ok());
@@ -563,7 +580,10 @@ pub(crate) mod tests {
             ],
             2,
         );
-        assert!(plane(&v, AnnulusMode::Landmark).is_err());
+        assert!(matches!(
+            annulus_err(plane(&v, AnnulusMode::Landmark)),
+            E::LandmarksCollinear { .. }
+        ));
         // All ring points on a line.
         let v = small_ring(
             &[
@@ -574,11 +594,20 @@ pub(crate) mod tests {
             ],
             2,
         );
-        assert!(plane(&v, AnnulusMode::LeastSquares).is_err());
-        assert!(plane(&v, AnnulusMode::Landmark).is_err());
+        assert!(matches!(
+            annulus_err(plane(&v, AnnulusMode::LeastSquares)),
+            E::PointsOnALine { .. }
+        ));
+        assert!(matches!(
+            annulus_err(plane(&v, AnnulusMode::Landmark)),
+            E::LandmarksCollinear { .. }
+        ));
         // No posterior point between the commissures.
         let v = small_ring(&[[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]], 2);
-        assert!(plane(&v, AnnulusMode::Landmark).is_err());
+        assert_eq!(
+            annulus_err(plane(&v, AnnulusMode::Landmark)),
+            E::NoPosteriorPoints
+        );
         assert!(parameterize(&v, AnnulusMode::Straight).is_ok());
         // Bad inputs.
         let good = [
@@ -588,26 +617,69 @@ pub(crate) mod tests {
             [0.0, -1.0, 0.0],
         ];
         for mode in MODES {
-            assert!(parameterize(&small_ring(&good[..2], 1), mode).is_err());
-            assert!(parameterize(&small_ring(&good, 0), mode).is_err());
-            assert!(parameterize(&small_ring(&good, 4), mode).is_err());
+            assert_eq!(
+                annulus_err(parameterize(&small_ring(&good[..2], 1), mode)),
+                E::TooFewPoints { count: 2 }
+            );
+            for pm in [0, 4] {
+                assert_eq!(
+                    annulus_err(parameterize(&small_ring(&good, pm), mode)),
+                    E::PosteromedialOutOfRange {
+                        index: pm,
+                        ring_points: 4
+                    }
+                );
+            }
             let mut bad = good;
             bad[1][2] = f64::NAN;
-            assert!(parameterize(&small_ring(&bad, 2), mode).is_err());
+            assert!(matches!(
+                annulus_err(parameterize(&small_ring(&bad, 2), mode)),
+                E::PointNotFinite { index: 1, .. }
+            ));
             let mut v = small_ring(&good, 2);
             v.atrium = Vector3::zeros();
-            assert!(parameterize(&v, mode).is_err());
-            // All points equal: zero length.
+            assert_eq!(
+                annulus_err(parameterize(&v, mode)),
+                E::AtriumNotUsable {
+                    atrium: [0.0, 0.0, 0.0]
+                }
+            );
+            // All points equal: zero length (no plane either).
             let same = [[1.0, 2.0, 3.0]; 4];
-            assert!(parameterize(&small_ring(&same, 2), mode).is_err());
+            let e = annulus_err(parameterize(&small_ring(&same, 2), mode));
+            assert!(
+                match mode {
+                    AnnulusMode::Straight => matches!(e, E::Length { length_mm: 0.0 }),
+                    AnnulusMode::LeastSquares => matches!(e, E::PointsOnALine { .. }),
+                    AnnulusMode::Landmark => matches!(e, E::LandmarksCollinear { .. }),
+                },
+                "{mode:?}: {e:?}"
+            );
         }
         // A normal perpendicular to the atrial direction.
         let mut v = small_ring(&good, 2);
         v.atrium = Vector3::x();
-        let e = parameterize(&v, AnnulusMode::Landmark).unwrap_err();
+        let e = annulus_err(parameterize(&v, AnnulusMode::Landmark));
+        assert!(
+            matches!(
+                e,
+                E::NormalPerpendicularToAtrium {
+                    mode: AnnulusMode::Landmark,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("perpendicular"), "{e}");
         // Messages are one line.
         assert!(!e.to_string().contains('\n'));
+        assert_eq!(
+            E::AtriumNotUsable {
+                atrium: [0.0, 0.0, 0.0]
+            }
+            .to_string(),
+            "the atrial direction [0.0, 0.0, 0.0] is not a finite non-zero vector"
+        );
     }
 
     proptest! {

@@ -13,8 +13,8 @@
 //!    and the first included), and does not lie on a line. Each leaflet
 //!    passes [`TriMesh::validate`] (default options: **unused vertices are
 //!    rejected**, as are degenerate triangles, several components and
-//!    inconsistent orientation; reported as [`OrganError::Mesh`] with the
-//!    leaflet's name in the message) and is a disk: exactly one boundary
+//!    inconsistent orientation; reported as
+//!    [`ContractError::LeafletMesh`] naming the leaflet) and is a disk: exactly one boundary
 //!    loop ([`boundary_loops`]) and Euler characteristic
 //!    `χ = V - E + F = 1` ([`euler_characteristic`]).
 //! 2. **Annulus vertices.** The ring is the closed polyline
@@ -89,13 +89,13 @@
 //! direction, so `annulus` followed by `free_edge` is the whole boundary
 //! loop.
 
-use super::{ANTERIOR, Leaflet, POSTERIOR, PreparedValve, ValveInput};
+use super::{ANTERIOR, ContractError, Leaflet, LeafletSide, POSTERIOR, PreparedValve, ValveInput};
 use crate::OrganError;
 use std::ops::Range;
+use unfold_mesh::TriMesh;
 use unfold_mesh::geometry::{PcaFrame, pca_frame};
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::{boundary_loops, euler_characteristic};
-use unfold_mesh::{MeshError, TriMesh};
 
 /// Default tolerance for "a leaflet boundary vertex lies on the ring", mm.
 pub const DEFAULT_TOLERANCE_MM: f64 = 0.5;
@@ -109,9 +109,6 @@ const SNAP_REL: f64 = 1e-9;
 /// A junction's tolerance in units of the longest segment next to it.
 const JUNCTION_FACTOR: f64 = 1.5;
 
-/// Names of the inputs in messages, indexed by [`ANTERIOR`] / [`POSTERIOR`].
-const NAMES: [&str; 2] = ["anterior leaflet", "posterior leaflet"];
-
 /// Checks and orders the valve: validates the inputs, finds each leaflet's
 /// annulus vertices on the ring, the two commissures and the atrial side,
 /// and reorders the ring clockwise seen from the atrium from the
@@ -122,11 +119,12 @@ const NAMES: [&str; 2] = ["anterior leaflet", "posterior leaflet"];
 ///
 /// # Errors
 /// [`OrganError::Config`] for a tolerance that is not finite and positive;
-/// [`OrganError::Mesh`] when a leaflet fails mesh validation (the message
-/// names the leaflet); [`OrganError::Input`] for everything else that does
-/// not fit (ring too short or not finite, a leaflet that is not a disk or
-/// does not touch the ring in exactly one stretch, arcs that overlap or do
-/// not meet at two commissures, an undecidable atrial side).
+/// a [`ContractError`] (in [`OrganError::Mitral`]) for everything that does
+/// not fit: a leaflet that fails mesh validation
+/// ([`ContractError::LeafletMesh`], naming the leaflet), a ring too short or
+/// not finite, a leaflet that is not a disk or does not touch the ring in
+/// exactly one stretch, arcs that overlap or do not meet at two
+/// commissures, an undecidable atrial side.
 pub fn prepare(input: &ValveInput<'_>, tolerance_mm: f64) -> Result<PreparedValve, OrganError> {
     let tol = tolerance_mm;
     OrganError::check_positive(&[("tolerance_mm", tol)])?;
@@ -135,9 +133,10 @@ pub fn prepare(input: &ValveInput<'_>, tolerance_mm: f64) -> Result<PreparedValv
     let meshes = [input.anterior, input.posterior];
     // Each leaflet's checks and attachment to the ring, in parallel (the
     // anterior leaflet's error first when both fail).
-    let one = |k: usize| -> Result<Attachment, OrganError> {
-        let lp = disk_boundary(NAMES[k], meshes[k])?;
-        attach(NAMES[k], meshes[k], &lp, &ring, tol)
+    let one = |k: usize| -> Result<Attachment, ContractError> {
+        let leaflet = LeafletSide::of(k);
+        let lp = disk_boundary(leaflet, meshes[k])?;
+        attach(leaflet, meshes[k], &lp, &ring, tol)
     };
     let (a, p) = rayon::join(|| one(ANTERIOR), || one(POSTERIOR));
     let att = [a?, p?];
@@ -180,26 +179,17 @@ pub fn prepare(input: &ValveInput<'_>, tolerance_mm: f64) -> Result<PreparedValv
     })
 }
 
-/// Formats a length in mm with at most two decimals, trailing zeros
-/// dropped (`4.2`, `5`, `0.35`).
-fn mm(x: f64) -> String {
-    let s = format!("{x:.2}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
-}
-
 /// The ring points after the checks of step 1 (closing point dropped).
-fn ring_points(points: &[Point3<f64>]) -> Result<Vec<Point3<f64>>, OrganError> {
-    if let Some((i, p)) = points
+fn ring_points(points: &[Point3<f64>]) -> Result<Vec<Point3<f64>>, ContractError> {
+    if let Some((index, p)) = points
         .iter()
         .enumerate()
         .find(|(_, p)| !p.coords.iter().all(|x| x.is_finite()))
     {
-        return Err(OrganError::Input(format!(
-            "annulus ring: point {i} has a non-finite coordinate ({}, {}, {}); expected \
-             finite coordinates in mm",
-            p.x, p.y, p.z
-        )));
+        return Err(ContractError::RingPointNotFinite {
+            index,
+            point: [p.x, p.y, p.z],
+        });
     }
     let mut pts = points.to_vec();
     let closed = pts.len() > 1 && pts.first() == pts.last();
@@ -207,26 +197,22 @@ fn ring_points(points: &[Point3<f64>]) -> Result<Vec<Point3<f64>>, OrganError> {
         pts.pop();
     }
     if pts.len() < MIN_RING_POINTS {
-        return Err(OrganError::Input(format!(
-            "the annulus ring has {} point(s){}; expected at least {MIN_RING_POINTS}",
-            pts.len(),
-            if closed {
-                " (after dropping the repeated closing point)"
-            } else {
-                ""
-            }
-        )));
+        return Err(ContractError::TooFewRingPoints {
+            count: pts.len(),
+            min: MIN_RING_POINTS,
+            closing_point_dropped: closed,
+        });
     }
     let n = pts.len();
     for i in 0..n {
         let j = (i + 1) % n;
         if pts[i] == pts[j] {
             let p = pts[i];
-            return Err(OrganError::Input(format!(
-                "annulus ring: points {i} and {j} are equal ({}, {}, {}); consecutive ring \
-                 points must differ",
-                p.x, p.y, p.z
-            )));
+            return Err(ContractError::EqualConsecutiveRingPoints {
+                first: i,
+                second: j,
+                point: [p.x, p.y, p.z],
+            });
         }
     }
     Ok(pts)
@@ -244,7 +230,7 @@ struct Ring {
 
 impl Ring {
     /// The ring over `pts` (at least 2 distinct consecutive points each).
-    fn new(pts: Vec<Point3<f64>>) -> Result<Self, OrganError> {
+    fn new(pts: Vec<Point3<f64>>) -> Result<Self, ContractError> {
         let n = pts.len();
         let lens: Vec<f64> = (0..n).map(|i| (pts[(i + 1) % n] - pts[i]).norm()).collect();
         let mut cum = Vec::with_capacity(n + 1);
@@ -255,9 +241,7 @@ impl Ring {
         let ring = Ring { pts, lens, cum };
         let len = ring.length();
         if !(len.is_finite() && len > 0.0) {
-            return Err(OrganError::Input(format!(
-                "the annulus ring's length is {len} mm; expected a finite positive length"
-            )));
+            return Err(ContractError::RingLength { length_mm: len });
         }
         Ok(ring)
     }
@@ -354,28 +338,23 @@ impl Ring {
 }
 
 /// Step 1 for a leaflet: valid mesh and disk topology; its boundary loop.
-fn disk_boundary(name: &str, mesh: &TriMesh) -> Result<Vec<u32>, OrganError> {
+fn disk_boundary(leaflet: LeafletSide, mesh: &TriMesh) -> Result<Vec<u32>, ContractError> {
     mesh.validate()
-        .map_err(|e| OrganError::Mesh(MeshError::InvalidArgument(format!("{name}: {e}"))))?;
+        .map_err(|source| ContractError::LeafletMesh { leaflet, source })?;
     let loops = boundary_loops(mesh)
-        .map_err(|e| OrganError::Input(format!("the {name} is not a disk: {e}")))?;
+        .map_err(|source| ContractError::LeafletBoundary { leaflet, source })?;
     if loops.len() != 1 {
-        let sizes: Vec<String> = loops.iter().map(|l| l.len().to_string()).collect();
-        return Err(OrganError::Input(format!(
-            "the {name} is not a disk: {} boundary loops{}; expected exactly one (its rim)",
-            loops.len(),
-            if sizes.is_empty() {
-                String::new()
-            } else {
-                format!(" (of {} vertices)", sizes.join(", "))
-            }
-        )));
+        return Err(ContractError::BoundaryLoops {
+            leaflet,
+            loop_sizes: loops.iter().map(Vec::len).collect(),
+        });
     }
     let chi = euler_characteristic(mesh);
     if chi != 1 {
-        return Err(OrganError::Input(format!(
-            "the {name} is not a disk: Euler characteristic {chi} (V - E + F); a disk has 1"
-        )));
+        return Err(ContractError::EulerCharacteristic {
+            leaflet,
+            euler_characteristic: chi,
+        });
     }
     Ok(loops.into_iter().next().unwrap_or_default())
 }
@@ -398,12 +377,12 @@ struct Attachment {
 
 /// Steps 2 and 3 for one leaflet.
 fn attach(
-    name: &str,
+    leaflet: LeafletSide,
     mesh: &TriMesh,
     lp: &[u32],
     ring: &Ring,
     tol: f64,
-) -> Result<Attachment, OrganError> {
+) -> Result<Attachment, ContractError> {
     let m = lp.len();
     let pos = |v: u32| mesh.positions[v as usize];
     let proj: Vec<(f64, f64)> = lp.iter().map(|&v| ring.project(&pos(v))).collect();
@@ -411,37 +390,36 @@ fn attach(
     let count = on.iter().filter(|&&b| b).count();
     if count == 0 {
         let closest = proj.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
-        return Err(OrganError::Input(format!(
-            "the {name} does not touch the annulus ring: its closest boundary vertex is {} mm \
-             away (tolerance {tol} mm)",
-            mm(closest)
-        )));
+        return Err(ContractError::LeafletOffRing {
+            leaflet,
+            closest_mm: closest,
+            tolerance_mm: tol,
+        });
     }
     if count == m {
-        return Err(OrganError::Input(format!(
-            "the {name}'s whole boundary ({m} vertices) lies on the annulus ring (within {tol} \
-             mm); a leaflet needs a free edge off the ring"
-        )));
+        return Err(ContractError::NoFreeEdge {
+            leaflet,
+            boundary_vertices: m,
+            tolerance_mm: tol,
+        });
     }
     let starts: Vec<usize> = (0..m).filter(|&i| on[i] && !on[(i + m - 1) % m]).collect();
     let run_len = |s: usize| (0..m).take_while(|&j| on[(s + j) % m]).count();
     if starts.len() > 1 {
-        let lens: Vec<String> = starts.iter().map(|&s| run_len(s).to_string()).collect();
-        return Err(OrganError::Input(format!(
-            "the {name} touches the annulus ring in {} separate places (stretches of {} \
-             boundary vertices within {tol} mm); expected one contiguous stretch",
-            starts.len(),
-            lens.join(", ")
-        )));
+        return Err(ContractError::SeveralStretches {
+            leaflet,
+            stretches: starts.iter().map(|&s| run_len(s)).collect(),
+            tolerance_mm: tol,
+        });
     }
     let start = starts[0];
     let run = run_len(start);
     if run < 2 {
-        return Err(OrganError::Input(format!(
-            "the {name} touches the annulus ring at a single boundary vertex ({}); expected \
-             at least 2 consecutive boundary vertices within {tol} mm",
-            lp[start]
-        )));
+        return Err(ContractError::SingleVertexOnRing {
+            leaflet,
+            vertex: lp[start],
+            tolerance_mm: tol,
+        });
     }
     let mut cycle: Vec<u32> = (0..m).map(|j| lp[(start + j) % m]).collect();
     let mut s: Vec<f64> = (0..run).map(|j| proj[(start + j) % m].1).collect();
@@ -471,32 +449,31 @@ fn attach(
     for j in 0..run - 1 {
         let step = ring.wrap(s[j + 1] - s[j]);
         if step < -tol {
-            return Err(OrganError::Input(format!(
-                "the {name}'s annulus vertices do not progress monotonically around the \
-                 annulus ring: from boundary vertex {} to {} they step back {} mm along the \
-                 ring (tolerance {tol} mm)",
-                cycle[j],
-                cycle[j + 1],
-                mm(-step)
-            )));
+            return Err(ContractError::AnnulusStepsBack {
+                leaflet,
+                from: cycle[j],
+                to: cycle[j + 1],
+                back_mm: -step,
+                tolerance_mm: tol,
+            });
         }
         extent += step;
     }
     let l = ring.length();
     if extent <= tol {
-        return Err(OrganError::Input(format!(
-            "the {name}'s {run} annulus vertices cover only {} mm of the annulus ring; \
-             expected an arc longer than the tolerance ({tol} mm)",
-            mm(extent)
-        )));
+        return Err(ContractError::ArcTooShort {
+            leaflet,
+            annulus_vertices: run,
+            extent_mm: extent,
+            tolerance_mm: tol,
+        });
     }
     if extent >= l {
-        return Err(OrganError::Input(format!(
-            "the {name}'s annulus vertices go {} mm around the annulus ring, which is only \
-             {} mm long; expected one arc of it",
-            mm(extent),
-            mm(l)
-        )));
+        return Err(ContractError::ArcTooLong {
+            leaflet,
+            extent_mm: extent,
+            ring_length_mm: l,
+        });
     }
     let edge = |a: u32, b: u32| (pos(a) - pos(b)).norm();
     Ok(Attachment {
@@ -514,7 +491,7 @@ fn attach(
 /// Step 4: the two commissures as input ring positions `[c1, c2]`: `c1`
 /// ends the anterior arc (in increasing position) and starts the posterior
 /// one, `c2` ends the posterior arc and starts the anterior one.
-fn commissures(att: &[Attachment; 2], ring: &Ring, tol: f64) -> Result<[f64; 2], OrganError> {
+fn commissures(att: &[Attachment; 2], ring: &Ring, tol: f64) -> Result<[f64; 2], ContractError> {
     // Junction k: the end of arc `from` meets the start of arc `to`.
     let mut gaps = [0.0; 2];
     let mut tols = [0.0; 2];
@@ -538,12 +515,10 @@ fn commissures(att: &[Attachment; 2], ring: &Ring, tol: f64) -> Result<[f64; 2],
         if gap < 0.0 {
             let overlap = (-gap).min(t.extent);
             if overlap > tols[k] {
-                return Err(OrganError::Input(format!(
-                    "the anterior and posterior leaflets' annulus arcs overlap: both claim the \
-                     same {} mm of the annulus ring (at most {} mm allowed)",
-                    mm(overlap),
-                    mm(tols[k])
-                )));
+                return Err(ContractError::ArcsOverlap {
+                    overlap_mm: overlap,
+                    allowed_mm: tols[k],
+                });
             }
         }
         gaps[k] = gap;
@@ -551,32 +526,23 @@ fn commissures(att: &[Attachment; 2], ring: &Ring, tol: f64) -> Result<[f64; 2],
     }
     let matched = (0..2).filter(|&k| gaps[k].abs() <= tols[k]).count();
     if matched != 2 {
-        return Err(OrganError::Input(format!(
-            "the leaflets' annulus arcs meet at {matched} point(s) on the annulus ring (gaps \
-             of {} mm from anterior to posterior and {} mm from posterior to anterior along \
-             the ring; at most {} and {} mm allowed); a mitral annulus has 2 commissures",
-            mm(gaps[0]),
-            mm(gaps[1]),
-            mm(tols[0]),
-            mm(tols[1])
-        )));
+        return Err(ContractError::CommissureCount {
+            matched,
+            gaps_mm: gaps,
+            allowed_mm: tols,
+        });
     }
     Ok(mids)
 }
 
 /// The ring's principal axes (step 1 checks that it is not a line).
-fn ring_frame(ring: &Ring) -> Result<PcaFrame, OrganError> {
-    let frame = pca_frame(&ring.pts).ok_or_else(|| {
-        OrganError::Input("the annulus ring's least-squares plane cannot be computed".into())
-    })?;
+fn ring_frame(ring: &Ring) -> Result<PcaFrame, ContractError> {
+    let frame = pca_frame(&ring.pts).ok_or(ContractError::RingPlaneUndefined)?;
     let [v0, v1, _] = frame.variances;
     if v1.is_nan() || v1 <= 1e-12 * v0 {
-        return Err(OrganError::Input(format!(
-            "the annulus ring is degenerate: its points lie on a line (spreads {} mm and {} mm \
-             along its principal axes); expected a closed curve",
-            mm(v0.sqrt()),
-            mm(v1.sqrt())
-        )));
+        return Err(ContractError::RingOnALine {
+            spreads_mm: [v0.sqrt(), v1.sqrt()],
+        });
     }
     Ok(frame)
 }
@@ -588,7 +554,7 @@ fn atrial_side(
     frame: &PcaFrame,
     meshes: &[&TriMesh; 2],
     att: &[Attachment; 2],
-) -> Result<(Vector3<f64>, bool), OrganError> {
+) -> Result<(Vector3<f64>, bool), ContractError> {
     let v0 = frame.variances[0];
     let mut n = frame.axis(2);
     let c = frame.centroid;
@@ -611,12 +577,9 @@ fn atrial_side(
     };
     let scale = v0.sqrt();
     if side.is_nan() || side.abs() <= 1e-9 * scale {
-        return Err(OrganError::Input(format!(
-            "cannot tell the atrial side: the leaflets' free edges lie on the annulus ring's \
-             least-squares plane ({} mm from it on average); expected the leaflets to hang to \
-             one side",
-            mm(side)
-        )));
+        return Err(ContractError::AtrialSideUndecided {
+            mean_offset_mm: side,
+        });
     }
     if side > 0.0 {
         n = -n;
@@ -632,11 +595,9 @@ fn atrial_side(
             .sum::<f64>();
     let l = ring.length();
     if area.is_nan() || area.abs() <= 1e-9 * l * l {
-        return Err(OrganError::Input(format!(
-            "the annulus ring encloses no area seen from the atrium (signed area {} mm^2); \
-             expected a simple closed curve around the valve",
-            mm(area)
-        )));
+        return Err(ContractError::RingEnclosesNoArea {
+            signed_area_mm2: area,
+        });
     }
     Ok((n, area < 0.0))
 }
@@ -649,7 +610,7 @@ fn reorder(
     al: f64,
     pm: f64,
     clockwise: bool,
-) -> Result<(Vec<Point3<f64>>, usize), OrganError> {
+) -> Result<(Vec<Point3<f64>>, usize), ContractError> {
     let n = ring.n();
     let eps = ring.eps();
     // (position, point, commissure tag: 0 = AL, 1 = PM)
@@ -680,15 +641,10 @@ fn reorder(
     entries.sort_by(|a, b| a.0.total_cmp(&b.0));
     let find = |tag: usize| entries.iter().position(|e| e.2[tag]);
     let (Some(ial), Some(ipm)) = (find(0), find(1)) else {
-        return Err(OrganError::Input(
-            "the commissures could not be placed on the annulus ring".into(),
-        ));
+        return Err(ContractError::CommissuresNotPlaced);
     };
     if ial == ipm {
-        return Err(OrganError::Input(format!(
-            "both commissures fall on annulus ring point {ial}; expected two distinct \
-             commissures"
-        )));
+        return Err(ContractError::CommissuresCoincide { ring_point: ial });
     }
     let m = entries.len();
     let order: Vec<usize> = if clockwise {
@@ -703,7 +659,9 @@ fn reorder(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mitral::MitralError;
     use proptest::prelude::*;
+    use unfold_mesh::MeshError;
     use unfold_mesh::shapes::{Pose, ValveParams, ValveShape, mitral_valve};
 
     fn valve(p: ValveParams) -> ValveShape {
@@ -755,13 +713,15 @@ mod tests {
         )
     }
 
-    fn input_err(r: Result<PreparedValve, OrganError>) -> String {
+    /// The contract error of `r` and its message (one line).
+    fn contract_err(r: Result<PreparedValve, OrganError>) -> (ContractError, String) {
         match r {
-            Err(OrganError::Input(msg)) => {
+            Err(OrganError::Mitral(MitralError::Contract(e))) => {
+                let msg = e.to_string();
                 assert!(!msg.contains('\n'), "{msg}");
-                msg
+                (e, msg)
             }
-            other => panic!("expected an input error, got {other:?}"),
+            other => panic!("expected a contract error, got {other:?}"),
         }
     }
 
@@ -972,7 +932,11 @@ mod tests {
     fn mitral_contract_short_posterior_leaflet_gives_one_junction() {
         let shape = valve(ValveParams::default());
         let post = drop_last_columns(&shape.posterior, &shape.posterior_longitudes, 3);
-        let msg = input_err(run(&shape.anterior, &post, &shape.annulus));
+        let (e, msg) = contract_err(run(&shape.anterior, &post, &shape.annulus));
+        assert!(
+            matches!(e, ContractError::CommissureCount { matched: 1, .. }),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("the leaflets' annulus arcs meet at 1 point(s) on the annulus ring")
                 && msg.contains("a mitral annulus has 2 commissures"),
@@ -987,9 +951,18 @@ mod tests {
         for p in &mut ant.positions {
             *p -= shape.atrium_direction * 5.0;
         }
-        let msg = input_err(run(&ant, &shape.posterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&ant, &shape.posterior, &shape.annulus));
         // The annulus vertices are 5 mm off; the commissural curtains hang
         // a little closer to the ring.
+        let ContractError::LeafletOffRing {
+            leaflet: LeafletSide::Anterior,
+            closest_mm,
+            tolerance_mm: DEFAULT_TOLERANCE_MM,
+        } = e
+        else {
+            panic!("{e:?}");
+        };
+        assert!(closest_mm > 4.0 && closest_mm <= 5.0, "{closest_mm}");
         let prefix = "the anterior leaflet does not touch the annulus ring: its closest \
                       boundary vertex is ";
         let suffix = " mm away (tolerance 0.5 mm)";
@@ -1002,14 +975,25 @@ mod tests {
     fn mitral_contract_rejects_a_ring_without_its_posterior_arc() {
         let shape = valve(ValveParams::default());
         let ring = shape.annulus[..=shape.commissures[1]].to_vec();
-        let msg = input_err(run(&shape.anterior, &shape.posterior, &ring));
+        let (e, msg) = contract_err(run(&shape.anterior, &shape.posterior, &ring));
+        // The posterior leaflet touches the closing chord only at its two
+        // ends, next to the commissures.
+        assert!(
+            matches!(
+                &e,
+                ContractError::SeveralStretches { leaflet: LeafletSide::Posterior, stretches, .. }
+                    if stretches.len() == 2
+            ),
+            "{e:?}"
+        );
         assert!(msg.contains("posterior leaflet"), "{msg}");
     }
 
     #[test]
     fn mitral_contract_rejects_overlapping_arcs() {
         let shape = valve(ValveParams::default());
-        let msg = input_err(run(&shape.anterior, &shape.anterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&shape.anterior, &shape.anterior, &shape.annulus));
+        assert!(matches!(e, ContractError::ArcsOverlap { .. }), "{e:?}");
         assert!(
             msg.starts_with("the anterior and posterior leaflets' annulus arcs overlap"),
             "{msg}"
@@ -1030,7 +1014,15 @@ mod tests {
             .copied()
             .collect();
         let holed = compact(&shape.posterior, tris);
-        let msg = input_err(run(&shape.anterior, &holed, &shape.annulus));
+        let (e, msg) = contract_err(run(&shape.anterior, &holed, &shape.annulus));
+        assert!(
+            matches!(
+                &e,
+                ContractError::BoundaryLoops { leaflet: LeafletSide::Posterior, loop_sizes }
+                    if loop_sizes.len() == 2
+            ),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("the posterior leaflet is not a disk: 2 boundary loops"),
             "{msg}"
@@ -1038,16 +1030,21 @@ mod tests {
         // Keeping the now unused vertex is a mesh validation error.
         let mut unused = shape.posterior.clone();
         unused.triangles.retain(|t| !t.contains(&v));
-        match run(&shape.anterior, &unused, &shape.annulus) {
-            Err(OrganError::Mesh(e)) => {
-                let msg = e.to_string();
-                assert!(
-                    msg.starts_with("posterior leaflet: ") && msg.contains("used by no element"),
-                    "{msg}"
-                );
-            }
-            other => panic!("{other:?}"),
-        }
+        let (e, msg) = contract_err(run(&shape.anterior, &unused, &shape.annulus));
+        assert!(
+            matches!(
+                e,
+                ContractError::LeafletMesh {
+                    leaflet: LeafletSide::Posterior,
+                    source: MeshError::UnusedVertices { count: 1, first },
+                } if first == v as usize
+            ),
+            "{e:?}"
+        );
+        assert!(
+            msg.starts_with("posterior leaflet: ") && msg.contains("used by no element"),
+            "{msg}"
+        );
     }
 
     #[test]
@@ -1063,7 +1060,15 @@ mod tests {
             ],
             vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
         );
-        let msg = input_err(run(&tet, &shape.posterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&tet, &shape.posterior, &shape.annulus));
+        assert!(
+            matches!(
+                &e,
+                ContractError::BoundaryLoops { leaflet: LeafletSide::Anterior, loop_sizes }
+                    if loop_sizes.is_empty()
+            ),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("the anterior leaflet is not a disk: 0 boundary loops"),
             "{msg}"
@@ -1079,7 +1084,15 @@ mod tests {
         let tip = *cols[cols.len() / 2].last().unwrap();
         let horn = shape.commissures[1] + (shape.annulus.len() - shape.commissures[1]) / 2;
         ant.positions[tip as usize] = shape.annulus[horn];
-        let msg = input_err(run(&ant, &shape.posterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&ant, &shape.posterior, &shape.annulus));
+        assert!(
+            matches!(
+                &e,
+                ContractError::SeveralStretches { leaflet: LeafletSide::Anterior, stretches, .. }
+                    if stretches.len() == 2
+            ),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("the anterior leaflet touches the annulus ring in 2 separate places"),
             "{msg}"
@@ -1092,22 +1105,53 @@ mod tests {
         let (a, p) = (&shape.anterior, &shape.posterior);
         let mut nan = shape.annulus.clone();
         nan[3].y = f64::NAN;
-        let msg = input_err(run(a, p, &nan));
+        let (e, msg) = contract_err(run(a, p, &nan));
+        assert!(
+            matches!(e, ContractError::RingPointNotFinite { index: 3, point } if point[1].is_nan()),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("annulus ring: point 3 has a non-finite coordinate"),
             "{msg}"
         );
-        let msg = input_err(run(a, p, &shape.annulus[..3]));
+        let (e, msg) = contract_err(run(a, p, &shape.annulus[..3]));
+        assert_eq!(
+            e,
+            ContractError::TooFewRingPoints {
+                count: 3,
+                min: 6,
+                closing_point_dropped: false
+            }
+        );
         assert_eq!(msg, "the annulus ring has 3 point(s); expected at least 6");
+        let closed = [shape.annulus[0], shape.annulus[1], shape.annulus[0]];
+        let (_, msg) = contract_err(run(a, p, &closed));
+        assert_eq!(
+            msg,
+            "the annulus ring has 2 point(s) (after dropping the repeated closing point); \
+             expected at least 6"
+        );
         let mut dup = shape.annulus.clone();
         dup.insert(5, dup[4]);
-        let msg = input_err(run(a, p, &dup));
+        let (e, msg) = contract_err(run(a, p, &dup));
+        assert!(
+            matches!(
+                e,
+                ContractError::EqualConsecutiveRingPoints {
+                    first: 4,
+                    second: 5,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with("annulus ring: points 4 and 5 are equal"),
             "{msg}"
         );
         let line: Vec<Point3<f64>> = (0..8).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect();
-        let msg = input_err(run(a, p, &line));
+        let (e, msg) = contract_err(run(a, p, &line));
+        assert!(matches!(e, ContractError::RingOnALine { .. }), "{e:?}");
         assert!(msg.starts_with("the annulus ring is degenerate"), "{msg}");
         let input = ValveInput {
             anterior: a,
@@ -1127,15 +1171,18 @@ mod tests {
         let shape = valve(coarse());
         let mut bad = shape.anterior.clone();
         bad.positions[0].x = f64::INFINITY;
-        match run(&bad, &shape.posterior, &shape.annulus) {
-            Err(OrganError::Mesh(e)) => {
-                assert!(
-                    e.to_string().starts_with("anterior leaflet: vertex 0"),
-                    "{e}"
-                )
-            }
-            other => panic!("{other:?}"),
-        }
+        let (e, msg) = contract_err(run(&bad, &shape.posterior, &shape.annulus));
+        assert!(
+            matches!(
+                e,
+                ContractError::LeafletMesh {
+                    leaflet: LeafletSide::Anterior,
+                    source: MeshError::NonFiniteCoordinate { vertex: 0, .. },
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(msg.starts_with("anterior leaflet: vertex 0"), "{msg}");
     }
 
     #[test]
@@ -1187,7 +1234,19 @@ mod tests {
         // Annulus vertex 10 moved back onto ring point 7 (about 1.9 mm).
         let v = shape.anterior_annulus[10];
         ant.positions[v as usize] = shape.annulus[shape.anterior_annulus_ring[7]];
-        let msg = input_err(run(&ant, &shape.posterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&ant, &shape.posterior, &shape.annulus));
+        assert!(
+            matches!(
+                e,
+                ContractError::AnnulusStepsBack {
+                    leaflet: LeafletSide::Anterior,
+                    to,
+                    back_mm,
+                    ..
+                } if to == v && back_mm > DEFAULT_TOLERANCE_MM
+            ),
+            "{e:?}"
+        );
         assert!(
             msg.starts_with(
                 "the anterior leaflet's annulus vertices do not progress monotonically around \
@@ -1210,7 +1269,15 @@ mod tests {
             .map(|i| [i, (i + 1) % n as u32, n as u32])
             .collect();
         let fan = TriMesh::new(positions, triangles);
-        let msg = input_err(run(&shape.anterior, &fan, &shape.annulus));
+        let (e, msg) = contract_err(run(&shape.anterior, &fan, &shape.annulus));
+        assert_eq!(
+            e,
+            ContractError::NoFreeEdge {
+                leaflet: LeafletSide::Posterior,
+                boundary_vertices: n,
+                tolerance_mm: DEFAULT_TOLERANCE_MM
+            }
+        );
         assert_eq!(
             msg,
             format!(
@@ -1249,7 +1316,14 @@ mod tests {
             }
         }
         let torus = TriMesh::new(positions, triangles);
-        let msg = input_err(run(&torus, &shape.posterior, &shape.annulus));
+        let (e, msg) = contract_err(run(&torus, &shape.posterior, &shape.annulus));
+        assert_eq!(
+            e,
+            ContractError::EulerCharacteristic {
+                leaflet: LeafletSide::Anterior,
+                euler_characteristic: -1
+            }
+        );
         assert_eq!(
             msg,
             "the anterior leaflet is not a disk: Euler characteristic -1 (V - E + F); a disk \

@@ -30,8 +30,8 @@
 //!   embedding below the annulus, with a flip-free homotopy when the annulus
 //!   profile is not convex.
 
-use super::Leaflet;
 use super::annulus::AnnulusMap;
+use super::{LayoutError, LayoutKind, Leaflet};
 use crate::OrganError;
 use std::collections::VecDeque;
 use unfold_mesh::TriMesh;
@@ -259,57 +259,68 @@ pub fn longitudes(leaflet: &Leaflet) -> Option<Vec<Vec<u32>>> {
 /// clockwise for a leaflet facing the atrium, see the module docs).
 ///
 /// # Errors
-/// `Input` when `annulus_uv` or `chains` do not have one entry per annulus
-/// vertex, a chain does not start at its annulus vertex, a vertex index is
-/// out of range, a vertex is on two chains or on none, or a target or
-/// length is not finite.
+/// A [`LayoutError`] (in [`OrganError::Mitral`]) when `annulus_uv` or
+/// `chains` do not have one entry per annulus vertex, a chain does not
+/// start at its annulus vertex, a vertex index is out of range, a vertex is
+/// on two chains or on none, or a target or length is not finite.
 pub fn longitude_layout(
     leaflet: &Leaflet,
     chains: &[Vec<u32>],
     annulus_uv: &[[f64; 2]],
 ) -> Result<Vec<[f64; 2]>, OrganError> {
+    Ok(longitude_positions(leaflet, chains, annulus_uv)?)
+}
+
+/// [`longitude_layout`] (which only fails with a [`LayoutError`]).
+fn longitude_positions(
+    leaflet: &Leaflet,
+    chains: &[Vec<u32>],
+    annulus_uv: &[[f64; 2]],
+) -> Result<Vec<[f64; 2]>, LayoutError> {
     let mesh = &leaflet.mesh;
     let n = mesh.positions.len();
     let m = leaflet.annulus.len();
     if annulus_uv.len() != m {
-        return Err(OrganError::Input(format!(
-            "longitude layout: {} annulus (u, v) for {m} annulus vertices",
-            annulus_uv.len()
-        )));
+        return Err(LayoutError::TargetCount {
+            layout: LayoutKind::Longitudes,
+            targets: annulus_uv.len(),
+            annulus_vertices: m,
+        });
     }
     if chains.len() != m {
-        return Err(OrganError::Input(format!(
-            "longitude layout: {} longitudes for {m} annulus vertices",
-            chains.len()
-        )));
+        return Err(LayoutError::LongitudeCount {
+            longitudes: chains.len(),
+            annulus_vertices: m,
+        });
     }
     let mut uv = vec![[f64::NAN; 2]; n];
     let mut seen = vec![false; n];
     for (j, chain) in chains.iter().enumerate() {
         if chain.first() != Some(&leaflet.annulus[j]) {
-            return Err(OrganError::Input(format!(
-                "longitude layout: longitude {j} does not start at annulus vertex {}",
-                leaflet.annulus[j]
-            )));
+            return Err(LayoutError::LongitudeStart {
+                longitude: j,
+                vertex: leaflet.annulus[j],
+            });
         }
         let q = annulus_uv[j];
         if !(q[0].is_finite() && q[1].is_finite()) {
-            return Err(OrganError::Input(format!(
-                "longitude layout: the (u, v) of annulus vertex {j} is not finite"
-            )));
+            return Err(LayoutError::TargetNotFinite {
+                layout: LayoutKind::Longitudes,
+                annulus_index: j,
+                uv: q,
+            });
         }
         let mut prev: Option<usize> = None;
         for &v in chain {
             let vi = v as usize;
             if vi >= n {
-                return Err(OrganError::Input(format!(
-                    "longitude layout: vertex {v} out of range ({n} vertices)"
-                )));
+                return Err(LayoutError::LongitudeVertexOutOfRange {
+                    vertex: v,
+                    vertices: n,
+                });
             }
             if seen[vi] {
-                return Err(OrganError::Input(format!(
-                    "longitude layout: vertex {v} is on two longitudes"
-                )));
+                return Err(LayoutError::VertexOnTwoLongitudes { vertex: v });
             }
             seen[vi] = true;
             uv[vi] = match prev {
@@ -317,9 +328,10 @@ pub fn longitude_layout(
                 Some(p) => {
                     let d = (mesh.positions[vi] - mesh.positions[p]).norm();
                     if !d.is_finite() {
-                        return Err(OrganError::Input(format!(
-                            "longitude layout: the edge {p}-{v} has no finite length"
-                        )));
+                        return Err(LayoutError::LongitudeEdgeNotFinite {
+                            from: p as u32,
+                            to: v,
+                        });
                     }
                     [q[0], uv[p][1] - d]
                 }
@@ -327,10 +339,8 @@ pub fn longitude_layout(
             prev = Some(vi);
         }
     }
-    if let Some(v) = seen.iter().position(|&s| !s) {
-        return Err(OrganError::Input(format!(
-            "longitude layout: vertex {v} is on no longitude"
-        )));
+    if let Some(vertex) = seen.iter().position(|&s| !s) {
+        return Err(LayoutError::VertexOnNoLongitude { vertex });
     }
     Ok(uv)
 }
@@ -374,35 +384,36 @@ fn area_stats(tris: &[[u32; 3]], q: &[[f64; 2]]) -> (f64, f64) {
 
 /// Checks the targets: one finite `(u, v)` per annulus vertex, `u` strictly
 /// increasing.
-fn check_targets(leaflet: &Leaflet, targets: &[[f64; 2]]) -> Result<(), OrganError> {
+fn check_targets(leaflet: &Leaflet, targets: &[[f64; 2]]) -> Result<(), LayoutError> {
     let m = leaflet.annulus.len();
     if targets.len() != m {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: {} annulus (u, v) for {m} annulus vertices",
-            targets.len()
-        )));
+        return Err(LayoutError::TargetCount {
+            layout: LayoutKind::Tutte,
+            targets: targets.len(),
+            annulus_vertices: m,
+        });
     }
     if m < 2 {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: the leaflet has {m} annulus vertices, at least 2 are needed"
-        )));
+        return Err(LayoutError::TooFewAnnulusVertices {
+            annulus_vertices: m,
+        });
     }
     if let Some(k) = targets
         .iter()
         .position(|q| !(q[0].is_finite() && q[1].is_finite()))
     {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: the (u, v) of annulus vertex {k} is not finite"
-        )));
+        return Err(LayoutError::TargetNotFinite {
+            layout: LayoutKind::Tutte,
+            annulus_index: k,
+            uv: targets[k],
+        });
     }
     if let Some(k) = targets.windows(2).position(|w| w[1][0] <= w[0][0]) {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: u must increase strictly along the annulus, but annulus vertex {} \
-             has u = {} after u = {}",
-            k + 1,
-            targets[k + 1][0],
-            targets[k][0]
-        )));
+        return Err(LayoutError::UNotIncreasing {
+            annulus_index: k + 1,
+            u: targets[k + 1][0],
+            previous_u: targets[k][0],
+        });
     }
     Ok(())
 }
@@ -422,23 +433,25 @@ fn boundary_of(leaflet: &Leaflet) -> Result<(Vec<u32>, bool), OrganError> {
     let mut used = vec![false; n];
     for (i, t) in mesh.triangles.iter().enumerate() {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            return Err(OrganError::Input(format!(
-                "Tutte layout: triangle {i} repeats a vertex ({t:?})"
-            )));
+            return Err(LayoutError::TriangleRepeatsVertex {
+                triangle: i,
+                corners: *t,
+            }
+            .into());
         }
         for &v in t {
             used[v as usize] = true;
         }
     }
-    if let Some(v) = used.iter().position(|&u| !u) {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: leaflet vertex {v} is used by no triangle"
-        )));
+    if let Some(vertex) = used.iter().position(|&u| !u) {
+        return Err(LayoutError::UnusedVertex { vertex }.into());
     }
-    if let Some(&v) = leaflet.annulus.iter().find(|&&v| v as usize >= n) {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: annulus vertex {v} out of range ({n} vertices)"
-        )));
+    if let Some(&vertex) = leaflet.annulus.iter().find(|&&v| v as usize >= n) {
+        return Err(LayoutError::AnnulusVertexOutOfRange {
+            vertex,
+            vertices: n,
+        }
+        .into());
     }
     // Consistent orientation: every directed edge at most once, every
     // undirected edge in at most two triangles.
@@ -449,20 +462,19 @@ fn boundary_of(leaflet: &Leaflet) -> Result<(Vec<u32>, bool), OrganError> {
         .collect();
     directed.sort_unstable();
     if let Some(w) = directed.windows(2).find(|w| w[0] == w[1]) {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: the leaflet's triangles are not consistently oriented (edge {}-{} \
-             is traversed twice in the same direction)",
-            w[0].0, w[0].1
-        )));
+        return Err(LayoutError::InconsistentOrientation {
+            edge: [w[0].0, w[0].1],
+        }
+        .into());
     }
     let loop_ = disk_boundary_loop(mesh)?;
     let nb = loop_.len();
     let m = leaflet.annulus.len();
     let Some(p0) = loop_.iter().position(|&v| v == leaflet.annulus[0]) else {
-        return Err(OrganError::Input(format!(
-            "Tutte layout: annulus vertex {} is not on the leaflet's boundary",
-            leaflet.annulus[0]
-        )));
+        return Err(LayoutError::AnnulusOffBoundary {
+            vertex: leaflet.annulus[0],
+        }
+        .into());
     };
     let at = |i: isize| loop_[i.rem_euclid(nb as isize) as usize];
     let p0 = p0 as isize;
@@ -473,11 +485,7 @@ fn boundary_of(leaflet: &Leaflet) -> Result<(Vec<u32>, bool), OrganError> {
     } else if fits(1) {
         1
     } else {
-        return Err(OrganError::Input(
-            "Tutte layout: the annulus vertices are not a contiguous run of the leaflet's \
-             boundary in annulus order"
-                .into(),
-        ));
+        return Err(LayoutError::AnnulusNotABoundaryRun.into());
     };
     let m = m as isize;
     let free = (0..nb as isize - m)
@@ -577,9 +585,7 @@ impl<'a> TutteSetup<'a> {
         check_targets(leaflet, targets)?;
         let (free, atrium_facing) = boundary_of(leaflet)?;
         if !atrium_facing {
-            return Err(OrganError::Input(
-                "Tutte layout: internal: the leaflet must face the atrium here".into(),
-            ));
+            return Err(LayoutError::NotFacingAtrium.into());
         }
         let mesh = &leaflet.mesh;
         let m = leaflet.annulus.len();
@@ -599,9 +605,7 @@ impl<'a> TutteSetup<'a> {
         let width = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
         let depth = (4.0 * area / (std::f64::consts::PI * width)).max(0.1 * width);
         if !depth.is_finite() {
-            return Err(OrganError::Input(
-                "Tutte layout: the leaflet's area is not finite".into(),
-            ));
+            return Err(LayoutError::AreaNotFinite { area_mm2: area }.into());
         }
         Ok(TutteSetup {
             leaflet,
@@ -681,11 +685,10 @@ fn tutte_homotopy(
     let start = setup.embed(&top)?;
     let (min, _) = area_stats(&mesh.triangles, &start);
     if min.is_nan() || min <= 0.0 {
-        return Err(OrganError::Input(
-            "Tutte layout: the embedding with a convex boundary flips triangles (degenerate \
-             leaflet triangles?)"
-                .into(),
-        ));
+        return Err(LayoutError::ConvexEmbeddingFlips {
+            min_double_area: min,
+        }
+        .into());
     }
     let pm = ParamMesh::from_triangles(mesh)?;
     let energy = SymmetricDirichlet;
@@ -762,10 +765,10 @@ fn tutte_homotopy(
             return Ok(q);
         }
     }
-    Err(OrganError::Input(format!(
-        "Tutte layout: could not move the annulus to its non-convex profile without flipping \
-         triangles ({MAX_HOMOTOPY_STEPS} steps)"
-    )))
+    Err(LayoutError::HomotopyStalled {
+        max_steps: MAX_HOMOTOPY_STEPS,
+    }
+    .into())
 }
 
 /// A flip-free layout of any disk-topology leaflet with the annulus
@@ -800,11 +803,12 @@ fn tutte_homotopy(
 /// relaxation in between, annulus fixed).
 ///
 /// # Errors
-/// `Input` for targets that do not fit (length, non-finite, `u` not
-/// strictly increasing), a mesh that is not a consistently oriented disk
-/// whose boundary holds the annulus as a run in annulus order (every vertex
-/// used by a triangle), or a homotopy that does not reach the targets;
-/// `Mesh` / `Param` from the checks and solves.
+/// A [`LayoutError`] (in [`OrganError::Mitral`]) for targets that do not
+/// fit (length, non-finite, `u` not strictly increasing), a mesh that is
+/// not a consistently oriented disk whose boundary holds the annulus as a
+/// run in annulus order (every vertex used by a triangle), or a homotopy
+/// that does not reach the targets; [`OrganError::Mesh`] /
+/// [`OrganError::Param`] from the checks and solves.
 pub fn tutte_layout(
     leaflet: &Leaflet,
     annulus_uv: &[[f64; 2]],
@@ -843,6 +847,14 @@ mod tests {
         AnnulusMode::LeastSquares,
         AnnulusMode::Landmark,
     ];
+
+    /// The layout error of `r`.
+    fn layout_err<T: std::fmt::Debug>(r: Result<T, OrganError>) -> LayoutError {
+        match r {
+            Err(OrganError::Mitral(crate::mitral::MitralError::Layout(e))) => e,
+            other => panic!("expected a layout error, got {other:?}"),
+        }
+    }
 
     fn shapes() -> Vec<ValveShape> {
         let d = ValveParams::default();
@@ -1155,26 +1167,67 @@ mod tests {
         let l = &valve.leaflets[ANTERIOR];
         let chains = longitudes(l).unwrap();
         let t = annulus_uv(l, &map);
-        assert!(longitude_layout(l, &chains, &t[1..]).is_err());
-        assert!(longitude_layout(l, &chains[1..], &t).is_err());
+        let m = l.annulus.len();
+        assert_eq!(
+            layout_err(longitude_layout(l, &chains, &t[1..])),
+            LayoutError::TargetCount {
+                layout: LayoutKind::Longitudes,
+                targets: m - 1,
+                annulus_vertices: m
+            }
+        );
+        assert_eq!(
+            layout_err(longitude_layout(l, &chains[1..], &t)),
+            LayoutError::LongitudeCount {
+                longitudes: m - 1,
+                annulus_vertices: m
+            }
+        );
         let mut c = chains.clone();
-        c[2].pop();
-        let e = longitude_layout(l, &c, &t).unwrap_err();
+        let dropped = c[2].pop().unwrap();
+        let e = layout_err(longitude_layout(l, &c, &t));
+        assert_eq!(
+            e,
+            LayoutError::VertexOnNoLongitude {
+                vertex: dropped as usize
+            }
+        );
         assert!(e.to_string().contains("on no longitude"), "{e}");
         let mut c = chains.clone();
         let extra = c[3][2];
         c[2].push(extra);
-        let e = longitude_layout(l, &c, &t).unwrap_err();
+        let e = layout_err(longitude_layout(l, &c, &t));
         assert!(e.to_string().contains("two longitudes"), "{e}");
+        // Longitude 2 ends on vertex `extra` before longitude 3 reaches it.
+        assert_eq!(e, LayoutError::VertexOnTwoLongitudes { vertex: extra });
         let mut c = chains.clone();
         c.swap(0, 1);
-        assert!(longitude_layout(l, &c, &t).is_err());
+        assert_eq!(
+            layout_err(longitude_layout(l, &c, &t)),
+            LayoutError::LongitudeStart {
+                longitude: 0,
+                vertex: l.annulus[0]
+            }
+        );
         let mut c = chains.clone();
         c[1].push(99_999);
-        assert!(longitude_layout(l, &c, &t).is_err());
+        assert_eq!(
+            layout_err(longitude_layout(l, &c, &t)),
+            LayoutError::LongitudeVertexOutOfRange {
+                vertex: 99_999,
+                vertices: l.mesh.positions.len()
+            }
+        );
         let mut bad = t.clone();
         bad[1][1] = f64::NAN;
-        assert!(longitude_layout(l, &chains, &bad).is_err());
+        assert!(matches!(
+            layout_err(longitude_layout(l, &chains, &bad)),
+            LayoutError::TargetNotFinite {
+                layout: LayoutKind::Longitudes,
+                annulus_index: 1,
+                ..
+            }
+        ));
         assert!(!e.to_string().contains('\n'));
     }
 
@@ -1344,14 +1397,39 @@ mod tests {
             assert!(!e.contains('\n'), "{e}");
             e
         };
+        let m = l.annulus.len();
         msg(tutte_layout(l, &t[1..]));
+        assert_eq!(
+            layout_err(tutte_layout(l, &t[1..])),
+            LayoutError::TargetCount {
+                layout: LayoutKind::Tutte,
+                targets: m - 1,
+                annulus_vertices: m
+            }
+        );
         msg(tutte_layout(l, &[]));
         let mut bad = t.clone();
         bad[2][0] = f64::NAN;
         msg(tutte_layout(l, &bad));
+        assert!(matches!(
+            layout_err(tutte_layout(l, &bad)),
+            LayoutError::TargetNotFinite {
+                layout: LayoutKind::Tutte,
+                annulus_index: 2,
+                ..
+            }
+        ));
         let mut bad = t.clone();
         bad[3][0] = bad[2][0];
         assert!(msg(tutte_layout(l, &bad)).contains("increase strictly"));
+        assert_eq!(
+            layout_err(tutte_layout(l, &bad)),
+            LayoutError::UNotIncreasing {
+                annulus_index: 3,
+                u: bad[2][0],
+                previous_u: bad[2][0]
+            }
+        );
         // Facing the ventricle: the same positions, every triangle
         // clockwise (as its longitude layout).
         let mut r = l.clone();
@@ -1392,6 +1470,10 @@ mod tests {
         let mut r = l.clone();
         r.mesh.triangles[5].swap(1, 2);
         assert!(msg(tutte_layout(&r, &t)).contains("consistently oriented"));
+        assert!(matches!(
+            layout_err(tutte_layout(&r, &t)),
+            LayoutError::InconsistentOrientation { .. }
+        ));
         // A hole (two boundary loops): one interior triangle removed.
         let mut r = l.clone();
         let cols = &shape.anterior_longitudes;
@@ -1408,17 +1490,38 @@ mod tests {
         let mut r = l.clone();
         r.mesh.triangles.retain(|tri| !tri.contains(&v));
         assert!(msg(tutte_layout(&r, &t)).contains("used by no triangle"));
+        assert_eq!(
+            layout_err(tutte_layout(&r, &t)),
+            LayoutError::UnusedVertex { vertex: v as usize }
+        );
         // Annulus not a run of the boundary.
         let mut r = l.clone();
         r.annulus.swap(2, 3);
         assert!(msg(tutte_layout(&r, &t)).contains("contiguous run"));
+        assert_eq!(
+            layout_err(tutte_layout(&r, &t)),
+            LayoutError::AnnulusNotABoundaryRun
+        );
         // Annulus vertex out of range; a repeated corner.
         let mut r = l.clone();
         r.annulus[1] = 9_999;
-        assert!(tutte_layout(&r, &t).is_err());
+        assert_eq!(
+            layout_err(tutte_layout(&r, &t)),
+            LayoutError::AnnulusVertexOutOfRange {
+                vertex: 9_999,
+                vertices: r.mesh.positions.len()
+            }
+        );
         let mut r = l.clone();
         r.mesh.triangles[0][1] = r.mesh.triangles[0][0];
-        assert!(tutte_layout(&r, &t).is_err());
+        let corners = r.mesh.triangles[0];
+        assert_eq!(
+            layout_err(tutte_layout(&r, &t)),
+            LayoutError::TriangleRepeatsVertex {
+                triangle: 0,
+                corners
+            }
+        );
         // Non-finite positions.
         let mut r = l.clone();
         r.mesh.positions[3].x = f64::INFINITY;

@@ -32,7 +32,7 @@
 //! then to counter-clockwise). The triangles of the minority orientation
 //! (flipped) keep their `+inf`.
 
-use super::{ANTERIOR, Leaflet, POSTERIOR, Plane, PreparedValve};
+use super::{ANTERIOR, Leaflet, LeafletSide, MapsError, POSTERIOR, Plane, PreparedValve};
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::ops::Index;
@@ -175,8 +175,8 @@ pub struct LeafletMaps {
 /// here; it must point towards the atrium for the tenting sign).
 ///
 /// # Errors
-/// [`OrganError::Config`] for a bad `config`; [`OrganError::Input`] when a
-/// `uv` has the wrong length or a non-finite value, a leaflet has fewer than
+/// [`OrganError::Config`] for a bad `config`; a [`MapsError`] (in
+/// [`OrganError::Mitral`]) when a `uv` has the wrong length or a non-finite value, a leaflet has fewer than
 /// two annulus vertices or an out-of-range one, its annulus does not
 /// increase in `u`, or the plane is not finite / has a zero normal;
 /// [`OrganError::Param`] when a 3D leaflet has a degenerate triangle (the
@@ -220,8 +220,8 @@ pub fn coaptation_distances(valve: &PreparedValve, k: usize) -> Vec<f64> {
 /// ([`coaptation_distances`] of each leaflet).
 ///
 /// # Errors
-/// As [`leaflet_maps`]; [`OrganError::Input`] also when a distance list
-/// does not have one value per vertex of its leaflet.
+/// As [`leaflet_maps`]; [`MapsError::CoaptationDistanceCount`] also when
+/// a distance list does not have one value per vertex of its leaflet.
 pub fn leaflet_maps_with(
     valve: &PreparedValve,
     uv: [&[[f64; 2]]; 2],
@@ -233,10 +233,12 @@ pub fn leaflet_maps_with(
     for (k, d) in coaptation_distances.iter().enumerate() {
         let n = valve.leaflets[k].mesh.positions.len();
         if d.len() != n {
-            return Err(OrganError::Input(format!(
-                "{} coaptation distances for leaflet {k} of {n} vertices",
-                d.len()
-            )));
+            return Err(MapsError::CoaptationDistanceCount {
+                leaflet: LeafletSide::of(k),
+                distances: d.len(),
+                vertices: n,
+            }
+            .into());
         }
     }
     let plane = unit_plane(plane)?;
@@ -249,18 +251,14 @@ pub fn leaflet_maps_with(
     let u_end = frames[POSTERIOR].u_last;
     let extent = u_end - u_start;
     if !(extent.is_finite() && extent > 0.0) {
-        return Err(OrganError::Input(format!(
-            "the annulus has no extent in u (anterolateral commissure at u = {u_start}, cut at \
-             u = {u_end}); expected the posterior leaflet's last annulus vertex right of the \
-             anterior leaflet's first"
-        )));
+        return Err(MapsError::NoUExtent { u_start, u_end }.into());
     }
     let [dist_a, dist_p] = coaptation_distances;
     let one = |k: usize, coaptation_distance_mm: Vec<f64>| -> Result<LeafletMaps, OrganError> {
         let leaflet = &valve.leaflets[k];
         let q = uv[k];
         let frame = &frames[k];
-        let energies = energies(&leaflet.mesh, q)?;
+        let energies = energies(k, &leaflet.mesh, q)?;
         let u_gradient = q
             .iter()
             .map(|p| {
@@ -524,8 +522,9 @@ pub struct DistortionSummary {
 /// docs).
 ///
 /// # Errors
-/// [`OrganError::Input`] when a `uv` has the wrong length or a non-finite
-/// value; [`OrganError::Param`] when a 3D leaflet has a degenerate triangle.
+/// A [`MapsError`] (in [`OrganError::Mitral`]) when a `uv` has the wrong
+/// length or a non-finite value; [`OrganError::Param`] when a 3D leaflet
+/// has a degenerate triangle.
 pub fn distortion(
     valve: &PreparedValve,
     uv: [&[[f64; 2]]; 2],
@@ -545,7 +544,7 @@ pub(crate) fn leaflet_energies(
     uv: &[[f64; 2]],
 ) -> Result<[Vec<f64>; 3], OrganError> {
     check_uv(k, mesh, uv)?;
-    let e = energies(mesh, uv)?;
+    let e = energies(k, mesh, uv)?;
     Ok([e.area, e.angle, e.length])
 }
 
@@ -583,26 +582,18 @@ pub(crate) fn summarize<'a>(leaflets: impl Iterator<Item = [&'a [f64]; 3]>) -> D
 // ---------------------------------------------------------------------------
 // Helpers
 
-fn leaflet_name(k: usize) -> &'static str {
-    if k == ANTERIOR {
-        "anterior"
-    } else {
-        "posterior"
-    }
-}
-
 /// The plane with a unit normal; an error for a non-finite plane or a zero
 /// normal.
-fn unit_plane(plane: &Plane) -> Result<Plane, OrganError> {
+fn unit_plane(plane: &Plane) -> Result<Plane, MapsError> {
     let n: Vector3<f64> = plane.normal;
     let len = n.norm();
     let finite = plane.point.coords.iter().all(|c| c.is_finite()) && len.is_finite();
     if !finite || len == 0.0 {
-        return Err(OrganError::Input(format!(
-            "the annulus plane must have a finite point and a non-zero finite normal, got \
-             point ({}, {}, {}) and normal ({}, {}, {})",
-            plane.point.x, plane.point.y, plane.point.z, n.x, n.y, n.z
-        )));
+        let p = plane.point;
+        return Err(MapsError::PlaneNotUsable {
+            point: [p.x, p.y, p.z],
+            normal: [n.x, n.y, n.z],
+        });
     }
     Ok(Plane {
         point: plane.point,
@@ -611,23 +602,24 @@ fn unit_plane(plane: &Plane) -> Result<Plane, OrganError> {
 }
 
 /// One `(u, v)` per vertex, all finite.
-fn check_uv(k: usize, mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<(), OrganError> {
-    let name = leaflet_name(k);
+fn check_uv(k: usize, mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<(), MapsError> {
+    let leaflet = LeafletSide::of(k);
     if uv.len() != mesh.positions.len() {
-        return Err(OrganError::Input(format!(
-            "the {name} leaflet has {} vertices but {} uv positions",
-            mesh.positions.len(),
-            uv.len()
-        )));
+        return Err(MapsError::UvCount {
+            leaflet,
+            vertices: mesh.positions.len(),
+            uv_positions: uv.len(),
+        });
     }
     if let Some(i) = uv
         .iter()
         .position(|q| !(q[0].is_finite() && q[1].is_finite()))
     {
-        return Err(OrganError::Input(format!(
-            "the {name} leaflet's uv position {i} is not finite: ({}, {})",
-            uv[i][0], uv[i][1]
-        )));
+        return Err(MapsError::UvNotFinite {
+            leaflet,
+            vertex: i,
+            uv: uv[i],
+        });
     }
     Ok(())
 }
@@ -684,28 +676,30 @@ struct LeafletFrame {
 }
 
 impl LeafletFrame {
-    fn new(k: usize, leaflet: &Leaflet, uv: &[[f64; 2]]) -> Result<Self, OrganError> {
-        let name = leaflet_name(k);
+    fn new(k: usize, leaflet: &Leaflet, uv: &[[f64; 2]]) -> Result<Self, MapsError> {
+        let side = LeafletSide::of(k);
         let annulus = &leaflet.annulus;
         if annulus.len() < 2 {
-            return Err(OrganError::Input(format!(
-                "the {name} leaflet has {} annulus vertices; expected at least 2",
-                annulus.len()
-            )));
+            return Err(MapsError::TooFewAnnulusVertices {
+                leaflet: side,
+                annulus_vertices: annulus.len(),
+            });
         }
         if let Some(&v) = annulus.iter().find(|&&v| v as usize >= uv.len()) {
-            return Err(OrganError::Input(format!(
-                "the {name} leaflet's annulus vertex {v} is out of range ({} vertices)",
-                uv.len()
-            )));
+            return Err(MapsError::AnnulusVertexOutOfRange {
+                leaflet: side,
+                vertex: v,
+                vertices: uv.len(),
+            });
         }
         let u_first = uv[annulus[0] as usize][0];
         let u_last = uv[annulus[annulus.len() - 1] as usize][0];
         if u_last <= u_first {
-            return Err(OrganError::Input(format!(
-                "the {name} leaflet's annulus must increase in u from its first to its last \
-                 vertex, got u = {u_first} and {u_last}"
-            )));
+            return Err(MapsError::AnnulusNotIncreasing {
+                leaflet: side,
+                u_first,
+                u_last,
+            });
         }
         let v_top = annulus
             .iter()
@@ -732,15 +726,16 @@ struct Energies {
     length: Vec<f64>,
 }
 
-/// The energies of `uv` (checked by [`check_uv`]) against the 3D leaflet,
-/// mirrored `u -> -u` when most triangles are clockwise (see the module
-/// docs).
-fn energies(mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<Energies, OrganError> {
+/// The energies of leaflet `k`'s `uv` (checked by [`check_uv`]) against the
+/// 3D leaflet, mirrored `u -> -u` when most triangles are clockwise (see the
+/// module docs).
+fn energies(k: usize, mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<Energies, OrganError> {
     let rest = ParamMesh::from_triangles(mesh)?;
     let sign = super::majority_sign(&super::signed_areas(mesh, uv));
     let x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
-    let angle = angle_energy(&rest, &x)
-        .ok_or_else(|| OrganError::Input("the leaflet is not a triangle mesh".into()))?;
+    let angle = angle_energy(&rest, &x).ok_or(MapsError::NotATriangleMesh {
+        leaflet: LeafletSide::of(k),
+    })?;
     Ok(Energies {
         area: area_energy(&rest, &x),
         angle,
@@ -1570,22 +1565,45 @@ mod tests {
     // -----------------------------------------------------------------------
     // Errors and serialization
 
+    /// The maps error inside `e`.
+    fn maps_err(e: &OrganError) -> &MapsError {
+        match e {
+            OrganError::Mitral(crate::mitral::MitralError::Maps(m)) => m,
+            other => panic!("expected a maps error, got {other:?}"),
+        }
+    }
+
     #[test]
     fn maps_reject_bad_inputs_without_panicking() {
         let f = Fixture::new(&coarse());
         let ok = MapsConfig::default();
         let short: Vec<[f64; 2]> = f.uv[POSTERIOR][1..].to_vec();
         let e = leaflet_maps(&f.valve, [&f.uv[ANTERIOR], &short], &f.plane, &ok).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        let short_uv = MapsError::UvCount {
+            leaflet: LeafletSide::Posterior,
+            vertices: short.len() + 1,
+            uv_positions: short.len(),
+        };
+        assert_eq!(e, short_uv.clone().into());
         assert!(e.to_string().contains("posterior"), "{e}");
-        assert!(matches!(
+        assert_eq!(
             distortion(&f.valve, [&f.uv[ANTERIOR], &short]),
-            Err(OrganError::Input(_))
-        ));
+            Err(short_uv.into())
+        );
         let mut nan = f.uv[ANTERIOR].clone();
         nan[3][1] = f64::NAN;
         let e = leaflet_maps(&f.valve, [&nan, &f.uv[POSTERIOR]], &f.plane, &ok).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(
+            matches!(
+                maps_err(&e),
+                MapsError::UvNotFinite {
+                    leaflet: LeafletSide::Anterior,
+                    vertex: 3,
+                    uv,
+                } if uv[1].is_nan()
+            ),
+            "{e}"
+        );
         for config in [
             MapsConfig {
                 coaptation_mm: 0.0,
@@ -1608,7 +1626,10 @@ mod tests {
             ..f.plane
         };
         let e = leaflet_maps(&f.valve, f.uv(), &flat, &ok).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(
+            matches!(maps_err(&e), MapsError::PlaneNotUsable { normal, .. } if *normal == [0.0; 3]),
+            "{e}"
+        );
         // Precomputed coaptation distances: the same maps; a short list is
         // refused.
         let dist = [
@@ -1627,8 +1648,16 @@ mod tests {
         }
         let mut short_dist = dist;
         short_dist[POSTERIOR].pop();
+        let n_post = f.valve.leaflets[POSTERIOR].mesh.positions.len();
         let e = leaflet_maps_with(&f.valve, f.uv(), &f.plane, &ok, short_dist).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert_eq!(
+            maps_err(&e),
+            &MapsError::CoaptationDistanceCount {
+                leaflet: LeafletSide::Posterior,
+                distances: n_post - 1,
+                vertices: n_post
+            }
+        );
         assert!(e.to_string().contains("coaptation distances"), "{e}");
         let m = measurements(&f.valve, &flat);
         assert!(m.saddle_horn_height_mm.is_nan() && m.area_above_plane_mm2.is_nan());
@@ -1637,12 +1666,32 @@ mod tests {
         let mut rev = f.valve.clone();
         rev.leaflets[ANTERIOR].annulus.reverse();
         let e = leaflet_maps(&rev, f.uv(), &f.plane, &ok).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(
+            matches!(
+                maps_err(&e),
+                MapsError::AnnulusNotIncreasing {
+                    leaflet: LeafletSide::Anterior,
+                    u_first,
+                    u_last,
+                } if u_last <= u_first
+            ),
+            "{e}"
+        );
         // An out-of-range annulus vertex.
         let mut bad = f.valve.clone();
         bad.leaflets[POSTERIOR].annulus.push(1_000_000);
         let e = leaflet_maps(&bad, f.uv(), &f.plane, &ok).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(
+            matches!(
+                maps_err(&e),
+                MapsError::AnnulusVertexOutOfRange {
+                    leaflet: LeafletSide::Posterior,
+                    vertex: 1_000_000,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         // A degenerate 3D triangle.
         let mut degenerate = f.valve.clone();
         let mesh = &mut degenerate.leaflets[ANTERIOR].mesh;

@@ -12,12 +12,21 @@
 //! 3. [`layout`]: the initial leaflet layout (longitudes or Tutte).
 //! 4. [`relax`]: the spring baseline or flip-free symmetric Dirichlet.
 //! 5. [`maps`]: distortion and clinical maps, measurements.
+//!
+//! Failures specific to the valve are [`MitralError`]s (one nested enum
+//! per step, see [`error`]), inside [`OrganError::Mitral`].
 
 pub mod annulus;
 pub mod contract;
+pub mod error;
 pub mod layout;
 pub mod maps;
 pub mod relax;
+
+pub use error::{
+    AnnulusError, ContractError, LayoutError, LayoutKind, LeafletSide, MapsError, MitralError,
+    RelaxError,
+};
 
 use serde::{Deserialize, Serialize};
 use unfold_mesh::TriMesh;
@@ -347,27 +356,33 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
     flipped(&areas, majority_sign(&areas)).len()
 }
 
-fn leaflet_fields(m: &maps::LeafletMaps, n: usize) -> (Vec<Field>, Vec<Field>) {
+/// A per-leaflet map with its name (static, for
+/// [`MitralError::MergedFieldTypes`]).
+type NamedField = (&'static str, Field);
+
+fn leaflet_fields(m: &maps::LeafletMaps, n: usize) -> (Vec<NamedField>, Vec<NamedField>) {
+    let labels = |name: &'static str, v: Vec<i32>| (name, Field::labels(name, v));
+    let scalars = |name: &'static str, v: Vec<f64>| (name, Field::scalars(name, v));
     let point = vec![
-        Field::labels("leaflet", vec![m.leaflet; n]),
-        Field::vectors("u_gradient", &m.u_gradient),
-        Field::labels("u_interval", m.u_interval.clone()),
-        Field::labels("checker", m.checker.clone()),
-        Field::labels("carpentier", m.carpentier.clone()),
-        Field::scalars("length_energy", m.length_energy.clone()),
-        Field::labels("coaptation", m.coaptation.clone()),
-        Field::scalars("coaptation_distance_mm", m.coaptation_distance_mm.clone()),
-        Field::scalars("tenting_mm", m.tenting_mm.clone()),
+        labels("leaflet", vec![m.leaflet; n]),
+        ("u_gradient", Field::vectors("u_gradient", &m.u_gradient)),
+        labels("u_interval", m.u_interval.clone()),
+        labels("checker", m.checker.clone()),
+        labels("carpentier", m.carpentier.clone()),
+        scalars("length_energy", m.length_energy.clone()),
+        labels("coaptation", m.coaptation.clone()),
+        scalars("coaptation_distance_mm", m.coaptation_distance_mm.clone()),
+        scalars("tenting_mm", m.tenting_mm.clone()),
     ];
     let cell = vec![
-        Field::scalars("area_energy", m.area_energy.clone()),
-        Field::scalars("angle_energy", m.angle_energy.clone()),
+        scalars("area_energy", m.area_energy.clone()),
+        scalars("angle_energy", m.angle_energy.clone()),
     ];
     (point, cell)
 }
 
 /// Concatenates two fields of the same name and layout.
-fn concat(a: &Field, b: &Field) -> Result<Field, OrganError> {
+fn concat((name, a): &NamedField, (_, b): &NamedField) -> Result<Field, OrganError> {
     use unfold_mesh::FieldValues;
     let values = match (a.values(), b.values()) {
         (FieldValues::F64(x), FieldValues::F64(y)) => {
@@ -376,12 +391,7 @@ fn concat(a: &Field, b: &Field) -> Result<Field, OrganError> {
         (FieldValues::I32(x), FieldValues::I32(y)) => {
             FieldValues::I32(x.iter().chain(y).copied().collect())
         }
-        _ => {
-            return Err(OrganError::Input(format!(
-                "field {} has different types per leaflet",
-                a.name()
-            )));
-        }
+        _ => return Err(MitralError::MergedFieldTypes { field: name }.into()),
     };
     Ok(Field::new(a.name(), a.components(), values)?)
 }
@@ -444,9 +454,12 @@ fn merged(
 /// Runs the whole pipeline on one valve (see the module docs).
 ///
 /// # Errors
-/// `Config` for bad settings; `Input` / `Mesh` when the inputs do not fit
-/// the contract (leaflets not touching the ring, wrong number of
-/// commissures, non-disk leaflets, ...); `Param` when a solve fails.
+/// [`OrganError::Config`] for bad settings; [`OrganError::Mitral`] when the
+/// inputs do not fit a step ([`ContractError`]: leaflets not touching the
+/// ring, wrong number of commissures, non-disk leaflets, ...;
+/// [`LayoutError::NoLongitudes`] for `InitMode::Longitudes` on a leaflet
+/// without them; ...); [`OrganError::Mesh`] / [`OrganError::Param`] when a
+/// mesh check or a solve fails.
 pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganError> {
     run_cached(input, config, None)
 }
@@ -486,7 +499,7 @@ fn run_cached(
     // the posterior barycentre) tilts towards the posterior, and would show
     // a healthy anterior leaflet as prolapsing.
     let plane = annulus::plane(&valve, AnnulusMode::LeastSquares)?
-        .ok_or_else(|| OrganError::Input("the annulus has no least-squares plane".into()))?;
+        .ok_or(AnnulusError::NoLeastSquaresPlane)?;
 
     // Each leaflet's layout below the annulus, in parallel.
     let layout_one = |k: usize| -> Result<(Vec<[f64; 2]>, &'static str), OrganError> {
@@ -501,15 +514,10 @@ fn run_cached(
                 layout::longitude_layout(leaflet, &chains, &targets)?,
                 "longitudes",
             )),
-            (InitMode::Longitudes, None) => Err(OrganError::Input(format!(
-                "the {} leaflet has no longitudes (one vertex chain per annulus vertex down to \
-                 the free edge); use --init tutte or auto",
-                if k == ANTERIOR {
-                    "anterior"
-                } else {
-                    "posterior"
-                }
-            ))),
+            (InitMode::Longitudes, None) => Err(LayoutError::NoLongitudes {
+                leaflet: LeafletSide::of(k),
+            }
+            .into()),
             _ => Ok((layout::tutte_layout(leaflet, &targets)?, "tutte")),
         }
     };
@@ -639,4 +647,26 @@ fn run_cached(
         maps: leaflet_maps,
         report,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn merging_maps_of_different_types_is_an_internal_error() {
+        let a = ("checker", Field::labels("checker", vec![1, 2]));
+        let b = ("checker", Field::scalars("checker", vec![1.0]));
+        let e = concat(&a, &b).unwrap_err();
+        assert_eq!(
+            e,
+            OrganError::Mitral(MitralError::MergedFieldTypes { field: "checker" })
+        );
+        assert_eq!(
+            e.to_string(),
+            "field checker has different types per leaflet"
+        );
+        let c = ("checker", Field::labels("checker", vec![3]));
+        assert_eq!(concat(&a, &c).unwrap().tuples(), 3);
+    }
 }

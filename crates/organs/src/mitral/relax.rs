@@ -33,7 +33,7 @@
 //! `unfold_mesh::shapes::mitral_valve` (u increasing along the annulus,
 //! v decreasing down the columns) is counter-clockwise, needing no mirror.
 
-use super::{flipped, majority_sign, signed_areas};
+use super::{RelaxError, flipped, majority_sign, signed_areas};
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, Mutex};
@@ -198,25 +198,28 @@ pub struct RelaxReport {
 fn check_inputs(mesh: &TriMesh, uv: &[[f64; 2]], fixed: &[bool]) -> Result<ParamMesh, OrganError> {
     let n = mesh.positions.len();
     if uv.len() != n {
-        return Err(OrganError::Input(format!(
-            "relax: the layout has {} uv positions for a leaflet of {n} vertices",
-            uv.len()
-        )));
+        return Err(RelaxError::UvCount {
+            uv_positions: uv.len(),
+            vertices: n,
+        }
+        .into());
     }
     if fixed.len() != n {
-        return Err(OrganError::Input(format!(
-            "relax: {} fixed flags for a leaflet of {n} vertices",
-            fixed.len()
-        )));
+        return Err(RelaxError::FixedCount {
+            fixed_flags: fixed.len(),
+            vertices: n,
+        }
+        .into());
     }
     if let Some(v) = uv
         .iter()
         .position(|q| !(q[0].is_finite() && q[1].is_finite()))
     {
-        return Err(OrganError::Input(format!(
-            "relax: uv of vertex {v} is not finite ({:?})",
-            uv[v]
-        )));
+        return Err(RelaxError::UvNotFinite {
+            vertex: v,
+            uv: uv[v],
+        }
+        .into());
     }
     Ok(ParamMesh::from_triangles(mesh)?)
 }
@@ -285,8 +288,8 @@ fn spring_forces(
 ///
 /// # Errors
 /// `Config` for a non-finite or non-positive `step_scale` or `stiffness`;
-/// `Input` when `uv` or `fixed` does not have one entry per vertex or `uv`
-/// is not finite; `Param` / `Mesh` for an unusable 3D mesh (bad indices,
+/// `Mitral` ([`RelaxError`]) when `uv` or `fixed` does not have one entry
+/// per vertex or `uv` is not finite; `Param` / `Mesh` for an unusable 3D mesh (bad indices,
 /// degenerate triangles). On error `uv` is unchanged.
 pub fn spring(
     mesh: &TriMesh,
@@ -366,9 +369,11 @@ pub fn spring(
 /// are. With every vertex fixed nothing is done (0 iterations, converged). Stops as set by `config` ([`SdConfig`]).
 ///
 /// # Errors
-/// `Config` for a bad `grad_tol`; `Input` for wrong lengths, non-finite
-/// uv, or a start with flipped or zero-area triangles; `Param` / `Mesh`
-/// for an unusable 3D mesh or a failed solve. On error `uv` is unchanged.
+/// `Config` for a bad `grad_tol`; `Mitral` ([`RelaxError`]) for wrong
+/// lengths, non-finite uv, a start with flipped or zero-area triangles (or,
+/// never expected, a result with flipped triangles:
+/// [`RelaxError::InternalFlippedResult`]); `Param` / `Mesh` for an
+/// unusable 3D mesh or a failed solve. On error `uv` is unchanged.
 pub fn symmetric_dirichlet(
     mesh: &TriMesh,
     uv: &mut [[f64; 2]],
@@ -434,12 +439,12 @@ pub fn symmetric_dirichlet_cached(
     let sign = majority_sign(&areas);
     let bad = flipped(&areas, sign);
     if let Some(&first) = bad.first() {
-        return Err(OrganError::Input(format!(
-            "relax: the starting layout has {} flipped or zero-area triangles of {} (first: \
-             triangle {first}); the symmetric Dirichlet relaxation needs a flip-free start",
-            bad.len(),
-            areas.len()
-        )));
+        return Err(RelaxError::FlippedStart {
+            flipped: bad.len(),
+            triangles: areas.len(),
+            first,
+        }
+        .into());
     }
     let done = |iterations: usize, converged: bool| RelaxReport {
         method: "sd",
@@ -497,13 +502,15 @@ pub fn symmetric_dirichlet_cached(
             *qi = [sign * x[2 * i], x[2 * i + 1]];
         }
     }
-    if !flipped(&signed_areas(mesh, &q), sign).is_empty() {
+    let bad = flipped(&signed_areas(mesh, &q), sign);
+    if let Some(&first) = bad.first() {
         // Cannot happen with the injective line search; never hand out a
         // flipped layout as the flip-free one.
-        return Err(OrganError::Input(
-            "relax: the symmetric Dirichlet solve produced a flipped triangle (please report)"
-                .into(),
-        ));
+        return Err(RelaxError::InternalFlippedResult {
+            flipped: bad.len(),
+            first,
+        }
+        .into());
     }
     uv.copy_from_slice(&q);
     Ok(done(report.iterations, report.converged))
@@ -512,6 +519,7 @@ pub fn symmetric_dirichlet_cached(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mitral::MitralError;
     use proptest::prelude::*;
     use unfold_mesh::nalgebra::Point3;
     use unfold_mesh::shapes::{ValveParams, mitral_valve};
@@ -1157,7 +1165,16 @@ mod tests {
         let before = bad.clone();
         let err =
             symmetric_dirichlet(&c.mesh, &mut bad, &c.fixed, &SdConfig::default()).unwrap_err();
-        assert!(matches!(err, OrganError::Input(_)), "{err:?}");
+        let OrganError::Mitral(MitralError::Relax(RelaxError::FlippedStart {
+            flipped,
+            triangles,
+            first,
+        })) = err
+        else {
+            panic!("{err:?}");
+        };
+        assert!(flipped > 0 && first < triangles, "{err:?}");
+        assert_eq!(triangles, c.mesh.triangles.len());
         let msg = err.to_string();
         assert!(
             msg.contains("flipped") && msg.contains("flip-free start"),
@@ -1184,19 +1201,39 @@ mod tests {
         let e1 = symmetric_dirichlet(&c.mesh, &mut short, &c.fixed, &sd_cfg).unwrap_err();
         let e2 = spring(&c.mesh, &mut short, &c.fixed, &sp_cfg).unwrap_err();
         for e in [e1, e2] {
-            assert!(matches!(e, OrganError::Input(_)), "{e:?}");
+            assert_eq!(
+                e,
+                OrganError::Mitral(MitralError::Relax(RelaxError::UvCount {
+                    uv_positions: n - 1,
+                    vertices: n
+                }))
+            );
             assert!(e.to_string().contains("uv positions"), "{e}");
         }
         let mut uv = c.uv.clone();
         for fixed in [&c.fixed[..n - 1], &[][..]] {
+            let expected = OrganError::Mitral(MitralError::Relax(RelaxError::FixedCount {
+                fixed_flags: fixed.len(),
+                vertices: n,
+            }));
             let e = symmetric_dirichlet(&c.mesh, &mut uv, fixed, &sd_cfg).unwrap_err();
+            assert_eq!(e, expected);
             assert!(e.to_string().contains("fixed flags"), "{e}");
             let e = spring(&c.mesh, &mut uv, fixed, &sp_cfg).unwrap_err();
+            assert_eq!(e, expected);
             assert!(e.to_string().contains("fixed flags"), "{e}");
         }
         let mut nan = c.uv.clone();
         nan[40][1] = f64::NAN;
         let e = symmetric_dirichlet(&c.mesh, &mut nan, &c.fixed, &sd_cfg).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                OrganError::Mitral(MitralError::Relax(RelaxError::UvNotFinite { vertex: 40, uv }))
+                    if uv[1].is_nan()
+            ),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("vertex 40"), "{e}");
         let e = spring(&c.mesh, &mut nan, &c.fixed, &sp_cfg).unwrap_err();
         assert!(e.to_string().contains("not finite"), "{e}");
