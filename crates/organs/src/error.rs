@@ -7,6 +7,8 @@
 //! as against "a longitude starts off the annulus" (parry's style). Each
 //! message is one line a user can act on.
 
+use crate::placenta::error::PlacentaError;
+use crate::ventricle::error::VentricleError;
 use thiserror::Error;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
@@ -24,6 +26,12 @@ pub enum OrganError {
     /// A setting is out of its range.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The placenta pipeline failed (mesh shape, parcellation, pull-back).
+    #[error(transparent)]
+    Placenta(#[from] PlacentaError),
+    /// The ventricle pipeline failed (landmarks, disk map, field, mapping).
+    #[error(transparent)]
+    Ventricle(#[from] VentricleError),
     /// A setting is out of its range (free text). Being replaced by
     /// [`OrganError::Config`].
     #[error("invalid configuration: {0}")]
@@ -58,6 +66,10 @@ pub enum Requirement {
     Between(f64, f64),
     /// An integer count `>= min`.
     CountAtLeast(usize),
+    /// An integer in `min..=max`.
+    CountWithin(usize, usize),
+    /// Finite and in `[min, max)`.
+    WithinHalfOpen(f64, f64),
 }
 
 impl std::fmt::Display for Requirement {
@@ -69,6 +81,8 @@ impl std::fmt::Display for Requirement {
             Requirement::Within(lo, hi) => write!(f, "in [{lo}, {hi}]"),
             Requirement::Between(lo, hi) => write!(f, "in ({lo}, {hi})"),
             Requirement::CountAtLeast(min) => write!(f, ">= {min}"),
+            Requirement::CountWithin(lo, hi) => write!(f, "in {lo}..={hi}"),
+            Requirement::WithinHalfOpen(lo, hi) => write!(f, "in [{lo}, {hi})"),
         }
     }
 }
@@ -84,6 +98,8 @@ impl Requirement {
                 Requirement::Within(lo, hi) => (lo..=hi).contains(&value),
                 Requirement::Between(lo, hi) => value > lo && value < hi,
                 Requirement::CountAtLeast(min) => value >= min as f64,
+                Requirement::CountWithin(lo, hi) => (lo as f64..=hi as f64).contains(&value),
+                Requirement::WithinHalfOpen(lo, hi) => value >= lo && value < hi,
             }
     }
 }
@@ -154,5 +170,17 @@ mod tests {
         assert!(ConfigError::check("x", 1.0, Requirement::Between(0.0, 1.0)).is_err());
         assert!(ConfigError::check("x", 1.0, Requirement::Within(0.0, 1.0)).is_ok());
         assert!(ConfigError::check("n", 2.0, Requirement::CountAtLeast(3)).is_err());
+        let e = ConfigError::check("rings", 0.0, Requirement::CountWithin(1, 6)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: rings must be in 1..=6, got 0"
+        );
+        assert!(ConfigError::check("rings", 6.0, Requirement::CountWithin(1, 6)).is_ok());
+        let e = ConfigError::check("f", 1.0, Requirement::WithinHalfOpen(0.0, 1.0)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: f must be in [0, 1), got 1"
+        );
+        assert!(ConfigError::check("f", 0.0, Requirement::WithinHalfOpen(0.0, 1.0)).is_ok());
     }
 }
