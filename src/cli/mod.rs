@@ -135,11 +135,11 @@ pub(crate) fn at(path: &std::path::Path, msg: impl std::fmt::Display) -> CliErro
     CliError::Usage(format!("{}: {msg}", path.display()))
 }
 
-/// A pipeline error about the inputs called `label`; configuration errors
-/// are usage errors.
-pub(crate) fn organ(label: &str, source: OrganError) -> CliError {
-    match source {
-        OrganError::Config(_) => CliError::Usage(source.to_string()),
+/// A pipeline error (an [`OrganError`] or one of the organs' own errors)
+/// about the inputs called `label`; configuration errors are usage errors.
+pub(crate) fn organ(label: &str, source: impl Into<OrganError>) -> CliError {
+    match source.into() {
+        source @ OrganError::Config(_) => CliError::Usage(source.to_string()),
         source => CliError::Organ {
             path: label.to_string(),
             source,

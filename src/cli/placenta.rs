@@ -171,9 +171,11 @@ pub struct PlacentaArgs {
     max_iterations: Option<usize>,
 }
 
-/// A pipeline error about the input `path` (the mesh, or an image),
-/// reworded where the library's message speaks to programmers.
-fn organ(path: &str, source: OrganError) -> CliError {
+/// A pipeline error (an [`OrganError`] or one of the placenta's own
+/// errors) about the input `path` (the mesh, or an image), reworded where
+/// the library's message speaks to programmers.
+fn organ(path: &str, source: impl Into<OrganError>) -> CliError {
+    let source = source.into();
     if let OrganError::Mesh(MeshError::MultipleComponents { count }) = source {
         return CliError::Usage(format!(
             "{path}: the mesh has {count} connected components; the placenta pipeline needs \

@@ -8,6 +8,8 @@
 //! message is one line a user can act on.
 
 use crate::mitral::MitralError;
+use crate::placenta::error::PlacentaError;
+use crate::ventricle::error::VentricleError;
 use thiserror::Error;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
@@ -28,23 +30,12 @@ pub enum OrganError {
     /// The mitral valve pipeline rejected its input (see [`MitralError`]).
     #[error(transparent)]
     Mitral(#[from] MitralError),
-    /// A setting is out of its range (free text). Being replaced by
-    /// [`OrganError::Config`].
-    #[error("invalid configuration: {0}")]
-    ConfigText(String),
-    /// The input does not fit the pipeline (a surface where a volume is
-    /// needed, too few vertices, ...). Being replaced by the organs' own
-    /// typed errors.
-    #[error("{0}")]
-    Input(String),
-    /// The boundary could not be split into fetal and maternal sides.
-    /// Being replaced by the placenta's own typed errors.
-    #[error("parcellation: {0}")]
-    Parcellation(String),
-    /// An image cannot be used (does not overlap the mesh, empty, ...).
-    /// Being replaced by the placenta's own typed errors.
-    #[error("image: {0}")]
-    Image(String),
+    /// The placenta pipeline failed (mesh shape, parcellation, pull-back).
+    #[error(transparent)]
+    Placenta(#[from] PlacentaError),
+    /// The ventricle pipeline failed (landmarks, disk map, field, mapping).
+    #[error(transparent)]
+    Ventricle(#[from] VentricleError),
 }
 
 /// What a setting must satisfy.
@@ -62,6 +53,10 @@ pub enum Requirement {
     Between(f64, f64),
     /// An integer count `>= min`.
     CountAtLeast(usize),
+    /// An integer in `min..=max`.
+    CountWithin(usize, usize),
+    /// Finite and in `[min, max)`.
+    WithinHalfOpen(f64, f64),
 }
 
 impl std::fmt::Display for Requirement {
@@ -73,6 +68,8 @@ impl std::fmt::Display for Requirement {
             Requirement::Within(lo, hi) => write!(f, "in [{lo}, {hi}]"),
             Requirement::Between(lo, hi) => write!(f, "in ({lo}, {hi})"),
             Requirement::CountAtLeast(min) => write!(f, ">= {min}"),
+            Requirement::CountWithin(lo, hi) => write!(f, "in {lo}..={hi}"),
+            Requirement::WithinHalfOpen(lo, hi) => write!(f, "in [{lo}, {hi})"),
         }
     }
 }
@@ -88,6 +85,8 @@ impl Requirement {
                 Requirement::Within(lo, hi) => (lo..=hi).contains(&value),
                 Requirement::Between(lo, hi) => value > lo && value < hi,
                 Requirement::CountAtLeast(min) => value >= min as f64,
+                Requirement::CountWithin(lo, hi) => (lo as f64..=hi as f64).contains(&value),
+                Requirement::WithinHalfOpen(lo, hi) => value >= lo && value < hi,
             }
     }
 }
@@ -158,5 +157,17 @@ mod tests {
         assert!(ConfigError::check("x", 1.0, Requirement::Between(0.0, 1.0)).is_err());
         assert!(ConfigError::check("x", 1.0, Requirement::Within(0.0, 1.0)).is_ok());
         assert!(ConfigError::check("n", 2.0, Requirement::CountAtLeast(3)).is_err());
+        let e = ConfigError::check("rings", 0.0, Requirement::CountWithin(1, 6)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: rings must be in 1..=6, got 0"
+        );
+        assert!(ConfigError::check("rings", 6.0, Requirement::CountWithin(1, 6)).is_ok());
+        let e = ConfigError::check("f", 1.0, Requirement::WithinHalfOpen(0.0, 1.0)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: f must be in [0, 1), got 1"
+        );
+        assert!(ConfigError::check("f", 0.0, Requirement::WithinHalfOpen(0.0, 1.0)).is_ok());
     }
 }

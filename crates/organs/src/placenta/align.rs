@@ -3,6 +3,7 @@
 //! variance -> x, smallest -> z), then, if the fetal side faces down, turn
 //! the mesh 180 degrees about x (a rotation, never a reflection).
 
+use super::error::PlacentaError;
 use crate::OrganError;
 use serde::Serialize;
 use unfold_mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
@@ -103,14 +104,14 @@ impl Alignment {
 /// maternal vertices, else the half turn is applied.
 ///
 /// # Errors
-/// `Input` for no points or non-finite coordinates; `Parcellation` when a
-/// side has no weight.
+/// `Param` for no points or non-finite coordinates (the PCA fails);
+/// [`PlacentaError::SideWithoutArea`] when a side has no weight.
 pub fn align(
     positions: &[Point3<f64>],
     labels: &[u8],
     weights: &[f64],
 ) -> Result<Alignment, OrganError> {
-    let pca = PcaTransform::of_points(positions).map_err(|e| OrganError::Input(e.to_string()))?;
+    let pca = PcaTransform::of_points(positions)?;
     let mut mean = [(0.0, 0.0); 2];
     for ((p, &label), &w) in positions.iter().zip(labels).zip(weights) {
         let side = match label {
@@ -122,9 +123,11 @@ pub fn align(
         mean[side].1 += w;
     }
     if mean.iter().any(|&(_, w)| w.is_nan() || w <= 0.0) {
-        return Err(OrganError::Parcellation(
-            "a side has no boundary area; cannot tell up from down".into(),
-        ));
+        return Err(PlacentaError::SideWithoutArea {
+            fetal_area: mean[0].1,
+            maternal_area: mean[1].1,
+        }
+        .into());
     }
     let fetal_z = mean[0].0 / mean[0].1;
     let maternal_z = mean[1].0 / mean[1].1;
@@ -187,8 +190,15 @@ mod tests {
         let (pts, mut labels) = cloud(&Rotation3::identity(), Vector3::zeros());
         labels.iter_mut().for_each(|l| *l = LABEL_FETAL);
         let e = align(&pts, &labels, &vec![1.0; pts.len()]).unwrap_err();
-        assert!(matches!(e, OrganError::Parcellation(_)), "{e}");
+        assert!(
+            matches!(
+                e,
+                OrganError::Placenta(PlacentaError::SideWithoutArea { maternal_area, .. })
+                    if maternal_area == 0.0
+            ),
+            "{e}"
+        );
         let e = align(&[], &[], &[]).unwrap_err();
-        assert!(matches!(e, OrganError::Input(_)), "{e}");
+        assert!(matches!(e, OrganError::Param(_)), "{e}");
     }
 }

@@ -14,7 +14,8 @@
 //! - `rx`: so that the ellipsoid keeps the mesh volume,
 //!   `4/3 pi rx ry rz = V`.
 
-use crate::OrganError;
+use super::error::PlacentaError;
+use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
 use serde::Serialize;
 use unfold_mesh::geodesic::EdgeGraph;
@@ -52,7 +53,8 @@ pub struct Estimates {
 /// quasi-random sample and the vertices not on `boundary`) to the boundary surface.
 ///
 /// # Errors
-/// `Input` for a mesh without volume or without interior points.
+/// [`PlacentaError::NoVolume`] for a mesh without volume,
+/// [`PlacentaError::NoInteriorPoint`] without interior points.
 pub fn half_thickness(
     mesh: &TetMesh,
     boundary: &TriMesh,
@@ -61,7 +63,7 @@ pub fn half_thickness(
     let volume = total_volume(mesh);
     let bb = match bounding_box(&mesh.positions) {
         Some(bb) if volume.is_finite() && volume > 0.0 => bb,
-        _ => return Err(OrganError::Input("the mesh has no volume".into())),
+        _ => return Err(PlacentaError::NoVolume { volume_mm3: volume }.into()),
     };
     // Quasi-random points in the bounding box (the R3 sequence:
     // u_k = frac(1/2 + k alpha), alpha_i = phi^-i with phi the real root of
@@ -98,9 +100,10 @@ pub fn half_thickness(
     );
     d.retain(|x| x.is_finite());
     if d.is_empty() {
-        return Err(OrganError::Input(
-            "no interior point found to estimate the thickness".into(),
-        ));
+        return Err(PlacentaError::NoInteriorPoint {
+            samples: candidates,
+        }
+        .into());
     }
     d.sort_by(f64::total_cmp);
     Ok((percentile_sorted(&d, 95.0), d.len()))
@@ -138,8 +141,8 @@ pub fn half_geodesic_width(surface: &TriMesh) -> Option<f64> {
 /// `boundary` (`is_boundary[v]` for the volume vertices on it).
 ///
 /// # Errors
-/// As [`half_thickness`]; `Input` when the boundary has no two connected
-/// vertices.
+/// As [`half_thickness`]; [`PlacentaError::NoBoundaryWidth`] when the
+/// boundary has no two connected vertices.
 pub fn estimate(
     mesh: &TetMesh,
     boundary: &TriMesh,
@@ -153,18 +156,16 @@ pub fn estimate(
 /// segmentation's distance transform); `ry` and `rx` as in [`estimate`].
 ///
 /// # Errors
-/// `Input` for an `h` that is not finite and `> 0`, a mesh without volume,
-/// or a boundary without two connected vertices.
+/// `Config` (`half_thickness_mm`) for an `h` that is not finite and `> 0`;
+/// [`PlacentaError::NoVolume`] for a mesh without volume,
+/// [`PlacentaError::NoBoundaryWidth`] for a boundary without two connected
+/// vertices.
 pub fn estimate_with_thickness(
     mesh: &TetMesh,
     boundary: &TriMesh,
     h: f64,
 ) -> Result<Estimates, OrganError> {
-    if !(h.is_finite() && h > 0.0) {
-        return Err(OrganError::Input(format!(
-            "the half thickness must be finite and > 0, got {h}"
-        )));
-    }
+    ConfigError::check("half_thickness_mm", h, Requirement::Positive)?;
     with_thickness(mesh, boundary, h, 0, "segmentation")
 }
 
@@ -177,10 +178,10 @@ fn with_thickness(
 ) -> Result<Estimates, OrganError> {
     let ry = half_geodesic_width(boundary)
         .filter(|r| *r > 0.0)
-        .ok_or_else(|| OrganError::Input("the boundary has no two connected vertices".into()))?;
+        .ok_or(PlacentaError::NoBoundaryWidth)?;
     let volume = total_volume(mesh);
     if !(volume.is_finite() && volume > 0.0) {
-        return Err(OrganError::Input("the mesh has no volume".into()));
+        return Err(PlacentaError::NoVolume { volume_mm3: volume }.into());
     }
     Ok(Estimates {
         half_thickness_mm: h,
@@ -256,7 +257,10 @@ mod tests {
         for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             assert!(matches!(
                 estimate_with_thickness(&mesh, &b.surface, h),
-                Err(OrganError::Input(_))
+                Err(OrganError::Config(ConfigError {
+                    name: "half_thickness_mm",
+                    ..
+                }))
             ));
         }
     }
@@ -271,7 +275,7 @@ mod tests {
         let flags = vec![true; mesh.num_vertices()];
         assert!(matches!(
             half_thickness(&mesh, &b.surface, &flags),
-            Err(OrganError::Input(_))
+            Err(OrganError::Placenta(PlacentaError::NoVolume { volume_mm3 })) if volume_mm3 == 0.0
         ));
     }
 }

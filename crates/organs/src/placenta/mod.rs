@@ -22,12 +22,14 @@
 //! 7. [`pullback`]: images into the template grid.
 
 pub mod align;
+pub mod error;
 pub mod estimate;
 pub mod parcellation;
 pub mod pullback;
 
 use crate::{ConfigError, OrganError, Requirement};
 use align::{Alignment, TransformReport, align};
+pub use error::{PlacentaError, PullbackError};
 use estimate::{Estimates, estimate, estimate_with_thickness};
 use parcellation::{Parcellation, ParcellationConfig, ParcellationSummary, parcellate};
 use pullback::{PullbackTable, TemplateGrid};
@@ -165,7 +167,7 @@ impl Config {
         if let Some(h) = self.half_thickness_mm {
             ConfigError::check("half_thickness_mm", h, Requirement::Positive)?;
         }
-        self.parcellation.validate()
+        Ok(self.parcellation.validate()?)
     }
 
     fn stopping(&self) -> Stopping {
@@ -217,15 +219,11 @@ pub struct PreparedMesh {
 /// manifold boundary and no unused vertices.
 ///
 /// # Errors
-/// `Input` for a mesh without tets (a surface mesh); `Mesh` with the first
-/// validation problem otherwise.
+/// [`PlacentaError::NoTetrahedra`] for a mesh without tets (a surface
+/// mesh); `Mesh` with the first validation problem otherwise.
 pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
     if mesh.tets.is_empty() {
-        return Err(OrganError::Input(
-            "the mesh has no tetrahedra (a surface mesh?); the placenta pipeline needs a \
-             tetrahedral volume mesh"
-                .into(),
-        ));
+        return Err(PlacentaError::NoTetrahedra.into());
     }
     unfold_mesh::geometry::check_finite(&mesh.positions)?;
     let mut m = mesh.clone();
@@ -521,7 +519,7 @@ impl Outcome {
     ///
     /// # Errors
     /// As [`TemplateGrid::covering`] and [`PullbackTable::new`].
-    pub fn pullback_table(&self, spacing: [f64; 3]) -> Result<PullbackTable, OrganError> {
+    pub fn pullback_table(&self, spacing: [f64; 3]) -> Result<PullbackTable, PullbackError> {
         let grid = TemplateGrid::covering(&self.flattened.positions, spacing)?;
         PullbackTable::new(
             grid,
@@ -609,9 +607,10 @@ pub fn flatten(mesh: &TetMesh, config: &Config) -> Result<Outcome, OrganError> {
 /// limits is not an error (`report.converged` says so).
 ///
 /// # Errors
-/// `Config` for bad settings; `Input` / `Mesh` for an unusable mesh (no
-/// tets, NaN, degenerate tets, several components, ...); `Parcellation`
-/// when the boundary has no two sides; `Param` when the optimization fails.
+/// `Config` for bad settings; `Placenta` / `Mesh` for an unusable mesh (no
+/// tets, NaN, degenerate tets, several components, ...); `Placenta` (a
+/// parcellation variant of [`PlacentaError`]) when the boundary has no two
+/// sides; `Param` when the optimization fails.
 pub fn flatten_with(
     mesh: &TetMesh,
     config: &Config,
@@ -707,7 +706,7 @@ fn flatten_prepared_impl(
         .stages
         .last()
         .map(|s| s.solve)
-        .ok_or_else(|| OrganError::Input("no optimization stage ran".into()))?;
+        .ok_or(PlacentaError::NoStage)?;
     let mut original = rest.clone();
     original.add_point_field(side_field(&labels))?;
     let mut flattened = TetMesh::new(

@@ -26,7 +26,8 @@
 //! surface) is parcellated; the vertices of any other piece (an internal
 //! cavity) stay [`LABEL_INTERIOR`] and carry no template term.
 
-use crate::OrganError;
+use super::error::PlacentaError;
+use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
@@ -40,6 +41,9 @@ use unfold_mesh::{TetMesh, TriMesh};
 use unfold_param::eigen::{EigenOptions, smallest_eigenpairs};
 use unfold_param::operators::SparseSym;
 use unfold_param::template::{LABEL_FETAL, LABEL_INTERIOR, LABEL_MARGIN, LABEL_MATERNAL};
+
+/// The fewest vertices the boundary's largest piece may have.
+pub const MIN_BOUNDARY_VERTICES: usize = 8;
 
 /// Settings of [`parcellate`]; every default from ALGORITHMS 2.5.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -78,47 +82,40 @@ impl Default for ParcellationConfig {
 
 impl ParcellationConfig {
     /// Checks every value; the error names the offending one.
-    pub fn validate(&self) -> Result<(), OrganError> {
-        let bad = |what: &str, v: f64, want: &str| {
-            Err(OrganError::ConfigText(format!(
-                "parcellation {what} must be {want}, got {v}"
-            )))
-        };
-        if !(self.gamma.is_finite() && self.gamma > 0.0) {
-            return bad("gamma", self.gamma, "finite and > 0");
-        }
-        if !(1..=6).contains(&self.rings) {
-            return bad("rings", self.rings as f64, "in 1..=6");
-        }
-        if !(self.voxel_mm.is_finite() && self.voxel_mm > 0.0) {
-            return bad("voxel_mm", self.voxel_mm, "finite and > 0");
-        }
-        if !(self.max_margin_voxels.is_finite() && self.max_margin_voxels > 0.0) {
-            return bad(
-                "max_margin_voxels",
-                self.max_margin_voxels,
-                "finite and > 0",
-            );
-        }
+    ///
+    /// # Errors
+    /// [`ConfigError`] for the first value out of range: `gamma`,
+    /// `voxel_mm` and `max_margin_voxels` finite and `> 0`, `rings` in
+    /// `1..=6`, `margin_mm` in `(0, max_margin_voxels * voxel_mm)`,
+    /// `min_margin_area_fraction` in `[0, 1)`.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ConfigError::check("parcellation gamma", self.gamma, Requirement::Positive)?;
+        ConfigError::check(
+            "parcellation rings",
+            self.rings as f64,
+            Requirement::CountWithin(1, 6),
+        )?;
+        ConfigError::check(
+            "parcellation voxel_mm",
+            self.voxel_mm,
+            Requirement::Positive,
+        )?;
+        ConfigError::check(
+            "parcellation max_margin_voxels",
+            self.max_margin_voxels,
+            Requirement::Positive,
+        )?;
         let max_mm = self.max_margin_voxels * self.voxel_mm;
-        if !(self.margin_mm.is_finite() && self.margin_mm > 0.0 && self.margin_mm < max_mm) {
-            return bad(
-                "margin_mm",
-                self.margin_mm,
-                &format!(
-                    "> 0 and below {max_mm} mm ({} voxels)",
-                    self.max_margin_voxels
-                ),
-            );
-        }
-        if !(0.0..1.0).contains(&self.min_margin_area_fraction) {
-            return bad(
-                "min_margin_area_fraction",
-                self.min_margin_area_fraction,
-                "in [0, 1)",
-            );
-        }
-        Ok(())
+        ConfigError::check(
+            "parcellation margin_mm",
+            self.margin_mm,
+            Requirement::Between(0.0, max_mm),
+        )?;
+        ConfigError::check(
+            "parcellation min_margin_area_fraction",
+            self.min_margin_area_fraction,
+            Requirement::WithinHalfOpen(0.0, 1.0),
+        )
     }
 }
 
@@ -175,8 +172,9 @@ pub struct ParcellationSummary {
 ///
 /// # Errors
 /// `Config` for bad settings; `Mesh` when the boundary cannot be extracted;
-/// `Parcellation` when the boundary is too small, the eigensolver fails, or
-/// a cluster is empty (e.g. a sphere has no two sides).
+/// a parcellation variant of [`PlacentaError`] when the boundary is too
+/// small, the eigensolver fails, or a cluster is empty (e.g. a sphere has no
+/// two sides).
 pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcellation, OrganError> {
     config.validate()?;
     let boundary = tet_boundary(mesh)?;
@@ -184,7 +182,7 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let ns = surface.positions.len();
     let comps = connected_components(ns, &surface.triangles);
     if comps.count == 0 {
-        return Err(OrganError::Parcellation("the mesh has no boundary".into()));
+        return Err(PlacentaError::NoBoundary.into());
     }
     // The largest piece (most triangles) is the outer surface.
     let main = (0..comps.count)
@@ -193,11 +191,12 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let piece: Vec<u32> = (0..ns as u32)
         .filter(|&v| comps.vertex_label[v as usize] == main)
         .collect();
-    if piece.len() < 8 {
-        return Err(OrganError::Parcellation(format!(
-            "the boundary has only {} vertices; at least 8 are needed",
-            piece.len()
-        )));
+    if piece.len() < MIN_BOUNDARY_VERTICES {
+        return Err(PlacentaError::BoundaryTooSmall {
+            vertices: piece.len(),
+            needed: MIN_BOUNDARY_VERTICES,
+        }
+        .into());
     }
     let mut local = vec![u32::MAX; ns];
     for (k, &v) in piece.iter().enumerate() {
@@ -223,14 +222,16 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let laplacian = normalized_affinity_laplacian(&adj, &graph, &normals, config)?;
     let sqrt_d = laplacian.sqrt_degree.clone();
     let pairs = smallest_eigenpairs(&laplacian.l, 1, &[sqrt_d], &EigenOptions::default())
-        .map_err(|e| OrganError::Parcellation(format!("Fiedler vector: {e}")))?;
+        .map_err(PlacentaError::Fiedler)?;
     let mut fiedler = pairs.vectors[0].clone();
     let cluster_a: Vec<bool> = fiedler.iter().map(|&f| f > 0.0).collect();
     let count_a = cluster_a.iter().filter(|&&a| a).count();
     if count_a == 0 || count_a == n {
-        return Err(OrganError::Parcellation(
-            "the Fiedler vector does not split the boundary into two sides".into(),
-        ));
+        return Err(PlacentaError::NoSplit {
+            vertices: n,
+            positive: count_a,
+        }
+        .into());
     }
 
     // Maternal = the cluster with more convex-hull vertices.
@@ -280,10 +281,11 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
         };
     }
     if fetal == 0 || mat == 0 {
-        return Err(OrganError::Parcellation(format!(
-            "the margin covers a whole side ({fetal} fetal, {mat} maternal vertices left); \
-             try a smaller margin"
-        )));
+        return Err(PlacentaError::MarginCoversSide {
+            fetal,
+            maternal: mat,
+        }
+        .into());
     }
     Ok(Parcellation {
         labels,
@@ -333,9 +335,7 @@ fn normalized_affinity_laplacian(
         .flat_map(|r| r.iter().map(|&(_, d)| d))
         .fold(0.0, f64::max);
     if !(l_max.is_finite() && l_max > 0.0) {
-        return Err(OrganError::Parcellation(
-            "the boundary has no edges of positive length".into(),
-        ));
+        return Err(PlacentaError::NoEdgeLength { longest_mm: l_max }.into());
     }
     // W, upper triangle including the diagonal (w_ii = exp(0) = 1).
     let mut w: Vec<(u32, u32, f64)> =
@@ -351,10 +351,8 @@ fn normalized_affinity_laplacian(
             degree[j as usize] += value;
         }
     }
-    if degree.iter().any(|d| !d.is_finite()) {
-        return Err(OrganError::Parcellation(
-            "the affinity overflows (a normal is not finite?)".into(),
-        ));
+    if let Some(vertex) = degree.iter().position(|d| !d.is_finite()) {
+        return Err(PlacentaError::AffinityOverflow { vertex }.into());
     }
     let sqrt_degree: Vec<f64> = degree.iter().map(|d| d.sqrt()).collect();
     let l = SparseSym::from_entries(

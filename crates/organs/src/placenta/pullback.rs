@@ -24,7 +24,7 @@
 //! and the table is applied to every image and every frame of a 4D series
 //! ([`PullbackTable::apply`]).
 
-use crate::OrganError;
+use super::error::PullbackError;
 use nalgebra::{Matrix4, Point3, Vector3};
 use rayon::prelude::*;
 use unfold_mesh::spatial::TetLocator;
@@ -59,45 +59,33 @@ impl TemplateGrid {
     /// point lies at least half a voxel inside the grid's outer boundary
     /// ([`TemplateGrid::bounds`]).
     ///
-    /// Errors: [`OrganError::Config`] for a non-finite or non-positive
-    /// spacing, no points, or a grid of more than [`MAX_VOXELS`] voxels (the
-    /// message gives a spacing that would fit); [`OrganError::Input`] for a
-    /// non-finite point.
-    pub fn covering(points: &[Point3<f64>], spacing: [f64; 3]) -> Result<Self, OrganError> {
+    /// # Errors
+    /// [`PullbackError::Spacing`] for a non-finite or non-positive spacing,
+    /// [`PullbackError::NoPoints`] for no points,
+    /// [`PullbackError::NotFinite`] for a non-finite point,
+    /// [`PullbackError::BoxTooLarge`] for a box of infinite extent and
+    /// [`PullbackError::GridTooLarge`] for a grid of more than
+    /// [`MAX_VOXELS`] voxels (with a spacing that would fit).
+    pub fn covering(points: &[Point3<f64>], spacing: [f64; 3]) -> Result<Self, PullbackError> {
         check_spacing(spacing)?;
         if points.is_empty() {
-            return Err(OrganError::ConfigText(
-                "the template grid must cover at least one point, got none".into(),
-            ));
+            return Err(PullbackError::NoPoints);
         }
         check_finite_points("point", points)?;
         let (lo, hi) = bounds_of(points);
         let ext: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
         if ext.iter().any(|e| !e.is_finite()) {
-            return Err(OrganError::Input(format!(
-                "the points' bounding box [{}] - [{}] mm is too large",
-                fmt3(&lo),
-                fmt3(&hi)
-            )));
+            return Err(PullbackError::BoxTooLarge { lo, hi });
         }
         let counts = dims_for(ext, spacing);
         let total: f64 = counts.iter().product();
         if total.is_nan() || total > MAX_VOXELS as f64 {
-            let hint = match fitting_spacing(ext, spacing) {
-                Some(s) => format!(
-                    "; a spacing of at least [{:.3}, {:.3}, {:.3}] mm would fit",
-                    s[0], s[1], s[2]
-                ),
-                None => String::new(),
-            };
-            return Err(OrganError::ConfigText(format!(
-                "a template grid of [{}] voxels at spacing [{}] mm covering [{}] - [{}] mm \
-                 exceeds the limit of {MAX_VOXELS} voxels{hint}",
-                counts.map(|c| format!("{c}")).join(", "),
-                fmt3(&spacing),
-                fmt3(&lo),
-                fmt3(&hi),
-            )));
+            return Err(PullbackError::GridTooLarge {
+                spacing,
+                lo,
+                hi,
+                fitting: fitting_spacing(ext, spacing),
+            });
         }
         let dims = counts.map(|c| c as usize);
         let origin = std::array::from_fn(|a| {
@@ -111,15 +99,17 @@ impl TemplateGrid {
     }
 
     /// Checks a grid built by hand: finite origin, finite positive spacing,
-    /// no zero dimension and at most [`MAX_VOXELS`] voxels
-    /// ([`OrganError::Config`] otherwise).
-    pub fn validate(&self) -> Result<(), OrganError> {
+    /// no zero dimension and at most [`MAX_VOXELS`] voxels.
+    ///
+    /// # Errors
+    /// [`PullbackError::Spacing`], [`PullbackError::Origin`] or
+    /// [`PullbackError::GridSize`] for the first that fails.
+    pub fn validate(&self) -> Result<(), PullbackError> {
         check_spacing(self.spacing)?;
         if !self.origin.iter().all(|x| x.is_finite()) {
-            return Err(OrganError::ConfigText(format!(
-                "the template grid's origin must be finite, got [{}]",
-                fmt3(&self.origin)
-            )));
+            return Err(PullbackError::Origin {
+                origin: self.origin,
+            });
         }
         let n = self
             .dims
@@ -127,10 +117,10 @@ impl TemplateGrid {
             .try_fold(1usize, |acc, &d| acc.checked_mul(d))
             .unwrap_or(usize::MAX);
         if n == 0 || n > MAX_VOXELS {
-            return Err(OrganError::ConfigText(format!(
-                "the template grid must have between 1 and {MAX_VOXELS} voxels, got dims {:?}",
-                self.dims
-            )));
+            return Err(PullbackError::GridSize {
+                dims: self.dims,
+                limit: MAX_VOXELS,
+            });
         }
         Ok(())
     }
@@ -226,30 +216,29 @@ impl PullbackTable {
     /// concatenated in order, so the table is deterministic and sorted by
     /// voxel index.
     ///
-    /// Errors: an invalid grid ([`OrganError::Config`]); a length mismatch,
-    /// an empty mesh, an out-of-range index, a non-finite position or a
-    /// mesh whose tets are all degenerate ([`OrganError::Input`]).
+    /// # Errors
+    /// An invalid grid (as [`TemplateGrid::validate`]);
+    /// [`PullbackError::LengthMismatch`], [`PullbackError::EmptyMesh`],
+    /// [`PullbackError::NotFinite`], [`PullbackError::VertexOutOfRange`] or
+    /// [`PullbackError::AllTetsFlat`] for a mesh that cannot be used.
     pub fn new(
         grid: TemplateGrid,
         mapped: &[Point3<f64>],
         tets: &[[u32; 4]],
         source: &[Point3<f64>],
-    ) -> Result<Self, OrganError> {
+    ) -> Result<Self, PullbackError> {
         grid.validate()?;
         if mapped.len() != source.len() {
-            return Err(OrganError::Input(format!(
-                "{} mapped positions but {} source positions; the pull-back needs one of each \
-                 per vertex",
-                mapped.len(),
-                source.len()
-            )));
+            return Err(PullbackError::LengthMismatch {
+                mapped: mapped.len(),
+                sources: source.len(),
+            });
         }
         if mapped.is_empty() || tets.is_empty() {
-            return Err(OrganError::Input(format!(
-                "the pull-back needs a non-empty tet mesh, got {} vertices and {} tets",
-                mapped.len(),
-                tets.len()
-            )));
+            return Err(PullbackError::EmptyMesh {
+                vertices: mapped.len(),
+                tets: tets.len(),
+            });
         }
         check_finite_points("mapped position", mapped)?;
         check_finite_points("source position", source)?;
@@ -259,16 +248,15 @@ impl PullbackTable {
             .enumerate()
             .find(|(_, tet)| tet.iter().any(|&v| v as usize >= n))
         {
-            return Err(OrganError::Input(format!(
-                "tet {t} {tet:?} refers to a vertex beyond the {n} positions"
-            )));
+            return Err(PullbackError::VertexOutOfRange {
+                tet: t,
+                corners: *tet,
+                vertices: n,
+            });
         }
         let locator = TetLocator::new(&TetMesh::new(mapped.to_vec(), tets.to_vec()));
         if locator.is_empty() {
-            return Err(OrganError::Input(format!(
-                "all {} tets of the mapped mesh are degenerate (flat)",
-                tets.len()
-            )));
+            return Err(PullbackError::AllTetsFlat { tets: tets.len() });
         }
 
         let [nx, ny, nz] = grid.dims;
@@ -347,20 +335,26 @@ impl PullbackTable {
     /// NaN image values propagate: a voxel whose interpolation stencil gives
     /// a NaN corner a non-zero weight is NaN.
     ///
-    /// Errors: [`OrganError::Image`] when no source point falls inside the
-    /// image (the message gives the image's and the mesh's world bounding
-    /// boxes in mm) or the image has no voxels; [`OrganError::Input`] when
-    /// the table is empty (no voxel centre inside the mesh).
-    pub fn apply(&self, image: &Volume<f32>) -> Result<(Volume<f32>, PullbackStats), OrganError> {
+    /// # Errors
+    /// [`PullbackError::NoOverlap`] when no source point falls inside the
+    /// image (with the image's and the mesh's world bounding boxes in mm),
+    /// [`PullbackError::EmptyImage`] when the image has no voxels,
+    /// [`PullbackError::EmptyTable`] when the table is empty (no voxel centre
+    /// inside the mesh).
+    pub fn apply(
+        &self,
+        image: &Volume<f32>,
+    ) -> Result<(Volume<f32>, PullbackStats), PullbackError> {
         if image.frame_len() == 0 || image.frames() == 0 {
-            return Err(OrganError::Image("the image has no voxels".into()));
+            return Err(PullbackError::EmptyImage {
+                frame_voxels: image.frame_len(),
+                frames: image.frames(),
+            });
         }
         if self.voxels.is_empty() {
-            return Err(OrganError::Input(
-                "the pull-back table is empty: no voxel centre of the template grid lies inside \
-                 the mapped mesh"
-                    .into(),
-            ));
+            return Err(PullbackError::EmptyTable {
+                grid_voxels: self.grid.num_voxels(),
+            });
         }
         let coords: Vec<Point3<f64>> = self
             .sources
@@ -379,18 +373,15 @@ impl PullbackTable {
             if t == 0 {
                 sampled = values.iter().filter(|v| v.is_some()).count();
                 if sampled == 0 {
-                    let (lo, hi) = image_world_box(image);
-                    let (mlo, mhi) = self.source_box;
-                    return Err(OrganError::Image(format!(
-                        "the image does not overlap the mesh: its world bounding box [{}] - [{}] \
-                         mm vs the mesh's [{}] - [{}] mm (no source point of the {} voxels \
-                         inside the mesh falls inside the image)",
-                        fmt3(&lo),
-                        fmt3(&hi),
-                        fmt3(&mlo),
-                        fmt3(&mhi),
-                        self.voxels.len()
-                    )));
+                    let (image_lo, image_hi) = image_world_box(image);
+                    let (mesh_lo, mesh_hi) = self.source_box;
+                    return Err(PullbackError::NoOverlap {
+                        image_lo,
+                        image_hi,
+                        mesh_lo,
+                        mesh_hi,
+                        voxels: self.voxels.len(),
+                    });
                 }
             }
             for (&idx, value) in self.voxels.iter().zip(values) {
@@ -401,7 +392,7 @@ impl PullbackTable {
         }
         let [nx, ny, nz] = self.grid.dims;
         let volume = Volume::new([nx, ny, nz, frames], self.grid.affine(), data)
-            .map_err(|e| OrganError::Image(format!("building the pulled-back image: {e}")))?;
+            .map_err(PullbackError::Output)?;
         let stats = PullbackStats {
             inside_mesh: self.voxels.len(),
             sampled,
@@ -423,26 +414,24 @@ pub struct PullbackStats {
     pub outside_image: usize,
 }
 
-fn check_spacing(spacing: [f64; 3]) -> Result<(), OrganError> {
+fn check_spacing(spacing: [f64; 3]) -> Result<(), PullbackError> {
     if spacing.iter().all(|s| s.is_finite() && *s > 0.0) {
         Ok(())
     } else {
-        Err(OrganError::ConfigText(format!(
-            "the template voxel spacing must be finite and positive, got [{}] mm",
-            fmt3(&spacing)
-        )))
+        Err(PullbackError::Spacing { spacing })
     }
 }
 
-fn check_finite_points(what: &str, points: &[Point3<f64>]) -> Result<(), OrganError> {
+fn check_finite_points(what: &'static str, points: &[Point3<f64>]) -> Result<(), PullbackError> {
     match points
         .iter()
         .position(|p| !p.coords.iter().all(|x| x.is_finite()))
     {
-        Some(i) => Err(OrganError::Input(format!(
-            "{what} {i} is not finite: ({}, {}, {})",
-            points[i].x, points[i].y, points[i].z
-        ))),
+        Some(index) => Err(PullbackError::NotFinite {
+            what,
+            index,
+            point: [points[index].x, points[index].y, points[index].z],
+        }),
         None => Ok(()),
     }
 }
@@ -461,7 +450,7 @@ fn bounds_of(points: &[Point3<f64>]) -> ([f64; 3], [f64; 3]) {
 }
 
 /// Voxels per axis covering extents `ext` at `spacing`: `ceil(e / s) + 1`.
-fn dims_for(ext: [f64; 3], spacing: [f64; 3]) -> [f64; 3] {
+pub(super) fn dims_for(ext: [f64; 3], spacing: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|a| (ext[a] / spacing[a]).ceil() + 1.0)
 }
 
@@ -512,10 +501,6 @@ pub fn image_world_box(image: &Volume<f32>) -> ([f64; 3], [f64; 3]) {
         })
         .collect();
     bounds_of(&corners)
-}
-
-fn fmt3(v: &[f64; 3]) -> String {
-    format!("{:.1}, {:.1}, {:.1}", v[0], v[1], v[2])
 }
 
 #[cfg(test)]
@@ -846,7 +831,9 @@ mod tests {
         let (lo, hi) = bbox(&mesh.positions);
         let image = oblique_image(lo + off, hi + off, 1, |p, _| f_affine(p));
         match table.apply(&image) {
-            Err(OrganError::Image(msg)) => {
+            Err(e @ PullbackError::NoOverlap { voxels, .. }) => {
+                assert_eq!(voxels, table.len());
+                let msg = e.to_string();
                 assert!(msg.contains("does not overlap"), "{msg}");
                 assert!(msg.contains("mm"), "{msg}");
             }
@@ -936,16 +923,20 @@ mod tests {
         ] {
             assert!(matches!(
                 TemplateGrid::covering(&pts, s),
-                Err(OrganError::ConfigText(_))
+                Err(PullbackError::Spacing { spacing }) if format!("{spacing:?}") == format!("{s:?}")
             ));
         }
         assert!(matches!(
             TemplateGrid::covering(&[], [1.0; 3]),
-            Err(OrganError::ConfigText(_))
+            Err(PullbackError::NoPoints)
         ));
         assert!(matches!(
             TemplateGrid::covering(&[Point3::new(f64::NAN, 0.0, 0.0)], [1.0; 3]),
-            Err(OrganError::Input(_))
+            Err(PullbackError::NotFinite {
+                what: "point",
+                index: 0,
+                ..
+            })
         ));
         assert!(
             TemplateGrid::covering(
@@ -957,7 +948,10 @@ mod tests {
         // Too many voxels: the message names a spacing that fits.
         let far = [Point3::origin(), Point3::new(1000.0, 1000.0, 1000.0)];
         match TemplateGrid::covering(&far, [1.0; 3]) {
-            Err(OrganError::ConfigText(msg)) => {
+            Err(e @ PullbackError::GridTooLarge { fitting, hi, .. }) => {
+                assert_eq!(fitting, Some([1.957; 3]));
+                assert_eq!(hi, [1000.0; 3]);
+                let msg = e.to_string();
                 assert!(msg.contains("would fit"), "{msg}");
                 assert!(msg.contains("[1.957, 1.957, 1.957]"), "{msg}");
             }
@@ -969,21 +963,74 @@ mod tests {
         let mesh = kuhn_grid([2, 2, 2], [1.0, 1.0, 1.0]);
         let grid = TemplateGrid::covering(&mesh.positions, [0.5; 3]).unwrap();
         let pos = &mesh.positions;
-        let input_err = |r: Result<PullbackTable, OrganError>| {
-            assert!(matches!(r, Err(OrganError::Input(_))), "{r:?}");
+        let n = pos.len();
+        // Compared by their Debug text, so that NaN coordinates match.
+        let input_err = |r: Result<PullbackTable, PullbackError>, want: PullbackError| match r {
+            Err(e) => assert_eq!(format!("{e:?}"), format!("{want:?}")),
+            Ok(_) => panic!("expected {want:?}"),
         };
-        input_err(PullbackTable::new(grid, pos, &mesh.tets, &pos[1..]));
-        input_err(PullbackTable::new(grid, &[], &[], &[]));
-        input_err(PullbackTable::new(grid, pos, &[], pos));
-        input_err(PullbackTable::new(grid, pos, &[[0, 1, 2, 99]], pos));
+        input_err(
+            PullbackTable::new(grid, pos, &mesh.tets, &pos[1..]),
+            PullbackError::LengthMismatch {
+                mapped: n,
+                sources: n - 1,
+            },
+        );
+        input_err(
+            PullbackTable::new(grid, &[], &[], &[]),
+            PullbackError::EmptyMesh {
+                vertices: 0,
+                tets: 0,
+            },
+        );
+        input_err(
+            PullbackTable::new(grid, pos, &[], pos),
+            PullbackError::EmptyMesh {
+                vertices: n,
+                tets: 0,
+            },
+        );
+        input_err(
+            PullbackTable::new(grid, pos, &[[0, 1, 2, 99]], pos),
+            PullbackError::VertexOutOfRange {
+                tet: 0,
+                corners: [0, 1, 2, 99],
+                vertices: n,
+            },
+        );
         let mut nan = pos.clone();
         nan[5].y = f64::NAN;
-        input_err(PullbackTable::new(grid, &nan, &mesh.tets, pos));
-        input_err(PullbackTable::new(grid, pos, &mesh.tets, &nan));
+        let p5 = |y| [pos[5].x, y, pos[5].z];
+        input_err(
+            PullbackTable::new(grid, &nan, &mesh.tets, pos),
+            PullbackError::NotFinite {
+                what: "mapped position",
+                index: 5,
+                point: p5(f64::NAN),
+            },
+        );
+        input_err(
+            PullbackTable::new(grid, pos, &mesh.tets, &nan),
+            PullbackError::NotFinite {
+                what: "source position",
+                index: 5,
+                point: p5(f64::NAN),
+            },
+        );
         nan[5].y = f64::INFINITY;
-        input_err(PullbackTable::new(grid, pos, &mesh.tets, &nan));
+        input_err(
+            PullbackTable::new(grid, pos, &mesh.tets, &nan),
+            PullbackError::NotFinite {
+                what: "source position",
+                index: 5,
+                point: p5(f64::INFINITY),
+            },
+        );
         // Only flat tets.
-        input_err(PullbackTable::new(grid, pos, &[[0, 1, 2, 2]], pos));
+        input_err(
+            PullbackTable::new(grid, pos, &[[0, 1, 2, 2]], pos),
+            PullbackError::AllTetsFlat { tets: 1 },
+        );
         // Hand-made invalid grids.
         for bad in [
             TemplateGrid {
@@ -1007,10 +1054,17 @@ mod tests {
                 ..grid
             },
         ] {
-            assert!(matches!(
-                PullbackTable::new(bad, pos, &mesh.tets, pos),
-                Err(OrganError::ConfigText(_))
-            ));
+            let e = PullbackTable::new(bad, pos, &mesh.tets, pos).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    PullbackError::Spacing { .. }
+                        | PullbackError::Origin { .. }
+                        | PullbackError::GridSize { .. }
+                ),
+                "{e:?}"
+            );
+            assert!(e.to_string().starts_with("invalid configuration: "), "{e}");
         }
         // A grid missing the mesh gives an empty table, which cannot be
         // applied.
@@ -1022,7 +1076,10 @@ mod tests {
         assert!(table.is_empty());
         assert_eq!(table.len(), 0);
         let image = Volume::filled([4, 4, 4, 1], Matrix4::identity(), 1.0f32).unwrap();
-        assert!(matches!(table.apply(&image), Err(OrganError::Input(_))));
+        assert!(matches!(
+            table.apply(&image),
+            Err(PullbackError::EmptyTable { grid_voxels }) if grid_voxels == grid.num_voxels()
+        ));
     }
 
     #[test]

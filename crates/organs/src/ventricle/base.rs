@@ -37,7 +37,7 @@ pub struct ExtendedSurface {
 /// Extends `surface` (with `landmarks`) down to its basal plane.
 ///
 /// # Errors
-/// `Input` when the rim is degenerate (see [`BasalFrame::new`]).
+/// `Ventricle` when the rim is degenerate (see [`BasalFrame::new`]).
 pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSurface, OrganError> {
     let frame = BasalFrame::new(surface, landmarks)?;
     let pos = &surface.positions;
@@ -124,6 +124,7 @@ pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ventricle::error::VentricleError;
     use crate::ventricle::landmarks::DEFAULT_SNAP_MM;
     use proptest::prelude::*;
     use std::f64::consts::TAU;
@@ -333,7 +334,9 @@ mod tests {
             snap_distances_mm: [0.0; 3],
         };
         match close_base(&s, &l) {
-            Err(OrganError::Input(m)) => assert!(m.contains("collinear"), "{m}"),
+            Err(OrganError::Ventricle(e @ VentricleError::CollinearRim { .. })) => {
+                assert!(e.to_string().contains("collinear"), "{e}")
+            }
             other => panic!("{other:?}"),
         }
     }

@@ -3,6 +3,7 @@
 //! landmarks' bisector along +x (anterior on the +y side), and a thin-plate
 //! spline warp that keeps the rim and moves the apex to the centre.
 
+use super::error::VentricleError;
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use unfold_mesh::TriMesh;
@@ -33,30 +34,30 @@ impl ThinPlateSpline {
     /// `P_i = (1, c_i)`.
     ///
     /// # Errors
-    /// `Input` for different lengths, fewer than 3 centres, non-finite
-    /// values, or a singular system (repeated or collinear centres).
-    pub fn fit(centres: &[[f64; 2]], targets: &[[f64; 2]]) -> Result<Self, OrganError> {
+    /// [`VentricleError::SplineLengths`] for different lengths,
+    /// [`VentricleError::SplineTooFewCentres`] for fewer than 3 centres,
+    /// [`VentricleError::SplineNotFinite`] for non-finite values,
+    /// [`VentricleError::SplineSingular`] for a singular system (repeated
+    /// or collinear centres).
+    pub fn fit(centres: &[[f64; 2]], targets: &[[f64; 2]]) -> Result<Self, VentricleError> {
         let m = centres.len();
         if targets.len() != m {
-            return Err(OrganError::Input(format!(
-                "thin-plate spline: {m} centres but {} targets",
-                targets.len()
-            )));
+            return Err(VentricleError::SplineLengths {
+                centres: m,
+                targets: targets.len(),
+            });
         }
         if m < 3 {
-            return Err(OrganError::Input(format!(
-                "thin-plate spline: needs at least 3 centres, got {m}"
-            )));
+            return Err(VentricleError::SplineTooFewCentres {
+                centres: m,
+                needed: 3,
+            });
         }
-        if !centres
-            .iter()
-            .chain(targets)
-            .flatten()
-            .all(|x| x.is_finite())
-        {
-            return Err(OrganError::Input(
-                "thin-plate spline: a centre or target is not finite".into(),
-            ));
+        let finite = |p: &[f64; 2]| p.iter().all(|x| x.is_finite());
+        for (what, points) in [("centre", centres), ("target", targets)] {
+            if let Some(index) = points.iter().position(|p| !finite(p)) {
+                return Err(VentricleError::SplineNotFinite { what, index });
+            }
         }
         let n = m + 3;
         let mut a = DMatrix::<f64>::zeros(n, n);
@@ -84,11 +85,7 @@ impl ThinPlateSpline {
             let x = lu
                 .solve(&b)
                 .filter(|x| x.iter().all(|v| v.is_finite()))
-                .ok_or_else(|| {
-                    OrganError::Input(
-                        "thin-plate spline: singular system (repeated or collinear centres)".into(),
-                    )
-                })?;
+                .ok_or(VentricleError::SplineSingular { centres: m })?;
             for i in 0..m {
                 w[i][d] = x[i];
             }
@@ -184,9 +181,10 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
 /// result's flips are counted ([`DiskMap::flipped_triangles`]).
 ///
 /// # Errors
-/// `Input` for landmarks that do not fit S ([`Landmarks::check`]) or a
-/// spline that cannot be fitted; `Param` / `Mesh` when S cannot be embedded
-/// (not a disk, degenerate).
+/// `Ventricle` for landmarks that do not fit S ([`Landmarks::check`]), a
+/// spline that cannot be fitted ([`ThinPlateSpline::fit`]) or (RV) a rim
+/// arc of zero length; `Param` / `Mesh` when S cannot be embedded (not a
+/// disk, degenerate).
 pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
     landmarks.check(surface)?;
     let rim = &landmarks.rim;
@@ -287,9 +285,11 @@ pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap,
     };
     let (ls, lf) = (ss[ss.len() - 1], sfree[sfree.len() - 1]);
     if !(ls > 0.0 && lf > 0.0 && ls.is_finite() && lf.is_finite()) {
-        return Err(OrganError::Input(
-            "the RV rim has an arc of zero length between its two corners".into(),
-        ));
+        return Err(VentricleError::ZeroRimArc {
+            septal_mm: ls,
+            free_mm: lf,
+        }
+        .into());
     }
     let mut given: Vec<(u32, [f64; 2])> = Vec::with_capacity(m);
     for (k, s) in septal.iter().zip(&ss) {
@@ -445,13 +445,39 @@ mod tests {
     #[test]
     fn tps_refuses_bad_input() {
         let c = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
-        assert!(ThinPlateSpline::fit(&c[..2], &c[..2]).is_err());
-        assert!(ThinPlateSpline::fit(&c, &c[..2]).is_err());
+        assert_eq!(
+            ThinPlateSpline::fit(&c[..2], &c[..2]).unwrap_err(),
+            VentricleError::SplineTooFewCentres {
+                centres: 2,
+                needed: 3
+            }
+        );
+        assert_eq!(
+            ThinPlateSpline::fit(&c, &c[..2]).unwrap_err(),
+            VentricleError::SplineLengths {
+                centres: 3,
+                targets: 2
+            }
+        );
         let collinear = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
         let e = ThinPlateSpline::fit(&collinear, &collinear).unwrap_err();
+        assert_eq!(e, VentricleError::SplineSingular { centres: 3 });
         assert!(e.to_string().contains("singular"), "{e}");
         let nan = [[0.0, 0.0], [1.0, 0.0], [f64::NAN, 1.0]];
-        assert!(ThinPlateSpline::fit(&nan, &c).is_err());
+        assert_eq!(
+            ThinPlateSpline::fit(&nan, &c).unwrap_err(),
+            VentricleError::SplineNotFinite {
+                what: "centre",
+                index: 2
+            }
+        );
+        assert_eq!(
+            ThinPlateSpline::fit(&c, &nan).unwrap_err(),
+            VentricleError::SplineNotFinite {
+                what: "target",
+                index: 2
+            }
+        );
     }
 
     fn disk_of(p: &VentricleParams) -> (unfold_mesh::shapes::VentricleShape, Landmarks, DiskMap) {

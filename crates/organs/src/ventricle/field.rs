@@ -34,6 +34,7 @@
 //! point is the trilinear interpolation of the nodal gradients: one
 //! continuous field, mirrored across the cap (`g_z(x, y, -z) = -g_z(x, y, z)`).
 
+use super::error::VentricleError;
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
@@ -101,9 +102,10 @@ impl BasalFrame {
     /// centroid moved along `e3` to the smallest rim height.
     ///
     /// # Errors
-    /// `Input` when the rim is degenerate (collinear) or the apex lies in the
+    /// [`VentricleError::CollinearRim`] when the rim is degenerate
+    /// (collinear), [`VentricleError::FlatCup`] when the apex lies in the
     /// rim's plane.
-    pub fn new(surface: &TriMesh, landmarks: &Landmarks) -> Result<BasalFrame, OrganError> {
+    pub fn new(surface: &TriMesh, landmarks: &Landmarks) -> Result<BasalFrame, VentricleError> {
         let pos = &surface.positions;
         let rim: Vec<Point3<f64>> = landmarks.rim.iter().map(|&v| pos[v as usize]).collect();
         let n = rim.len() as f64;
@@ -118,17 +120,15 @@ impl BasalFrame {
         order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
         let l2 = eig.eigenvalues[order[2]];
         if l2.is_nan() || l2 <= 0.0 || eig.eigenvalues[order[1]] <= 1e-12 * l2 {
-            return Err(OrganError::Input(
-                "the rim of S is degenerate (its vertices are collinear)".into(),
-            ));
+            return Err(VentricleError::CollinearRim {
+                variances: order.map(|k| eig.eigenvalues[k]),
+            });
         }
         let mut e3: Vector3<f64> = eig.eigenvectors.column(order[0]).into();
         let apex = pos[landmarks.apex as usize].coords - c;
         let along = apex.dot(&e3);
         if along.abs() <= 1e-9 * apex.norm().max(1e-300) {
-            return Err(OrganError::Input(
-                "the apex lies in the plane of the rim: S is not a cup".into(),
-            ));
+            return Err(VentricleError::FlatCup { height_mm: along });
         }
         if along < 0.0 {
             e3 = -e3;
@@ -273,10 +273,14 @@ impl LaplaceField {
     /// Solves the Laplace field of S (with its landmarks' rim and apex).
     ///
     /// # Errors
-    /// - `Config` for a grid spacing or radius that is not finite and `> 0`,
-    ///   or a grid of more than [`MAX_GRID_NODES`] nodes;
-    /// - `Input` when H does not fit inside S (a vertex of S is within the
-    ///   hemisphere's radius of its centre), or U has no node;
+    /// - `Config` for a grid spacing or radius that is not finite and `> 0`;
+    /// - [`VentricleError::GridTooLarge`] for a grid of more than
+    ///   [`MAX_GRID_NODES`] nodes;
+    /// - [`VentricleError::HemisphereDoesNotFit`] when H does not fit inside
+    ///   S (a vertex of S is within the hemisphere's radius of its centre),
+    ///   [`VentricleError::NoUnknowns`] when U has no node;
+    /// - `Ventricle` for landmarks that do not fit S or a degenerate rim
+    ///   ([`Landmarks::check`], [`BasalFrame::new`]);
     /// - `Param` when the solver fails.
     pub fn solve(
         surface: &TriMesh,
@@ -307,10 +311,12 @@ impl LaplaceField {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             && d <= radius
         {
-            return Err(OrganError::Input(format!(
-                "the hemisphere H (radius {radius} mm at the centre of the base) does not fit \
-                 inside S: vertex {v} of S is {d:.3} mm from its centre"
-            )));
+            return Err(VentricleError::HemisphereDoesNotFit {
+                radius_mm: radius,
+                vertex: v,
+                distance_mm: d,
+            }
+            .into());
         }
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
@@ -336,11 +342,12 @@ impl LaplaceField {
         let total = match total {
             Some(t) if t <= MAX_GRID_NODES => t,
             _ => {
-                return Err(OrganError::ConfigText(format!(
-                    "a {h} mm grid over S needs {}x{}x{} nodes (more than {MAX_GRID_NODES}); \
-                     use a coarser grid",
-                    dims[0], dims[1], dims[2]
-                )));
+                return Err(VentricleError::GridTooLarge {
+                    grid_mm: h,
+                    dims,
+                    limit: MAX_GRID_NODES,
+                }
+                .into());
             }
         };
         let grid = Grid { h, origin, dims };
@@ -355,10 +362,7 @@ impl LaplaceField {
         let index = connected_unknowns(&grid, &mut state);
         let unknowns = index.iter().filter(|&&x| x != u32::MAX).count();
         if unknowns == 0 {
-            return Err(OrganError::Input(format!(
-                "no grid node lies between S and the hemisphere H at a {h} mm grid; \
-                 use a finer grid"
-            )));
+            return Err(VentricleError::NoUnknowns { grid_mm: h }.into());
         }
         let ctx = Ctx {
             grid: &grid,
@@ -371,9 +375,10 @@ impl LaplaceField {
         // the hierarchy keeps A as its finest level: no second copy
         let small = (a.n_rows() <= COARSEST).then(|| a.clone());
         let mg = Multigrid::for_grid(a, dims, &index)?;
-        let a = small.as_ref().or(mg.matrix()).ok_or_else(|| {
-            OrganError::Input("the multigrid hierarchy lost its finest level".into())
-        })?;
+        let a = small
+            .as_ref()
+            .or(mg.matrix())
+            .ok_or(VentricleError::NoFinestLevel)?;
         let mut f = vec![0.0; unknowns];
         let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
         let (slot, grad, value) = ctx.gradients(&f);
@@ -1139,11 +1144,13 @@ mod tests {
         );
         for s in [&line, &point] {
             for e in [
-                BasalFrame::new(s, &hand(vec![0, 1, 2])).unwrap_err(),
+                BasalFrame::new(s, &hand(vec![0, 1, 2])).unwrap_err().into(),
                 err_of(LaplaceField::solve(s, &hand(vec![0, 1, 2]), &config(1.0))),
             ] {
                 match e {
-                    OrganError::Input(m) => assert!(m.contains("collinear"), "{m}"),
+                    OrganError::Ventricle(e @ VentricleError::CollinearRim { .. }) => {
+                        assert!(e.to_string().contains("collinear"), "{e}")
+                    }
                     e => panic!("{e:?}"),
                 }
             }
@@ -1159,7 +1166,10 @@ mod tests {
             tris,
         );
         match BasalFrame::new(&flat, &hand(vec![0, 1, 2])).unwrap_err() {
-            OrganError::Input(m) => assert!(m.contains("not a cup"), "{m}"),
+            e @ VentricleError::FlatCup { height_mm } => {
+                assert!(height_mm.abs() < 1e-9, "{height_mm}");
+                assert!(e.to_string().contains("not a cup"), "{e}")
+            }
             e => panic!("{e:?}"),
         }
     }
@@ -1272,14 +1282,15 @@ mod tests {
         let (s, l) = (&h.cup.surface, &h.landmarks);
         let solve = |c: FieldConfig| err_of(LaplaceField::solve(s, l, &c));
         let config_error = |e: OrganError, want: &str| match e {
-            e @ (OrganError::Config(_) | OrganError::ConfigText(_)) => {
+            e @ (OrganError::Config(_)
+            | OrganError::Ventricle(VentricleError::GridTooLarge { .. })) => {
                 assert!(e.to_string().contains(want), "{e}")
             }
             e => panic!("expected a Config error about {want}, got {e:?}"),
         };
         let input_error = |e: OrganError, want: &str| match e {
-            OrganError::Input(m) => assert!(m.contains(want), "{m}"),
-            e => panic!("expected an Input error about {want}, got {e:?}"),
+            OrganError::Ventricle(e) => assert!(e.to_string().contains(want), "{e}"),
+            e => panic!("expected a Ventricle error about {want}, got {e:?}"),
         };
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             config_error(solve(config(bad)), "grid spacing");
@@ -1299,32 +1310,63 @@ mod tests {
             );
         }
         // 4011 x 4011 x 2006 nodes
-        config_error(solve(config(0.01)), "coarser grid");
-        input_error(
-            solve(FieldConfig {
-                hemisphere_mm: 1000.0,
-                ..config(1.0)
-            }),
-            "does not fit",
+        let e = solve(config(0.01));
+        assert!(
+            matches!(
+                e,
+                OrganError::Ventricle(VentricleError::GridTooLarge {
+                    dims: [4011, 4011, 2006],
+                    limit: MAX_GRID_NODES,
+                    ..
+                })
+            ),
+            "{e:?}"
         );
+        config_error(e, "coarser grid");
+        let e = solve(FieldConfig {
+            hemisphere_mm: 1000.0,
+            ..config(1.0)
+        });
+        assert!(
+            matches!(
+                e,
+                OrganError::Ventricle(VentricleError::HemisphereDoesNotFit { radius_mm, .. })
+                    if radius_mm == 1000.0
+            ),
+            "{e:?}"
+        );
+        input_error(e, "does not fit");
         // H as large as S: the nearest vertex is R from the centre
-        input_error(
-            solve(FieldConfig {
-                hemisphere_mm: R,
-                ..config(1.0)
-            }),
-            "does not fit",
+        let e = solve(FieldConfig {
+            hemisphere_mm: R,
+            ..config(1.0)
+        });
+        assert!(
+            matches!(
+                e,
+                OrganError::Ventricle(VentricleError::HemisphereDoesNotFit { distance_mm, .. })
+                    if (distance_mm - R).abs() < 1e-9
+            ),
+            "{e:?}"
         );
+        input_error(e, "does not fit");
         // a grid far coarser than S: no node between S and H
-        input_error(solve(config(100.0)), "finer grid");
+        let e = solve(config(100.0));
+        assert_eq!(
+            e,
+            OrganError::Ventricle(VentricleError::NoUnknowns { grid_mm: 100.0 })
+        );
+        input_error(e, "finer grid");
         // landmarks that do not fit S
         let two = Landmarks {
             rim: vec![l.rim[0], l.rim[1]],
             ..l.clone()
         };
-        input_error(
-            err_of(LaplaceField::solve(s, &two, &config(1.0))),
-            "landmarks",
+        let e = err_of(LaplaceField::solve(s, &two, &config(1.0)));
+        assert_eq!(
+            e,
+            OrganError::Ventricle(VentricleError::RimTooShort { rim: 2 })
         );
+        input_error(e, "landmarks");
     }
 }

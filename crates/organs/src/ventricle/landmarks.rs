@@ -2,6 +2,7 @@
 //! basal rim (for the LV the anterior and inferior RV insertion points, for
 //! the RV the two septal corners) and the apex.
 
+use super::error::VentricleError;
 use crate::OrganError;
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::Point3;
@@ -36,12 +37,14 @@ impl Landmarks {
     /// vertex of S farthest from the rim's centroid (vertex average).
     ///
     /// # Errors
-    /// - `Input` when S is not a disk (one connected piece, one boundary
-    ///   loop, no handles; the message says which);
-    /// - `Input` when a landmark is not finite, or a rim landmark lies
-    ///   farther than `snap_mm` from every rim vertex ("off the boundary");
-    /// - `Input` when both rim landmarks snap to the same vertex, or the
-    ///   apex snaps to a rim vertex;
+    /// - [`VentricleError::NotADisk`] when S is not a disk (one connected
+    ///   piece, one boundary loop, no handles; the message says which);
+    /// - [`VentricleError::LandmarkNotFinite`] when a landmark is not
+    ///   finite, [`VentricleError::LandmarkOffRim`] when a rim landmark lies
+    ///   farther than `snap_mm` from every rim vertex;
+    /// - [`VentricleError::SameRimVertex`] when both rim landmarks snap to
+    ///   the same vertex, [`VentricleError::ApexOnRim`] when the apex snaps
+    ///   to a rim vertex;
     /// - `Config` for a `snap_mm` that is not finite and `> 0`.
     pub fn resolve(
         surface: &TriMesh,
@@ -51,43 +54,41 @@ impl Landmarks {
         snap_mm: f64,
     ) -> Result<Landmarks, OrganError> {
         OrganError::check_positive(&[("landmark snap distance (mm)", snap_mm)])?;
-        let rim = disk_boundary_loop(surface).map_err(|e| {
-            OrganError::Input(format!("the enclosing surface S is not a disk: {e}"))
-        })?;
-        let finite = |what: &str, p: &Point3<f64>| {
+        let rim = disk_boundary_loop(surface).map_err(VentricleError::NotADisk)?;
+        let finite = |landmark: &'static str, p: &Point3<f64>| {
             if p.coords.iter().all(|x| x.is_finite()) {
                 Ok(())
             } else {
-                Err(OrganError::Input(format!(
-                    "the {what} landmark is not finite: {p:?}"
-                )))
+                Err(VentricleError::LandmarkNotFinite {
+                    landmark,
+                    point: [p.x, p.y, p.z],
+                })
             }
         };
         let pos = &surface.positions;
-        let nearest_on_rim = |what: &str, p: &Point3<f64>| -> Result<(usize, f64), OrganError> {
-            finite(what, p)?;
-            let (k, d) = rim
-                .iter()
-                .enumerate()
-                .map(|(k, &v)| (k, (pos[v as usize] - p).norm()))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .ok_or_else(|| OrganError::Input("S has an empty boundary loop".into()))?;
-            if d > snap_mm {
-                return Err(OrganError::Input(format!(
-                    "the {what} landmark {:?} is {d:.3} mm from the nearest vertex of S's \
-                     boundary loop (more than {snap_mm} mm): it must lie on the basal rim",
-                    [p.x, p.y, p.z]
-                )));
-            }
-            Ok((k, d))
-        };
+        let nearest_on_rim =
+            |landmark: &'static str, p: &Point3<f64>| -> Result<(usize, f64), VentricleError> {
+                finite(landmark, p)?;
+                let (k, d) = rim
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &v)| (k, (pos[v as usize] - p).norm()))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .ok_or(VentricleError::EmptyRim)?;
+                if d > snap_mm {
+                    return Err(VentricleError::LandmarkOffRim {
+                        landmark,
+                        point: [p.x, p.y, p.z],
+                        distance_mm: d,
+                        snap_mm,
+                    });
+                }
+                Ok((k, d))
+            };
         let (a, da) = nearest_on_rim("anterior", anterior)?;
         let (i, di) = nearest_on_rim("inferior", inferior)?;
         if a == i {
-            return Err(OrganError::Input(format!(
-                "the anterior and inferior landmarks snap to the same rim vertex {}",
-                rim[a]
-            )));
+            return Err(VentricleError::SameRimVertex { vertex: rim[a] }.into());
         }
         let mut used = vec![false; pos.len()];
         for t in &surface.triangles {
@@ -102,7 +103,7 @@ impl Landmarks {
                     .filter(|&v| used[v])
                     .map(|v| (v, (pos[v] - p).norm()))
                     .min_by(|a, b| a.1.total_cmp(&b.1))
-                    .ok_or_else(|| OrganError::Input("S has no vertex".into()))?;
+                    .ok_or(VentricleError::NoVertex)?;
                 (v as u32, d)
             }
             None => {
@@ -114,14 +115,12 @@ impl Landmarks {
                     .filter(|&v| used[v])
                     .map(|v| (v, (pos[v] - c).norm()))
                     .max_by(|a, b| a.1.total_cmp(&b.1))
-                    .ok_or_else(|| OrganError::Input("S has no vertex".into()))?;
+                    .ok_or(VentricleError::NoVertex)?;
                 (v as u32, 0.0)
             }
         };
         if rim.contains(&apex) {
-            return Err(OrganError::Input(format!(
-                "the apex is the rim vertex {apex}: it must be inside S, away from the basal rim"
-            )));
+            return Err(VentricleError::ApexOnRim { apex }.into());
         }
         Ok(Landmarks {
             rim,
@@ -140,25 +139,33 @@ impl Landmarks {
     /// distinct, the apex not on the rim.
     ///
     /// # Errors
-    /// `Input` naming the first problem.
-    pub fn check(&self, surface: &TriMesh) -> Result<(), OrganError> {
+    /// [`VentricleError::RimTooShort`], [`VentricleError::RimVertexOutOfRange`],
+    /// [`VentricleError::RimPositions`] or [`VentricleError::ApexInvalid`]
+    /// for the first problem.
+    pub fn check(&self, surface: &TriMesh) -> Result<(), VentricleError> {
         let n = surface.positions.len();
-        let bad = |m: String| Err(OrganError::Input(format!("landmarks: {m}")));
-        if self.rim.len() < 3 {
-            return bad(format!("a rim of {} vertices", self.rim.len()));
-        }
-        if let Some(v) = self.rim.iter().find(|&&v| v as usize >= n) {
-            return bad(format!("rim vertex {v} out of range ({n} vertices)"));
-        }
         let m = self.rim.len();
+        if m < 3 {
+            return Err(VentricleError::RimTooShort { rim: m });
+        }
+        if let Some(&vertex) = self.rim.iter().find(|&&v| v as usize >= n) {
+            return Err(VentricleError::RimVertexOutOfRange {
+                vertex,
+                vertices: n,
+            });
+        }
         if self.anterior >= m || self.inferior >= m || self.anterior == self.inferior {
-            return bad(format!(
-                "rim positions {} and {} for a rim of {m} vertices (two distinct ones needed)",
-                self.anterior, self.inferior
-            ));
+            return Err(VentricleError::RimPositions {
+                anterior: self.anterior,
+                inferior: self.inferior,
+                rim: m,
+            });
         }
         if self.apex as usize >= n || self.rim.contains(&self.apex) {
-            return bad(format!("apex {} out of range or on the rim", self.apex));
+            return Err(VentricleError::ApexInvalid {
+                apex: self.apex,
+                vertices: n,
+            });
         }
         Ok(())
     }
@@ -203,39 +210,63 @@ mod tests {
     fn bad_landmarks_are_refused_with_a_clear_error() {
         let cup = ventricle_cup(&VentricleParams::default()).unwrap();
         let s = &cup.surface;
-        let msg = |r: Result<Landmarks, OrganError>| match r {
-            Err(e) => e.to_string(),
+        let err = |r: Result<Landmarks, OrganError>| match r {
+            Err(e) => e,
             Ok(l) => panic!("expected an error, got {l:?}"),
         };
+        let msg = |r: Result<Landmarks, OrganError>| err(r).to_string();
         // Off the boundary: the apex given as the anterior landmark.
-        let m = msg(Landmarks::resolve(s, &cup.apex, &cup.inferior, None, 5.0));
+        let r = Landmarks::resolve(s, &cup.apex, &cup.inferior, None, 5.0);
+        assert!(
+            matches!(
+                r,
+                Err(OrganError::Ventricle(VentricleError::LandmarkOffRim {
+                    landmark: "anterior",
+                    snap_mm: 5.0,
+                    ..
+                }))
+            ),
+            "{r:?}"
+        );
+        let m = msg(r);
         assert!(m.contains("anterior") && m.contains("basal rim"), "{m}");
-        let m = msg(Landmarks::resolve(
-            s,
-            &cup.anterior,
-            &cup.anterior,
-            None,
-            5.0,
-        ));
+        let r = Landmarks::resolve(s, &cup.anterior, &cup.anterior, None, 5.0);
+        assert!(
+            matches!(
+                r,
+                Err(OrganError::Ventricle(VentricleError::SameRimVertex { .. }))
+            ),
+            "{r:?}"
+        );
+        let m = msg(r);
         assert!(m.contains("same rim vertex"), "{m}");
         let nan = Point3::new(f64::NAN, 0.0, 0.0);
-        let m = msg(Landmarks::resolve(s, &cup.anterior, &nan, None, 5.0));
+        let r = Landmarks::resolve(s, &cup.anterior, &nan, None, 5.0);
+        assert!(
+            matches!(
+                r,
+                Err(OrganError::Ventricle(VentricleError::LandmarkNotFinite {
+                    landmark: "inferior",
+                    ..
+                }))
+            ),
+            "{r:?}"
+        );
+        let m = msg(r);
         assert!(m.contains("inferior") && m.contains("not finite"), "{m}");
-        let m = msg(Landmarks::resolve(
-            s,
-            &cup.anterior,
-            &cup.inferior,
-            Some(&cup.anterior),
-            5.0,
-        ));
+        let r = Landmarks::resolve(s, &cup.anterior, &cup.inferior, Some(&cup.anterior), 5.0);
+        assert!(
+            matches!(
+                r,
+                Err(OrganError::Ventricle(VentricleError::ApexOnRim { .. }))
+            ),
+            "{r:?}"
+        );
+        let m = msg(r);
         assert!(m.contains("apex"), "{m}");
-        let m = msg(Landmarks::resolve(
-            s,
-            &cup.anterior,
-            &cup.inferior,
-            None,
-            0.0,
-        ));
+        let r = Landmarks::resolve(s, &cup.anterior, &cup.inferior, None, 0.0);
+        assert!(matches!(r, Err(OrganError::Config(_))), "{r:?}");
+        let m = msg(r);
         assert!(m.contains("snap"), "{m}");
         // Not a disk: the cup closed by a fan over its rim.
         let mut closed = s.clone();
@@ -248,13 +279,18 @@ mod tests {
             let (a, b) = (cup.rim[k], cup.rim[(k + 1) % cup.rim.len()]);
             closed.triangles.push([a, b, c]);
         }
-        let m = msg(Landmarks::resolve(
+        let e = err(Landmarks::resolve(
             &closed,
             &cup.anterior,
             &cup.inferior,
             None,
             5.0,
         ));
+        assert!(
+            matches!(e, OrganError::Ventricle(VentricleError::NotADisk(_))),
+            "{e:?}"
+        );
+        let m = e.to_string();
         assert!(m.contains("not a disk"), "{m}");
     }
 
@@ -287,7 +323,8 @@ mod tests {
                 ..good.clone()
             },
         ] {
-            assert!(matches!(l.check(s), Err(OrganError::Input(_))), "{l:?}");
+            let e = l.check(s).unwrap_err();
+            assert!(e.to_string().starts_with("landmarks: "), "{e}");
             assert!(crate::ventricle::disk::lv_disk(s, &l).is_err());
             assert!(crate::ventricle::disk::rv_half_disk(s, &l).is_err());
         }

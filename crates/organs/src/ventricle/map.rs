@@ -14,9 +14,10 @@
 
 use super::base::{ExtendedSurface, close_base};
 use super::disk::{DiskMap, lv_disk, rv_half_disk};
+use super::error::{PointFailure, VentricleError};
 use super::field::{FieldConfig, LaplaceField};
 use super::landmarks::Landmarks;
-use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceFailure, Tracer};
+use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceTarget, Tracer};
 use crate::OrganError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -126,23 +127,15 @@ pub struct Chart {
     timings: ChartTimings,
 }
 
-/// A point that could not be mapped, and why.
-fn point_error(what: &str, failures: &[(usize, String)], total: usize) -> OrganError {
-    let (i, why) = &failures[0];
-    OrganError::Input(format!(
-        "{} of {total} {what} cannot be mapped; the first, point {i}: {why}",
-        failures.len()
-    ))
-}
-
 impl Chart {
     /// Repairs S (orientation, duplicate triangles), resolves the landmarks
     /// (given points snapped to the rim; the apex given or found), flattens
     /// S to the disk (LV) or half disk (RV) and solves the Laplace field.
     ///
     /// # Errors
-    /// `Input` when S cannot be repaired into a disk, a landmark is off the
-    /// rim, the disk map folds, or H does not fit; `Config` for bad
+    /// `Mesh` when S cannot be repaired; `Ventricle` when S is not a disk,
+    /// a landmark is off the rim, the disk map folds
+    /// ([`VentricleError::DiskFlips`]) or H does not fit; `Config` for bad
     /// settings.
     pub fn new(
         surface: &TriMesh,
@@ -169,10 +162,10 @@ impl Chart {
             Chamber::Rv => rv_half_disk(&surface, &landmarks)?,
         };
         if disk.flipped_triangles > 0 {
-            return Err(OrganError::Input(format!(
-                "the disk map of S flips {} triangles",
-                disk.flipped_triangles
-            )));
+            return Err(VentricleError::DiskFlips {
+                triangles: disk.flipped_triangles,
+            }
+            .into());
         }
         let locator = PlanarTriLocator::new(&disk.uv, &surface.triangles);
         let closest = ClosestPointQuery::new(&surface);
@@ -315,52 +308,47 @@ impl Chart {
     /// `psi(v)` of one point.
     ///
     /// # Errors
-    /// A one-line reason: the point is outside S, inside H, or its
-    /// streamline fails.
-    pub fn forward(&self, v: &Point3<f64>) -> Result<ForwardPoint, String> {
-        if !v.coords.iter().all(|x| x.is_finite()) {
-            return Err(format!("it is not finite: {:?}", [v.x, v.y, v.z]));
+    /// Why the point cannot be mapped: [`PointFailure::NotFinite`],
+    /// [`PointFailure::OutsideSurface`], [`PointFailure::InsideHemisphere`],
+    /// or [`PointFailure::Streamline`] when its streamline fails.
+    pub fn forward(&self, v: &Point3<f64>) -> Result<ForwardPoint, PointFailure> {
+        let point = [v.x, v.y, v.z];
+        if !point.iter().all(|x| x.is_finite()) {
+            return Err(PointFailure::NotFinite { point });
         }
         let tracer = self.tracer();
         let frame = self.field.frame();
-        let near = self
-            .closest
-            .closest(v)
-            .ok_or_else(|| "S has no triangle".to_string())?;
-        let (triangle, barycentric, to_surface, start) = if near.distance
-            <= self.config.on_surface_mm
-        {
-            let s = self.surface_point(near.triangle, near.barycentric);
-            (near.triangle, near.barycentric, 0.0, s)
-        } else {
-            let mut q = frame.local(v);
-            if q[2] < 0.0 && q[2] > -self.config.on_surface_mm {
-                q[2] = 0.0;
-            }
-            let mut buf = Vec::new();
-            if !self.index.contains(q, &mut buf) {
-                return Err(format!(
-                    "({:.3}, {:.3}, {:.3}) lies outside S (closed by its basal plane), {:.3} mm \
-                     from it",
-                    v.x, v.y, v.z, near.distance
-                ));
-            }
-            if self.field.hemisphere_level(q) < -self.config.on_surface_mm {
-                return Err(format!(
-                    "({:.3}, {:.3}, {:.3}) lies inside the hemisphere H (radius {} mm at the \
-                     centre of the base)",
-                    v.x,
-                    v.y,
-                    v.z,
-                    self.field.hemisphere_radius()
-                ));
-            }
-            let hit = tracer.to_surface(q).map_err(|e| e.describe("S"))?;
-            (hit.triangle, hit.barycentric, hit.length, q)
-        };
+        let near = self.closest.closest(v).ok_or(PointFailure::NoTriangle)?;
+        let (triangle, barycentric, to_surface, start) =
+            if near.distance <= self.config.on_surface_mm {
+                let s = self.surface_point(near.triangle, near.barycentric);
+                (near.triangle, near.barycentric, 0.0, s)
+            } else {
+                let mut q = frame.local(v);
+                if q[2] < 0.0 && q[2] > -self.config.on_surface_mm {
+                    q[2] = 0.0;
+                }
+                let mut buf = Vec::new();
+                if !self.index.contains(q, &mut buf) {
+                    return Err(PointFailure::OutsideSurface {
+                        point,
+                        distance_mm: near.distance,
+                    });
+                }
+                if self.field.hemisphere_level(q) < -self.config.on_surface_mm {
+                    return Err(PointFailure::InsideHemisphere {
+                        point,
+                        radius_mm: self.field.hemisphere_radius(),
+                    });
+                }
+                let hit = tracer
+                    .to_surface(q)
+                    .map_err(|e| e.toward(TraceTarget::Surface))?;
+                (hit.triangle, hit.barycentric, hit.length, q)
+            };
         let (_, to_h) = tracer
             .to_hemisphere(start)
-            .map_err(|e: TraceFailure| e.describe("the hemisphere H"))?;
+            .map_err(|e| e.toward(TraceTarget::Hemisphere))?;
         let [xi, zeta] = self.disk_point(triangle, barycentric);
         let total = to_surface + to_h;
         let depth = if total > 0.0 { to_surface / total } else { 1.0 };
@@ -376,9 +364,10 @@ impl Chart {
     /// `psi` of every point, in parallel.
     ///
     /// # Errors
-    /// `Input` saying how many points failed and why the first did.
-    pub fn forward_all(&self, points: &[Point3<f64>]) -> Result<Vec<ForwardPoint>, OrganError> {
-        let out: Vec<Result<ForwardPoint, String>> =
+    /// [`VentricleError::Unmapped`]: how many points failed and why the
+    /// first did.
+    pub fn forward_all(&self, points: &[Point3<f64>]) -> Result<Vec<ForwardPoint>, VentricleError> {
+        let out: Vec<Result<ForwardPoint, PointFailure>> =
             points.par_iter().map(|p| self.forward(p)).collect();
         collect("anatomy points", out)
     }
@@ -423,20 +412,21 @@ impl Chart {
     /// `psi^-1` of one cylinder point.
     ///
     /// # Errors
-    /// A one-line reason: the disk position is outside the (half) disk, the
-    /// depth is outside `[0, 1]`, or the streamline fails.
-    pub fn inverse(&self, c: &CylinderPoint) -> Result<Point3<f64>, String> {
+    /// Why the point cannot be mapped: [`PointFailure::NotOnCylinder`] for a
+    /// non-finite point or a depth outside `[0, 1]`,
+    /// [`PointFailure::OffDisk`] for a disk position outside the (half)
+    /// disk, [`PointFailure::Streamline`] when the streamline fails.
+    pub fn inverse(&self, c: &CylinderPoint) -> Result<Point3<f64>, PointFailure> {
         if !(c.xi.is_finite() && c.zeta.is_finite() && (0.0..=1.0).contains(&c.depth)) {
-            return Err(format!(
-                "({}, {}, {}) is not a point of the cylinder (depth must be in [0, 1])",
-                c.xi, c.zeta, c.depth
-            ));
+            return Err(PointFailure::NotOnCylinder {
+                xi: c.xi,
+                zeta: c.zeta,
+                depth: c.depth,
+            });
         }
-        let (t, b) = self.locate(c.xi, c.zeta).ok_or_else(|| {
-            format!(
-                "the disk position ({:.6}, {:.6}) lies outside the flattened S",
-                c.xi, c.zeta
-            )
+        let (t, b) = self.locate(c.xi, c.zeta).ok_or(PointFailure::OffDisk {
+            xi: c.xi,
+            zeta: c.zeta,
         })?;
         let start = self.surface_point(t, b);
         let frame = self.field.frame();
@@ -446,39 +436,53 @@ impl Chart {
         let tracer = self.tracer();
         let (end, total, record) = tracer
             .to_hemisphere_recorded(start)
-            .map_err(|e| e.describe("the hemisphere H"))?;
+            .map_err(|e| e.toward(TraceTarget::Hemisphere))?;
         if c.depth == 1.0 {
             return Ok(frame.world(end));
         }
         let q = tracer
             .along_recorded(&record, c.depth * total)
-            .map_err(|e| e.describe("its depth"))?;
+            .map_err(|e| e.toward(TraceTarget::Depth))?;
         Ok(frame.world(q))
     }
 
     /// `psi^-1` of every cylinder point, in parallel.
     ///
     /// # Errors
-    /// `Input` saying how many points failed and why the first did.
-    pub fn inverse_all(&self, coords: &[CylinderPoint]) -> Result<Vec<Point3<f64>>, OrganError> {
-        let out: Vec<Result<Point3<f64>, String>> =
+    /// [`VentricleError::Unmapped`]: how many points failed and why the
+    /// first did.
+    pub fn inverse_all(
+        &self,
+        coords: &[CylinderPoint],
+    ) -> Result<Vec<Point3<f64>>, VentricleError> {
+        let out: Vec<Result<Point3<f64>, PointFailure>> =
             coords.par_iter().map(|c| self.inverse(c)).collect();
         collect("cylinder points", out)
     }
 }
 
-/// All results, or an error naming the failures.
-fn collect<T>(what: &str, out: Vec<Result<T, String>>) -> Result<Vec<T>, OrganError> {
+/// All results, or [`VentricleError::Unmapped`] naming how many of the
+/// `points` failed and why the first did.
+fn collect<T>(
+    points: &'static str,
+    out: Vec<Result<T, PointFailure>>,
+) -> Result<Vec<T>, VentricleError> {
     let total = out.len();
-    let failures: Vec<(usize, String)> = out
+    let mut failures = out
         .iter()
         .enumerate()
-        .filter_map(|(i, r)| r.as_ref().err().map(|e| (i, e.clone())))
-        .collect();
-    if !failures.is_empty() {
-        return Err(point_error(what, &failures, total));
+        .filter_map(|(i, r)| r.as_ref().err().map(|e| (i, *e)));
+    if let Some((first, reason)) = failures.next() {
+        return Err(VentricleError::Unmapped {
+            points,
+            failed: 1 + failures.count(),
+            total,
+            first,
+            reason,
+        });
     }
-    Ok(out.into_iter().map(|r| r.expect("no failures")).collect())
+    // No failure: every result is a value.
+    Ok(out.into_iter().flatten().collect())
 }
 
 #[cfg(test)]
@@ -541,11 +545,15 @@ mod tests {
         Point3::new(t * d[0], t * d[1], t * d[2])
     }
 
-    fn message<T: std::fmt::Debug>(r: Result<T, String>) -> String {
+    fn failure<T: std::fmt::Debug>(r: Result<T, PointFailure>) -> PointFailure {
         match r {
-            Err(m) => m,
+            Err(e) => e,
             Ok(x) => panic!("expected an error, got {x:?}"),
         }
+    }
+
+    fn message<T: std::fmt::Debug>(r: Result<T, PointFailure>) -> String {
+        failure(r).to_string()
     }
 
     proptest! {
@@ -620,8 +628,9 @@ mod tests {
     fn bad_points_are_refused_with_a_clear_error() {
         let c = cup();
         let ch = &c.chart;
-        let m = message(ch.forward(&Point3::new(f64::NAN, 0.0, -10.0)));
-        assert!(m.contains("not finite"), "{m}");
+        let e = failure(ch.forward(&Point3::new(f64::NAN, 0.0, -10.0)));
+        assert!(matches!(e, PointFailure::NotFinite { .. }), "{e:?}");
+        assert!(e.to_string().contains("not finite"), "{e}");
         let m = message(ch.forward(&Point3::new(0.0, f64::INFINITY, -10.0)));
         assert!(m.contains("not finite"), "{m}");
         // beyond the apex, beside the cup, above the base
@@ -630,24 +639,44 @@ mod tests {
             Point3::new(40.0, 0.0, -20.0),
             Point3::new(0.0, 0.0, 3.0),
         ] {
-            let m = message(ch.forward(&p));
+            let e = failure(ch.forward(&p));
+            match e {
+                PointFailure::OutsideSurface { point, distance_mm } => {
+                    assert_eq!(point, [p.x, p.y, p.z]);
+                    assert!(distance_mm > 0.0, "{distance_mm}");
+                }
+                e => panic!("expected outside S, got {e:?}"),
+            }
+            let m = e.to_string();
             assert!(m.contains("outside S"), "{m}");
         }
-        let m = message(ch.forward(&Point3::new(1.0, -1.0, -2.0)));
+        let e = failure(ch.forward(&Point3::new(1.0, -1.0, -2.0)));
+        assert_eq!(
+            e,
+            PointFailure::InsideHemisphere {
+                point: [1.0, -1.0, -2.0],
+                radius_mm: ch.field().hemisphere_radius()
+            }
+        );
+        let m = e.to_string();
         assert!(m.contains("inside the hemisphere"), "{m}");
         let ok = ch.forward(&c.shape.anatomy_points[0]).unwrap().coords;
         for depth in [1.5, -0.1, f64::NAN, f64::INFINITY] {
-            let m = message(ch.inverse(&CylinderPoint { depth, ..ok }));
+            let e = failure(ch.inverse(&CylinderPoint { depth, ..ok }));
+            assert!(matches!(e, PointFailure::NotOnCylinder { .. }), "{e:?}");
+            let m = e.to_string();
             assert!(m.contains("depth"), "{m}");
         }
         let m = message(ch.inverse(&CylinderPoint { xi: f64::NAN, ..ok }));
         assert!(m.contains("not a point of the cylinder"), "{m}");
         for (xi, zeta) in [(3.0, 0.0), (0.0, -1.01), (0.8, 0.8)] {
-            let m = message(ch.inverse(&CylinderPoint {
+            let e = failure(ch.inverse(&CylinderPoint {
                 xi,
                 zeta,
                 depth: 0.5,
             }));
+            assert_eq!(e, PointFailure::OffDisk { xi, zeta });
+            let m = e.to_string();
             assert!(m.contains("outside the flattened S"), "{m}");
         }
     }
@@ -659,7 +688,16 @@ mod tests {
         let mut points = good.to_vec();
         points.insert(3, Point3::new(0.0, 0.0, -65.0));
         match c.chart.forward_all(&points) {
-            Err(OrganError::Input(m)) => {
+            Err(
+                e @ VentricleError::Unmapped {
+                    points: "anatomy points",
+                    failed: 1,
+                    total: 5,
+                    first: 3,
+                    reason: PointFailure::OutsideSurface { .. },
+                },
+            ) => {
+                let m = e.to_string();
                 assert!(m.contains("1 of 5 anatomy points"), "{m}");
                 assert!(m.contains("point 3"), "{m}");
                 assert!(m.contains("outside S"), "{m}");
@@ -668,7 +706,16 @@ mod tests {
         }
         points[1] = Point3::new(f64::NAN, 0.0, 0.0);
         match c.chart.forward_all(&points) {
-            Err(OrganError::Input(m)) => {
+            Err(
+                e @ VentricleError::Unmapped {
+                    failed: 2,
+                    total: 5,
+                    first: 1,
+                    reason: PointFailure::NotFinite { .. },
+                    ..
+                },
+            ) => {
+                let m = e.to_string();
                 assert!(m.contains("2 of 5"), "{m}");
                 assert!(m.contains("point 1") && m.contains("not finite"), "{m}");
             }
@@ -683,7 +730,16 @@ mod tests {
         }
         coords[2].depth = 2.0;
         match c.chart.inverse_all(&coords) {
-            Err(OrganError::Input(m)) => {
+            Err(
+                e @ VentricleError::Unmapped {
+                    points: "cylinder points",
+                    failed: 1,
+                    total: 4,
+                    first: 2,
+                    reason: PointFailure::NotOnCylinder { depth: 2.0, .. },
+                },
+            ) => {
+                let m = e.to_string();
                 assert!(m.contains("1 of 4 cylinder points"), "{m}");
                 assert!(m.contains("point 2") && m.contains("depth"), "{m}");
             }
@@ -718,7 +774,9 @@ mod tests {
         let mut big = config(Chamber::Lv, 2.0);
         big.field.hemisphere_mm = 30.0;
         match new(big) {
-            Err(OrganError::Input(m)) => assert!(m.contains("does not fit"), "{m}"),
+            Err(OrganError::Ventricle(e @ VentricleError::HemisphereDoesNotFit { .. })) => {
+                assert!(e.to_string().contains("does not fit"), "{e}")
+            }
             other => panic!("{other:?}"),
         }
     }
@@ -751,11 +809,12 @@ mod tests {
             assert!((p - q).norm() < 1e-4, "{}", (p - q).norm());
         }
         // the LV disk's centre is outside the half disk
-        let m = message(chart.inverse(&CylinderPoint {
+        let e = failure(chart.inverse(&CylinderPoint {
             xi: 0.0,
             zeta: 0.0,
             depth: 0.5,
         }));
-        assert!(m.contains("outside the flattened S"), "{m}");
+        assert_eq!(e, PointFailure::OffDisk { xi: 0.0, zeta: 0.0 });
+        assert!(e.to_string().contains("outside the flattened S"), "{e}");
     }
 }

@@ -20,15 +20,18 @@
 //! - [`map`]: a [`Chart`] of one heart: `psi`, `psi^-1`, transfer.
 //! - [`aha`]: the AHA 17-segment label of an LV disk position.
 //! - [`pipeline`]: [`run`], the whole pipeline with its outputs and report.
+//! - [`error`]: [`VentricleError`] and [`PointFailure`], what can go wrong.
 
 pub mod aha;
 pub mod base;
 pub mod disk;
+pub mod error;
 pub mod field;
 pub mod landmarks;
 pub mod map;
 pub mod pipeline;
 pub mod trace;
 
+pub use error::{PointFailure, VentricleError};
 pub use map::{Chamber, Chart, ChartConfig, CylinderPoint, ForwardPoint};
 pub use pipeline::{Config, LandmarkPoints, Outcome, Report, run};

@@ -4,6 +4,7 @@
 
 use super::aha::aha_segment;
 use super::disk::display_warp;
+use super::error::VentricleError;
 use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
 use crate::OrganError;
 use serde::Serialize;
@@ -190,8 +191,9 @@ pub fn displayed(
 /// `anatomy` (its connectivity kept), the round trip, AHA labels and depth.
 ///
 /// # Errors
-/// `Input` for a surface that is not a disk, landmarks off the rim, anatomy
-/// points outside S or inside H (how many, and the first), `Config` for
+/// `Ventricle` for an anatomy without points, a surface that is not a
+/// disk, landmarks off the rim, anatomy points outside S or inside H
+/// ([`VentricleError::Unmapped`]: how many, and the first), `Config` for
 /// bad settings.
 pub fn run(
     anatomy: &CellMesh,
@@ -201,7 +203,7 @@ pub fn run(
 ) -> Result<Outcome, OrganError> {
     OrganError::check_positive(&[("display exponent", config.display_exponent)])?;
     if anatomy.positions.is_empty() {
-        return Err(OrganError::Input("the anatomy has no points".into()));
+        return Err(VentricleError::NoAnatomyPoints.into());
     }
     let chart = Chart::new(
         surface,

@@ -13,6 +13,7 @@
 //! regula falsi (Illinois) on the Dormand–Prince step itself, so the end
 //! point is a point of the numerical curve, accurate to the tolerance.
 
+use super::error::PointFailure;
 use super::field::LaplaceField;
 use crate::OrganError;
 use std::collections::HashMap;
@@ -49,23 +50,35 @@ pub enum TraceFailure {
 }
 
 impl TraceFailure {
-    /// A one-line description.
-    pub fn describe(&self, target: &str) -> String {
-        match self {
-            TraceFailure::LeftField(q) => format!(
-                "its streamline left the field at basal-frame point ({:.3}, {:.3}, {:.3}) before \
-                 reaching {target}",
-                q[0], q[1], q[2]
-            ),
-            TraceFailure::Stagnant(q) => format!(
-                "its streamline stopped where grad f vanishes, at basal-frame point \
-                 ({:.3}, {:.3}, {:.3}), before reaching {target}",
-                q[0], q[1], q[2]
-            ),
-            TraceFailure::TooLong(l) => {
-                format!("its streamline did not reach {target} within {l:.1} mm")
-            }
+    /// This failure as the reason a point cannot be mapped, the trace
+    /// having gone toward `target`.
+    pub fn toward(self, target: TraceTarget) -> PointFailure {
+        PointFailure::Streamline {
+            target,
+            failure: self,
         }
+    }
+}
+
+/// Where a trace was going (named in messages).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TraceTarget {
+    /// The enclosing surface S ("S").
+    Surface,
+    /// The hemisphere H ("the hemisphere H").
+    Hemisphere,
+    /// The arc length of a point's depth along its streamline ("its
+    /// depth").
+    Depth,
+}
+
+impl std::fmt::Display for TraceTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TraceTarget::Surface => "S",
+            TraceTarget::Hemisphere => "the hemisphere H",
+            TraceTarget::Depth => "its depth",
+        })
     }
 }
 
@@ -953,16 +966,34 @@ mod tests {
 
     #[test]
     fn failures_are_described_with_their_target() {
-        let left = TraceFailure::LeftField([1.0, -2.5, 3.25]).describe("S");
+        let left = TraceFailure::LeftField([1.0, -2.5, 3.25])
+            .toward(TraceTarget::Surface)
+            .to_string();
         assert!(left.contains("left the field"), "{left}");
         assert!(left.contains("(1.000, -2.500, 3.250)"), "{left}");
         assert!(left.ends_with("before reaching S"), "{left}");
-        let long = TraceFailure::TooLong(123.45).describe("the hemisphere H");
+        let long = TraceFailure::TooLong(123.45)
+            .toward(TraceTarget::Hemisphere)
+            .to_string();
         assert!(long.contains("did not reach the hemisphere H"), "{long}");
         assert!(long.contains("123.5 mm"), "{long}");
-        let stuck = TraceFailure::Stagnant([0.0, 1.0, 2.0]).describe("S");
+        let stuck = TraceFailure::Stagnant([0.0, 1.0, 2.0])
+            .toward(TraceTarget::Surface)
+            .to_string();
         assert!(stuck.contains("grad f vanishes"), "{stuck}");
         assert!(stuck.contains("(0.000, 1.000, 2.000)"), "{stuck}");
         assert!(stuck.ends_with("before reaching S"), "{stuck}");
+        let depth = TraceFailure::TooLong(1.0).toward(TraceTarget::Depth);
+        assert_eq!(
+            depth,
+            PointFailure::Streamline {
+                target: TraceTarget::Depth,
+                failure: TraceFailure::TooLong(1.0)
+            }
+        );
+        assert!(
+            depth.to_string().contains("did not reach its depth"),
+            "{depth}"
+        );
     }
 }

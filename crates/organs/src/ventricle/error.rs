@@ -1,0 +1,317 @@
+//! The errors of the ventricle pipeline.
+//!
+//! [`VentricleError`] holds the failures of the landmarks, the disk map, the
+//! Laplace field and the mapping of point sets; it reaches callers of the
+//! pipeline as [`OrganError::Ventricle`](crate::OrganError::Ventricle).
+//! [`PointFailure`] is why one point cannot be mapped by
+//! [`Chart::forward`](super::Chart::forward) or
+//! [`Chart::inverse`](super::Chart::inverse). Settings out of range are
+//! [`ConfigError`](crate::ConfigError)s.
+
+use super::trace::{TraceFailure, TraceTarget};
+use std::fmt;
+use thiserror::Error;
+use unfold_mesh::MeshError;
+
+/// Everything the ventricle pipeline itself can reject (besides bad
+/// settings, mesh repair and solver failures).
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum VentricleError {
+    // ---- the landmarks (ALGORITHMS 3.1) ----
+    /// S is not a disk (one connected piece, one boundary loop, no handles).
+    #[error("the enclosing surface S is not a disk: {0}")]
+    NotADisk(#[source] MeshError),
+    /// S's boundary loop has no vertex.
+    #[error("S has an empty boundary loop")]
+    EmptyRim,
+    /// S has no vertex in a triangle.
+    #[error("S has no vertex")]
+    NoVertex,
+    /// A landmark point is not finite.
+    #[error("the {landmark} landmark is not finite: {point:?}")]
+    LandmarkNotFinite {
+        /// Which landmark (`anterior`, `inferior` or `apex`).
+        landmark: &'static str,
+        /// The point given.
+        point: [f64; 3],
+    },
+    /// A rim landmark is farther than the snap distance from every vertex of
+    /// the rim.
+    #[error(
+        "the {landmark} landmark {point:?} is {distance_mm:.3} mm from the nearest vertex of S's \
+         boundary loop (more than {snap_mm} mm): it must lie on the basal rim"
+    )]
+    LandmarkOffRim {
+        /// Which landmark (`anterior` or `inferior`).
+        landmark: &'static str,
+        /// The point given.
+        point: [f64; 3],
+        /// Its distance to the nearest rim vertex, mm.
+        distance_mm: f64,
+        /// The largest distance accepted, mm.
+        snap_mm: f64,
+    },
+    /// Both rim landmarks snap to one rim vertex.
+    #[error("the anterior and inferior landmarks snap to the same rim vertex {vertex}")]
+    SameRimVertex {
+        /// The vertex of S.
+        vertex: u32,
+    },
+    /// The apex snaps to a vertex of the rim.
+    #[error("the apex is the rim vertex {apex}: it must be inside S, away from the basal rim")]
+    ApexOnRim {
+        /// The vertex of S.
+        apex: u32,
+    },
+    /// Hand-made landmarks: the rim has fewer than 3 vertices.
+    #[error("landmarks: a rim of {rim} vertices")]
+    RimTooShort {
+        /// Vertices of the rim.
+        rim: usize,
+    },
+    /// Hand-made landmarks: a rim vertex does not exist.
+    #[error("landmarks: rim vertex {vertex} out of range ({vertices} vertices)")]
+    RimVertexOutOfRange {
+        /// The rim vertex.
+        vertex: u32,
+        /// Vertices of S.
+        vertices: usize,
+    },
+    /// Hand-made landmarks: the two rim positions are out of range or equal.
+    #[error(
+        "landmarks: rim positions {anterior} and {inferior} for a rim of {rim} vertices (two \
+         distinct ones needed)"
+    )]
+    RimPositions {
+        /// Position of the first rim landmark in the rim.
+        anterior: usize,
+        /// Position of the second rim landmark in the rim.
+        inferior: usize,
+        /// Vertices of the rim.
+        rim: usize,
+    },
+    /// Hand-made landmarks: the apex does not exist or lies on the rim.
+    #[error("landmarks: apex {apex} out of range or on the rim")]
+    ApexInvalid {
+        /// The apex vertex.
+        apex: u32,
+        /// Vertices of S.
+        vertices: usize,
+    },
+
+    // ---- the disk map (ALGORITHMS 3.2) ----
+    /// A thin-plate spline was given different numbers of centres and
+    /// targets.
+    #[error("thin-plate spline: {centres} centres but {targets} targets")]
+    SplineLengths {
+        /// Number of centres.
+        centres: usize,
+        /// Number of targets.
+        targets: usize,
+    },
+    /// A thin-plate spline was given too few centres.
+    #[error("thin-plate spline: needs at least {needed} centres, got {centres}")]
+    SplineTooFewCentres {
+        /// Number of centres.
+        centres: usize,
+        /// The fewest accepted.
+        needed: usize,
+    },
+    /// A thin-plate spline centre or target is not finite.
+    #[error("thin-plate spline: a centre or target is not finite")]
+    SplineNotFinite {
+        /// Which (`centre` or `target`).
+        what: &'static str,
+        /// Its index.
+        index: usize,
+    },
+    /// The thin-plate spline's system is singular.
+    #[error("thin-plate spline: singular system (repeated or collinear centres)")]
+    SplineSingular {
+        /// Number of centres.
+        centres: usize,
+    },
+    /// An arc of the RV rim between its two corners has no length.
+    #[error("the RV rim has an arc of zero length between its two corners")]
+    ZeroRimArc {
+        /// Length of the septal arc, mm.
+        septal_mm: f64,
+        /// Length of the free-wall arc, mm.
+        free_mm: f64,
+    },
+    /// The disk map folds.
+    #[error("the disk map of S flips {triangles} triangles")]
+    DiskFlips {
+        /// Triangles flipped or of zero area.
+        triangles: usize,
+    },
+
+    // ---- the basal frame and the Laplace field (ALGORITHMS 3.3) ----
+    /// The rim's vertices are collinear, so it has no plane.
+    #[error("the rim of S is degenerate (its vertices are collinear)")]
+    CollinearRim {
+        /// Eigenvalues of the rim's covariance, ascending, mm^2.
+        variances: [f64; 3],
+    },
+    /// The apex lies in the rim's plane.
+    #[error("the apex lies in the plane of the rim: S is not a cup")]
+    FlatCup {
+        /// The apex's height over the rim's plane, mm.
+        height_mm: f64,
+    },
+    /// The hemisphere H reaches S.
+    #[error(
+        "the hemisphere H (radius {radius_mm} mm at the centre of the base) does not fit inside \
+         S: vertex {vertex} of S is {distance_mm:.3} mm from its centre"
+    )]
+    HemisphereDoesNotFit {
+        /// The hemisphere's radius, mm.
+        radius_mm: f64,
+        /// The vertex of S nearest the centre.
+        vertex: usize,
+        /// Its distance from the centre, mm.
+        distance_mm: f64,
+    },
+    /// The field's grid over S would have too many nodes.
+    #[error(
+        "invalid configuration: a {grid_mm} mm grid over S needs {}x{}x{} nodes (more than \
+         {limit}); use a coarser grid",
+        .dims[0],
+        .dims[1],
+        .dims[2]
+    )]
+    GridTooLarge {
+        /// The grid spacing, mm.
+        grid_mm: f64,
+        /// Nodes along x, y and z.
+        dims: [usize; 3],
+        /// The largest grid accepted, nodes.
+        limit: usize,
+    },
+    /// No grid node lies between S and H.
+    #[error(
+        "no grid node lies between S and the hemisphere H at a {grid_mm} mm grid; use a finer grid"
+    )]
+    NoUnknowns {
+        /// The grid spacing, mm.
+        grid_mm: f64,
+    },
+    /// The multigrid hierarchy has no finest level (an internal error).
+    #[error("the multigrid hierarchy lost its finest level")]
+    NoFinestLevel,
+
+    // ---- mapping point sets (ALGORITHMS 3.3, 3.4) ----
+    /// The anatomy has no points.
+    #[error("the anatomy has no points")]
+    NoAnatomyPoints,
+    /// Some points of a set cannot be mapped.
+    #[error("{failed} of {total} {points} cannot be mapped; the first, point {first}: {reason}")]
+    Unmapped {
+        /// Which points (`anatomy points` or `cylinder points`).
+        points: &'static str,
+        /// How many failed.
+        failed: usize,
+        /// How many there are.
+        total: usize,
+        /// Index of the first that failed.
+        first: usize,
+        /// Why it failed.
+        reason: PointFailure,
+    },
+}
+
+/// Why one point cannot be mapped by `psi` or `psi^-1`.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+#[non_exhaustive]
+pub enum PointFailure {
+    /// The point is not finite.
+    #[error("it is not finite: {point:?}")]
+    NotFinite {
+        /// The point.
+        point: [f64; 3],
+    },
+    /// S has no triangle to find a closest point on.
+    #[error("S has no triangle")]
+    NoTriangle,
+    /// The point lies outside S (closed by its basal plane).
+    #[error(
+        "({:.3}, {:.3}, {:.3}) lies outside S (closed by its basal plane), {distance_mm:.3} mm \
+         from it",
+        .point[0],
+        .point[1],
+        .point[2]
+    )]
+    OutsideSurface {
+        /// The point.
+        point: [f64; 3],
+        /// Its distance to S, mm.
+        distance_mm: f64,
+    },
+    /// The point lies inside the hemisphere H.
+    #[error(
+        "({:.3}, {:.3}, {:.3}) lies inside the hemisphere H (radius {radius_mm} mm at the centre \
+         of the base)",
+        .point[0],
+        .point[1],
+        .point[2]
+    )]
+    InsideHemisphere {
+        /// The point.
+        point: [f64; 3],
+        /// The hemisphere's radius, mm.
+        radius_mm: f64,
+    },
+    /// The cylinder point is not finite or its depth is outside `[0, 1]`.
+    #[error("({xi}, {zeta}, {depth}) is not a point of the cylinder (depth must be in [0, 1])")]
+    NotOnCylinder {
+        /// Disk x.
+        xi: f64,
+        /// Disk y.
+        zeta: f64,
+        /// Depth.
+        depth: f64,
+    },
+    /// The disk position lies outside the flattened S.
+    #[error("the disk position ({xi:.6}, {zeta:.6}) lies outside the flattened S")]
+    OffDisk {
+        /// Disk x.
+        xi: f64,
+        /// Disk y.
+        zeta: f64,
+    },
+    /// The point's streamline failed.
+    #[error("{}", Streamline(.failure, *.target))]
+    Streamline {
+        /// Where the streamline was going.
+        target: TraceTarget,
+        /// How it failed.
+        failure: TraceFailure,
+    },
+}
+
+/// A failed trace toward its target, as one line.
+struct Streamline<'a>(&'a TraceFailure, TraceTarget);
+
+impl fmt::Display for Streamline<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Streamline(failure, target) = self;
+        match failure {
+            TraceFailure::LeftField(q) => write!(
+                f,
+                "its streamline left the field at basal-frame point ({:.3}, {:.3}, {:.3}) before \
+                 reaching {target}",
+                q[0], q[1], q[2]
+            ),
+            TraceFailure::Stagnant(q) => write!(
+                f,
+                "its streamline stopped where grad f vanishes, at basal-frame point \
+                 ({:.3}, {:.3}, {:.3}), before reaching {target}",
+                q[0], q[1], q[2]
+            ),
+            TraceFailure::TooLong(l) => {
+                write!(f, "its streamline did not reach {target} within {l:.1} mm")
+            }
+        }
+    }
+}
