@@ -393,7 +393,7 @@ mod tests {
     use nalgebra::Vector3;
     use proptest::prelude::*;
 
-    use crate::topology::test_meshes::SplitMix as Rng;
+    use crate::test_meshes::SplitMix as Rng;
 
     fn in_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> bool {
         collinear_exact(a, b, p) && (p - a).dot(&(b - a)) >= 0.0 && (p - b).dot(&(a - b)) >= 0.0

@@ -111,7 +111,7 @@ mod tests {
     use approx::assert_relative_eq;
     use proptest::prelude::*;
 
-    use crate::topology::test_meshes::SplitMix as Rng;
+    use crate::test_meshes::SplitMix as Rng;
 
     fn rotation() -> impl Strategy<Value = Rotation3<f64>> {
         (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64)
