@@ -74,6 +74,16 @@ pub struct Figure {
     pub image: Image,
 }
 
+impl Figure {
+    /// The figure `image` saved as `name`.
+    pub fn new(name: impl Into<String>, image: Image) -> Figure {
+        Figure {
+            name: name.into(),
+            image,
+        }
+    }
+}
+
 /// Size of the figures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FigureOptions {

@@ -2,22 +2,26 @@
 //! colours, thick and dashed lines, haloed labels and the panel subtitle.
 
 use unfold_render::nalgebra::Point3;
-use unfold_render::{Anchor, Coloring, Image, Renderer, Rgb, Rgba, Shading, text_width};
+use unfold_render::{Anchor, Camera, Coloring, Image, Renderer, Rgb, Rgba, Shading, text_width};
 
 use super::SUBTITLE_Y;
 use super::geometry::Geometry;
 use super::specs::{Layout, MapSpec};
-use crate::figures::{FigureError, INK};
+use crate::figures::{FigureError, INK, PAPER};
 
-/// Draws the mesh coloured by `spec` into `r` (positions `p`).
-pub(super) fn draw_colored(
-    r: &mut Renderer,
+/// A view of `size` pixels through `camera` of the mesh at positions `p`
+/// coloured by `spec`.
+pub(super) fn colored_view(
     geo: &Geometry<'_>,
     p: &[Point3<f64>],
     spec: &MapSpec,
+    camera: Camera,
+    size: (u32, u32),
     shading: Shading,
     figure: &str,
-) -> Result<(), FigureError> {
+) -> Result<Renderer, FigureError> {
+    let mut r =
+        Renderer::new(size.0, size.1, PAPER, camera).map_err(FigureError::render(figure))?;
     let err = FigureError::render(figure);
     let expected = match spec.layout {
         Layout::Cell => geo.triangles.len(),
@@ -60,7 +64,7 @@ pub(super) fn draw_colored(
             .map_err(err)?;
         }
     }
-    Ok(())
+    Ok(r)
 }
 
 /// Draws a line `w` pixels thick (offsets of the 1-pixel line).

@@ -3,9 +3,9 @@
 
 use unfold_organs::mitral::maps::A1;
 use unfold_organs::mitral::{ANTERIOR, POSTERIOR};
-use unfold_render::{Anchor, Image, Renderer, Shading, format_value};
+use unfold_render::{Anchor, Image, Shading, format_value};
 
-use super::drawing::{dashed_vline, draw_colored, halo_text, subtitle, thick_line};
+use super::drawing::{colored_view, dashed_vline, halo_text, subtitle, thick_line};
 use super::geometry::Geometry;
 use super::specs::{MapSpec, array_values};
 use super::{ANNULUS_COLOR, LABEL_Y, MAP_SIDE, OUTLINE_COLOR};
@@ -35,8 +35,8 @@ pub(super) fn panel_2d(
     let err = || FigureError::render(figure);
     let mut img = Image::new(geo.pw, geo.ph, PAPER).map_err(err())?;
     let map = geo.map;
-    let mut r = Renderer::new(map.size[0], map.size[1], PAPER, geo.cam2d).map_err(err())?;
-    draw_colored(&mut r, geo, geo.p2, spec, Shading::Unlit, figure)?;
+    let size = (map.size[0], map.size[1]);
+    let r = colored_view(geo, geo.p2, spec, geo.cam2d, size, Shading::Unlit, figure)?;
     img.blit(
         r.image(),
         i64::from(map.origin[0]),

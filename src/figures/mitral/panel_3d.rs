@@ -4,9 +4,9 @@
 use unfold_organs::mitral::maps::A1;
 use unfold_organs::mitral::{ANTERIOR, POSTERIOR};
 use unfold_render::nalgebra::Point3;
-use unfold_render::{Image, Renderer, Shading};
+use unfold_render::{Image, Shading};
 
-use super::drawing::{draw_colored, halo_text, subtitle, thick_line};
+use super::drawing::{colored_view, halo_text, subtitle, thick_line};
 use super::geometry::Geometry;
 use super::legend::draw_legend;
 use super::specs::{MapSpec, array_values};
@@ -22,8 +22,15 @@ pub(super) fn panel_3d(
     let err = || FigureError::render(figure);
     let mut img = Image::new(geo.pw, geo.ph, PAPER).map_err(err())?;
     let (w, h) = geo.view;
-    let mut r = Renderer::new(w, h, PAPER, geo.cam3d).map_err(err())?;
-    draw_colored(&mut r, geo, geo.p3, spec, Shading::Smooth, figure)?;
+    let mut r = colored_view(
+        geo,
+        geo.p3,
+        spec,
+        geo.cam3d,
+        (w, h),
+        Shading::Smooth,
+        figure,
+    )?;
     for e in &geo.free_edges {
         r.draw_polyline_3d(
             &[geo.p3[e[0] as usize], geo.p3[e[1] as usize]],

@@ -235,6 +235,13 @@ fn axis_triad(r: &mut Renderer, x: f64, y: f64) -> Result<(), RenderError> {
     Ok(())
 }
 
+/// The name of a `side` label, as in the legend (`label 7` for others).
+fn side_name(label: u8) -> String {
+    SIDE_NAMES
+        .get(usize::from(label))
+        .map_or_else(|| format!("label {label}"), |s| s.to_string())
+}
+
 /// The labels present on the boundary, in order.
 fn boundary_labels(m: &Meshes<'_>, labels: &[u8]) -> BTreeSet<u8> {
     m.tris
@@ -254,9 +261,7 @@ fn side_legend(
     img.draw_text(x0 + 6, y0, "side", 2, INK, Anchor::Left)?;
     let mut y = y0 + 26;
     for l in boundary_labels(m, labels) {
-        let name = SIDE_NAMES
-            .get(usize::from(l))
-            .map_or_else(|| format!("label {l}"), |s| s.to_string());
+        let name = side_name(l);
         img.fill_rect(Rect::new(x0 + 6, y, 14, 14), side_color(l).opaque());
         img.stroke_rect(Rect::new(x0 + 6, y, 14, 14), INK);
         img.draw_text(x0 + 26, y + 3, &name, 1, INK, Anchor::Left)?;
@@ -288,9 +293,7 @@ fn side_counts(
             .zip(&on_boundary)
             .filter(|(x, b)| **x == l && **b)
             .count();
-        let name = SIDE_NAMES
-            .get(usize::from(l))
-            .map_or_else(|| format!("label {l}"), |s| s.to_string());
+        let name = side_name(l);
         img.fill_rect(Rect::new(x0 + 6, y, 8, 8), side_color(l).opaque());
         img.draw_text(x0 + 18, y, &format!("{name} {n}"), 1, INK, Anchor::Left)?;
         y += 14;

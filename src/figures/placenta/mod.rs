@@ -29,7 +29,7 @@
 
 use std::collections::BTreeSet;
 
-use unfold_render::{ColorScale, Colormap, Image, Rgb};
+use unfold_render::{ColorScale, Colormap, Rgb};
 
 use super::{Figure, FigureError, FigureOptions};
 use crate::mesh::Volume;
@@ -160,33 +160,29 @@ pub fn figures(
     let mut out = Vec::new();
     if let Some(labels) = &meshes.labels {
         let image = mesh_views(&meshes, &Paint::Sides(labels), opts, SIDE_FIGURE)?;
-        out.push(figure(SIDE_FIGURE, image));
+        out.push(Figure::new(SIDE_FIGURE, image));
     }
     let scale = ColorScale::new(Colormap::BlueRed, -meshes.det_j_range, meshes.det_j_range);
     let paint = Paint::Cells {
         values: &meshes.log2_det_j,
         scale,
     };
-    out.push(figure(
+    out.push(Figure::new(
         LOG2_DET_J_FIGURE,
         mesh_views(&meshes, &paint, opts, LOG2_DET_J_FIGURE)?,
     ));
     let depths = depth_range(outcome, &meshes);
-    out.push(figure(PROFILE_FIGURE, profile(&meshes, &depths, opts)?));
-    out.push(figure(DISTORTION_FIGURE, distortion(&meshes, opts)?));
+    out.push(Figure::new(
+        PROFILE_FIGURE,
+        profile(&meshes, &depths, opts)?,
+    ));
+    out.push(Figure::new(DISTORTION_FIGURE, distortion(&meshes, opts)?));
     for img in images {
         let name = depths_figure_name(img.name);
         let image = depth_slices(img, &meshes, &depths, opts, &name)?;
-        out.push(figure(&name, image));
+        out.push(Figure::new(&name, image));
     }
     Ok(out)
-}
-
-fn figure(name: &str, image: Image) -> Figure {
-    Figure {
-        name: name.to_string(),
-        image,
-    }
 }
 
 /// Checks the panel size: at least [`MIN_PANEL`], and the widest figure

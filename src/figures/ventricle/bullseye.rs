@@ -104,7 +104,7 @@ pub(super) fn bullseye(
     } else {
         heading.extend(wrap(name, 13));
     }
-    colorbar_column(&mut img, F, x0, top, bottom, &scale, &heading)?;
+    colorbar_column(&mut img, F, x0, &scale, &heading)?;
     let tx = x0 + COLORBAR_COLUMN + 4;
     let avail = i64::from(w) - 6 - tx;
     let with_names = avail >= 14 + 24 + 8 * 21 + 8 * 7 + 8 * 8;
@@ -173,8 +173,5 @@ pub(super) fn bullseye(
         SOFT_INK,
         Anchor::Left,
     )?;
-    Ok(Figure {
-        name: F.to_string(),
-        image: img,
-    })
+    Ok(Figure::new(F, img))
 }

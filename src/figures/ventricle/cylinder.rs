@@ -331,20 +331,8 @@ pub(super) fn cylinder(
         }
     }
     let x0 = i64::from(w) - COLORBAR_COLUMN;
-    let heading = vec!["depth".to_string(), "(0 = S, 1 = H)".to_string()];
-    colorbar_column(
-        &mut img,
-        F,
-        x0,
-        TITLE_BAND + 4,
-        i64::from(h) - 12,
-        &scale,
-        &heading,
-    )?;
-    Ok(Figure {
-        name: F.to_string(),
-        image: img,
-    })
+    colorbar_column(&mut img, F, x0, &scale, &["depth", "(0 = S, 1 = H)"])?;
+    Ok(Figure::new(F, img))
 }
 
 #[cfg(test)]

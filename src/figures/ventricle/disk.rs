@@ -3,14 +3,16 @@
 
 use std::f64::consts::{PI, TAU};
 
+use unfold_mesh::TriMesh;
 use unfold_organs::ventricle::aha::aha_segment;
 use unfold_organs::ventricle::disk::RV_CENTRE;
 use unfold_organs::ventricle::{Chamber, Outcome};
 use unfold_render::{
-    Anchor, ColorScale, Coloring, Image, NAN_COLOR, Rect, Rgb, Shading, arc, format_value,
+    Anchor, ColorScale, Coloring, Image, NAN_COLOR, Rect, RenderError, Renderer, Rgb, Shading, arc,
+    format_value,
 };
 
-use super::disk_layout::{disk_area, disk_renderer};
+use super::disk_layout::{DiskLayout, disk_area, disk_renderer};
 use super::drawing::{
     apex_marker, axes_glyph, clamp32, colorbar_column, ink_on, landmark_marker, orientation_words,
     text, title_band,
@@ -31,6 +33,48 @@ const WIRE_TINT: f64 = 0.25;
 /// into the wire colour).
 fn show_wireframe(area: f64, triangles: usize, scale: f64) -> bool {
     area * scale * scale >= 16.0 * triangles as f64
+}
+
+/// The disk rendered into the `area` (pixels) of a disk figure as `layout`
+/// says: each triangle in its colour (`colors`) and, unless the triangles
+/// are too small ([`show_wireframe`] for a disk of `units` square units), a
+/// light wireframe: group by group in increasing order, the edges of the
+/// triangles of group `g` (`groups[t] == Some(g)`) in `wire_color(g)`
+/// moved towards white by [`WIRE_TINT`].
+fn render_disk(
+    disk: &TriMesh,
+    layout: &DiskLayout,
+    area: (u32, u32),
+    units: f64,
+    colors: &[Rgb],
+    groups: &[Option<usize>],
+    wire_color: impl Fn(usize) -> Rgb,
+) -> Result<Renderer, RenderError> {
+    let mut r = disk_renderer(layout, area.0, area.1)?;
+    r.draw_mesh(
+        &disk.positions,
+        &disk.triangles,
+        Coloring::PerTriangle(colors),
+        Shading::Unlit,
+    )?;
+    if !show_wireframe(units, disk.triangles.len(), layout.scale) {
+        return Ok(r);
+    }
+    let count = groups.iter().flatten().max().map_or(0, |g| g + 1);
+    for g in 0..count {
+        let tris: Vec<[u32; 3]> = disk
+            .triangles
+            .iter()
+            .zip(groups)
+            .filter(|(_, k)| **k == Some(g))
+            .map(|(t, _)| *t)
+            .collect();
+        if !tris.is_empty() {
+            let c = wire_color(g).lerp(Rgb::WHITE, WIRE_TINT).opaque();
+            r.draw_wireframe(&disk.positions, &tris, c)?;
+        }
+    }
+    Ok(r)
 }
 
 /// The disk positions of the landmarks: anterior (first), inferior
@@ -81,32 +125,12 @@ pub(super) fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure
         }
     };
     let colors: Vec<Rgb> = labels.iter().map(|&l| color(l)).collect();
-    let mut r = disk_renderer(&layout, aw, ah).map_err(FigureError::render(F))?;
-    r.draw_mesh(
-        &disk.positions,
-        &disk.triangles,
-        Coloring::PerTriangle(&colors),
-        Shading::Unlit,
-    )
+    // The wireframe: each segment's edges in a paler shade of its colour.
+    let groups: Vec<Option<usize>> = labels.iter().map(|&l| Some(usize::from(l))).collect();
+    let r = render_disk(disk, &layout, (aw, ah), PI, &colors, &groups, |seg| {
+        color(seg as u8)
+    })
     .map_err(FigureError::render(F))?;
-    // A light wireframe: each segment's edges in a paler shade of its
-    // colour (unless the triangles are too small to show).
-    let wire = show_wireframe(PI, disk.triangles.len(), layout.scale);
-    for seg in (0..=17u8).filter(|_| wire) {
-        let tris: Vec<[u32; 3]> = disk
-            .triangles
-            .iter()
-            .zip(&labels)
-            .filter(|(_, l)| **l == seg)
-            .map(|(t, _)| *t)
-            .collect();
-        if tris.is_empty() {
-            continue;
-        }
-        let c = color(seg).lerp(Rgb::WHITE, WIRE_TINT).opaque();
-        r.draw_wireframe(&disk.positions, &tris, c)
-            .map_err(FigureError::render(F))?;
-    }
     let mut img = Image::new(w, h, PAPER).map_err(FigureError::render(F))?;
     img.blit(r.image(), 0, TITLE_BAND);
     title_band(
@@ -245,10 +269,7 @@ pub(super) fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure
         SOFT_INK,
         Anchor::Left,
     )?;
-    Ok(Figure {
-        name: F.to_string(),
-        image: img,
-    })
+    Ok(Figure::new(F, img))
 }
 
 /// The angle of RV half-disk point `p` about the circle's centre, degrees.
@@ -270,36 +291,17 @@ pub(super) fn disk_angle(outcome: &Outcome, opts: &FigureOptions) -> Result<Figu
     // of the septal edge, where vertex colours would smear.
     let angles: Vec<f64> = centroids(disk).into_iter().map(rv_angle).collect();
     let colors = scale.colors(&angles);
-    let mut r = disk_renderer(&layout, aw, ah).map_err(FigureError::render(F))?;
-    r.draw_mesh(
-        &disk.positions,
-        &disk.triangles,
-        Coloring::PerTriangle(&colors),
-        Shading::Unlit,
-    )
-    .map_err(FigureError::render(F))?;
-    // A light wireframe: the edges of the triangles in each 5-degree band
-    // in a paler shade of the band's colour (unless the triangles are too
-    // small to show).
+    // The wireframe: the edges of the triangles in each 5-degree band in a
+    // paler shade of the band's colour.
     let band = |a: f64| ((a + 90.0) / 5.0).floor().clamp(0.0, 35.0) as usize;
-    let wire = show_wireframe(0.5 * PI, disk.triangles.len(), layout.scale);
-    for b in (0..36).filter(|_| wire) {
-        let tris: Vec<[u32; 3]> = disk
-            .triangles
-            .iter()
-            .zip(&angles)
-            .filter(|(_, a)| a.is_finite() && band(**a) == b)
-            .map(|(t, _)| *t)
-            .collect();
-        if tris.is_empty() {
-            continue;
-        }
-        let c = scale
-            .color(-87.5 + 5.0 * b as f64)
-            .lerp(Rgb::WHITE, WIRE_TINT);
-        r.draw_wireframe(&disk.positions, &tris, c.opaque())
-            .map_err(FigureError::render(F))?;
-    }
+    let groups: Vec<Option<usize>> = angles
+        .iter()
+        .map(|&a| a.is_finite().then(|| band(a)))
+        .collect();
+    let r = render_disk(disk, &layout, (aw, ah), 0.5 * PI, &colors, &groups, |b| {
+        scale.color(-87.5 + 5.0 * b as f64)
+    })
+    .map_err(FigureError::render(F))?;
     let mut img = Image::new(w, h, PAPER).map_err(FigureError::render(F))?;
     img.blit(r.image(), 0, TITLE_BAND);
     title_band(
@@ -389,23 +391,13 @@ pub(super) fn disk_angle(outcome: &Outcome, opts: &FigureOptions) -> Result<Figu
         [f64::from(aw) - 60.0, f64::from(h) - 14.0],
         false,
     )?;
-    let x0 = i64::from(w) - COLORBAR_COLUMN;
-    let heading = vec![
-        "angle (deg)".to_string(),
-        "-90: corner 2".to_string(),
-        "+90: corner 1".to_string(),
-    ];
+    let heading = ["angle (deg)", "-90: corner 2", "+90: corner 1"];
     colorbar_column(
         &mut img,
         F,
-        x0,
-        TITLE_BAND + 4,
-        i64::from(h) - 12,
+        i64::from(w) - COLORBAR_COLUMN,
         &scale,
         &heading,
     )?;
-    Ok(Figure {
-        name: F.to_string(),
-        image: img,
-    })
+    Ok(Figure::new(F, img))
 }

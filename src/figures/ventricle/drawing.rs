@@ -6,7 +6,7 @@ use std::f64::consts::TAU;
 
 use unfold_render::{Anchor, ColorScale, FillRule, Image, Rect, Rgb, Rgba, arc, draw_colorbar};
 
-use super::{COLORBAR_COLUMN, DiskLayout, SOFT_INK};
+use super::{COLORBAR_COLUMN, DiskLayout, SOFT_INK, TITLE_BAND};
 use crate::figures::layout::{self, TitleStyle};
 use crate::figures::{FigureError, INK, PAPER};
 
@@ -23,7 +23,7 @@ pub(super) fn title_band(
 
 /// The title band of the ventricle figures: the title 6 pixels from the
 /// top, up to two lines of subtitle from row 27 in [`SOFT_INK`], 6 pixels
-/// free on either side; it fills [`TITLE_BAND`](super::TITLE_BAND).
+/// free on either side; it fills [`TITLE_BAND`].
 const TITLE_STYLE: TitleStyle = TitleStyle {
     title_top: 6,
     margin: 12,
@@ -51,32 +51,31 @@ pub(super) fn clamp32(v: i64) -> i32 {
     v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
-/// A colour bar in the column `x .. x + COLORBAR_COLUMN` from `y0` to
-/// `y1`, under the title lines `heading` (scale 1, centred on the column).
+/// A colour bar in the column `x .. x + COLORBAR_COLUMN`, below the title
+/// band (from row `TITLE_BAND + 4`) down to 12 rows above the bottom of
+/// `img`, under the title lines `heading` (scale 1, centred on the column).
 pub(super) fn colorbar_column(
     img: &mut Image,
     figure: &str,
     x: i64,
-    y0: i64,
-    y1: i64,
     scale: &ColorScale,
-    heading: &[String],
+    heading: &[impl AsRef<str>],
 ) -> Result<(), FigureError> {
-    let mut y = y0;
+    let mut y = TITLE_BAND + 4;
     for line in heading {
         text(
             img,
             figure,
             x + COLORBAR_COLUMN / 2,
             y,
-            line,
+            line.as_ref(),
             INK,
             Anchor::Center,
         )?;
         y += 11;
     }
     y += 4;
-    let h = (y1 - y).max(40);
+    let h = (i64::from(img.height()) - 12 - y).max(40);
     draw_colorbar(
         img,
         Rect::new(
