@@ -1,8 +1,8 @@
 //! The two 2 x 2 mesh figures ([`SIDE_FIGURE`](super::SIDE_FIGURE),
-//! [`LOG2_DET_J_FIGURE`](super::LOG2_DET_J_FIGURE)): the
-//! original and the flattened mesh seen from the fetal and the maternal
-//! side, coloured by boundary side or by `log2 det J`, with a legend or a
-//! colour bar and notes.
+//! [`LOG2_DET_J_FIGURE`](super::LOG2_DET_J_FIGURE)): the original and the
+//! flattened mesh seen from the fetal and the maternal side, coloured by
+//! boundary side or by `log2 det J`, with a legend or a colour bar and
+//! notes.
 
 use std::collections::BTreeSet;
 
