@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::repair::compact_vertices;
+use unfold::mesh::reindex::compact_vertices;
 use unfold::mesh::shapes::{ValveParams, ValveShape, mitral_valve};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 

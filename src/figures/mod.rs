@@ -5,7 +5,12 @@
 //! Every function returns named [`Figure`]s (the file name and the image);
 //! nothing here touches the file system. Figures are deterministic: the
 //! same outcome and options give the same PNG bytes.
+//!
+//! One module per organ ([`placenta`], [`ventricle`], [`mitral`]), each a
+//! folder with one file per figure family; the text layout they share
+//! (wrapping, fitting, title bands, panels) is [`layout`].
 
+pub mod layout;
 pub mod mitral;
 pub mod placenta;
 pub mod ventricle;
@@ -13,7 +18,13 @@ pub mod ventricle;
 pub use unfold_render as render;
 
 use thiserror::Error;
-use unfold_render::{Image, RenderError};
+use unfold_render::{Image, RenderError, Rgba};
+
+/// Colour of text and lines in every figure.
+pub const INK: Rgba = Rgba::BLACK;
+
+/// Background of every figure.
+pub const PAPER: Rgba = Rgba::WHITE;
 
 /// Errors of figure making.
 #[derive(Debug, Error)]
@@ -61,6 +72,16 @@ pub struct Figure {
     pub name: String,
     /// The picture.
     pub image: Image,
+}
+
+impl Figure {
+    /// The figure `image` saved as `name`.
+    pub fn new(name: impl Into<String>, image: Image) -> Figure {
+        Figure {
+            name: name.into(),
+            image,
+        }
+    }
 }
 
 /// Size of the figures.

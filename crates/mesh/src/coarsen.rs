@@ -184,7 +184,7 @@ pub fn coarsen_interior(
         .filter(|(_, alive)| **alive)
         .map(|(t, _)| *t)
         .collect();
-    let compact = crate::repair::compact_vertices(&positions, &Fields::new(), &kept)?;
+    let compact = crate::reindex::compact_vertices(&positions, &Fields::new(), &kept)?;
     Ok(Coarsened {
         mesh: TetMesh::new(compact.positions, compact.elements),
         collapses,
@@ -600,7 +600,7 @@ mod tests {
     use super::*;
     use crate::bcc::BccLattice;
     use crate::geometry::{tet_dihedral_angles, total_volume};
-    use crate::topology::test_meshes::{SplitMix, tet_grid};
+    use crate::test_meshes::{SplitMix, tet_grid};
     use crate::topology::tet_boundary;
     use proptest::prelude::*;
     use std::collections::HashMap;
@@ -610,7 +610,7 @@ mod tests {
         let m = BccLattice::new(Point3::new(o[0], o[1], o[2]), h, n)
             .unwrap()
             .to_tet_mesh();
-        let c = crate::repair::compact_vertices(&m.positions, &m.point_data, &m.tets).unwrap();
+        let c = crate::reindex::compact_vertices(&m.positions, &m.point_data, &m.tets).unwrap();
         TetMesh::new(c.positions, c.elements)
     }
 

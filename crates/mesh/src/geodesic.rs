@@ -293,7 +293,8 @@ impl IndexedHeap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::topology::{edges, test_meshes::*};
+    use crate::test_meshes::*;
+    use crate::topology::edges;
     use proptest::prelude::*;
 
     /// Floyd–Warshall over the mesh edges with Euclidean weights.

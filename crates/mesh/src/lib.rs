@@ -4,7 +4,8 @@
 //!   ([`Fields`]) that ride along to the writers; [`CellMesh`]: the mixed-cell
 //!   mesh that files hold.
 //! - [`validate`] and [`repair`]: typed problems ([`MeshError`]), orientation,
-//!   duplicate removal, largest component.
+//!   duplicate removal, largest component; [`reindex`]: dropping unused
+//!   vertices and renumbering the elements.
 //! - [`topology`]: adjacency, edges, k-rings, boundaries, loops, components.
 //! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
 //! - [`geodesic`]: Dijkstra along edges.
@@ -23,10 +24,13 @@ pub mod geodesic;
 pub mod geometry;
 pub mod mask;
 pub mod mesher;
+pub mod reindex;
 pub mod repair;
 pub mod shapes;
 pub mod spatial;
 pub mod stuffing;
+#[cfg(test)]
+mod test_meshes;
 pub mod tetmesh;
 pub mod topology;
 pub mod trimesh;

@@ -835,7 +835,7 @@ mod tests {
     use nalgebra::Vector3;
     use proptest::prelude::*;
 
-    use crate::topology::test_meshes::SplitMix as Rng;
+    use crate::test_meshes::SplitMix as Rng;
 
     /// `n[0] x n[1] x n[2]` cubes of side `h`, 6 Kuhn tets each (a conforming
     /// triangulation), every vertex moved by up to `jitter * h` per axis.

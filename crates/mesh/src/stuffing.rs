@@ -424,7 +424,7 @@ pub fn stuff(
     }
     let mut positions = w.positions.clone();
     positions.extend_from_slice(&w.cut_points);
-    let compact = crate::repair::compact_vertices(&positions, &Fields::new(), &tets)?;
+    let compact = crate::reindex::compact_vertices(&positions, &Fields::new(), &tets)?;
     let mut mesh = TetMesh::new(compact.positions, compact.elements);
     let comps = crate::topology::connected_components(mesh.num_vertices(), &mesh.tets);
     let mut dropped = Vec::new();
@@ -444,7 +444,7 @@ pub fn stuff(
             .filter(|&(_, &c)| c == keep)
             .map(|(t, _)| *t)
             .collect();
-        let compact = crate::repair::compact_vertices(&mesh.positions, &Fields::new(), &kept)?;
+        let compact = crate::reindex::compact_vertices(&mesh.positions, &Fields::new(), &kept)?;
         mesh = TetMesh::new(compact.positions, compact.elements);
     }
     check_closed_manifold(&mesh)?;

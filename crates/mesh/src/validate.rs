@@ -420,7 +420,7 @@ fn tet_face_problems(tets: &[[u32; 4]], good: &[usize]) -> Acc {
 mod tests {
     use super::*;
     use crate::Field;
-    use crate::topology::test_meshes::*;
+    use crate::test_meshes::*;
     use proptest::prelude::*;
 
     fn p(x: f64, y: f64, z: f64) -> Point3<f64> {

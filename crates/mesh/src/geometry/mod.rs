@@ -1,0 +1,35 @@
+//! Geometry: signed volumes and areas, normals, vertex areas, centroid, PCA
+//! frame, convex hull membership, bounding boxes.
+//!
+//! One idea per file, everything re-exported here so that
+//! `unfold_mesh::geometry::X` is the path to use:
+//! - `measures`: simplex formulas (signed tet volume, dihedral angles,
+//!   triangle area vector, area and normal) and mesh measures (volumes,
+//!   areas, enclosed volume, vertex normals, vertex areas and volumes,
+//!   centroids);
+//! - `validation`: [`check_finite`], [`check_indices`];
+//! - `predicates`: exact orientation tests [`orient3d_exact`],
+//!   [`orient2d_exact`];
+//! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
+//! - `pca`: [`PcaFrame`], [`pca_frame`];
+//! - `aabb`: [`Aabb`], [`bounding_box`].
+
+mod aabb;
+mod hull;
+mod measures;
+mod pca;
+mod predicates;
+#[cfg(test)]
+mod strategies;
+mod validation;
+
+pub use aabb::{Aabb, bounding_box};
+pub use hull::convex_hull_vertices;
+pub use measures::{
+    area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,
+    tet_vertex_volumes, tet_volumes, total_area, total_volume, triangle_area, triangle_area_vector,
+    triangle_areas, triangle_normal, triangle_signed_area_2d, vertex_areas, vertex_normals,
+};
+pub use pca::{PcaFrame, pca_frame};
+pub use predicates::{orient2d_exact, orient3d_exact};
+pub use validation::{check_finite, check_indices};
