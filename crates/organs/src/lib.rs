@@ -7,14 +7,17 @@
 //!   the boundary parcellation and the image pull-back.
 //! - [`mitral`]: the mitral valve's leaflets laid out below their annulus
 //!   in 2D, flip-free, with clinical maps and measurements (ALGORITHMS 4).
-//! - [`ventricle`] (in progress): the chamber's enclosing surface flattened
-//!   to the disk with its landmarks (ALGORITHMS 3.1, 3.2).
+//! - [`ventricle`]: the chamber's enclosing surface flattened to the disk
+//!   with its landmarks, the anatomy carried along Laplace streamlines into
+//!   a cylinder (ALGORITHMS 3).
 
 mod error;
 pub mod mitral;
+mod observer;
 pub mod placenta;
 pub mod ventricle;
 
 pub use error::{ConfigError, OrganError, Requirement};
+pub use observer::{PipelineObserver, Quiet};
 pub use unfold_mesh as mesh;
 pub use unfold_param as param;

@@ -7,25 +7,27 @@ use proptest::prelude::*;
 use unfold_mesh::TetMesh;
 use unfold_mesh::geodesic::EdgeGraph;
 use unfold_mesh::nalgebra::Point3;
-use unfold_mesh::shapes::{PlacentaParams, PlacentaShape, Pose, SIDE_RIM, placenta_slab};
+use unfold_mesh::shapes::{PlacentaParams, PlacentaShape, Pose, placenta_slab, side};
 use unfold_mesh::topology::tet_boundary;
-use unfold_organs::OrganError;
 use unfold_organs::placenta::parcellation::{ParcellationConfig, parcellate};
-use unfold_organs::placenta::{
-    Config, Outcome, PipelineObserver, TemplateKind, flatten, flatten_with,
-};
+use unfold_organs::placenta::{Config, Outcome, Pipeline, SolverKind, TemplateKind};
 use unfold_organs::placenta::{PlacentaError, PullbackError};
+use unfold_organs::{OrganError, PipelineObserver, Quiet};
 use unfold_param::Iteration;
-use unfold_param::template::{LABEL_FETAL, LABEL_MATERNAL};
 
 /// Geodesic distance (along boundary edges) from every volume vertex on the
 /// boundary to the nearest ground-truth rim vertex; infinity for interior
 /// vertices.
+/// The default pipeline with `config`, no images, quietly.
+fn flatten(mesh: &TetMesh, config: &Config) -> Result<Outcome, OrganError> {
+    Pipeline::new().config(*config).run(mesh, &[], &mut Quiet)
+}
+
 fn distance_from_rim(shape: &PlacentaShape) -> Vec<f64> {
     let b = tet_boundary(&shape.mesh).unwrap();
     let graph = EdgeGraph::from_tri_mesh(&b.surface);
     let rim: Vec<u32> = (0..b.to_volume.len() as u32)
-        .filter(|&s| shape.side[b.to_volume[s as usize] as usize] == SIDE_RIM)
+        .filter(|&s| shape.side[b.to_volume[s as usize] as usize] == side::MARGIN)
         .collect();
     let d = graph.distances(&rim);
     let mut out = vec![f64::INFINITY; shape.mesh.num_vertices()];
@@ -45,10 +47,10 @@ fn agreement(shape: &PlacentaShape, labels: &[u8]) -> (f64, usize) {
     let d = distance_from_rim(shape);
     let (mut agree, mut swapped, mut total) = (0usize, 0usize, 0usize);
     for (v, &truth) in shape.side.iter().enumerate() {
-        if (truth == LABEL_FETAL || truth == LABEL_MATERNAL) && d[v] > 20.0 {
+        if (truth == side::FETAL || truth == side::MATERNAL) && d[v] > 20.0 {
             total += 1;
             agree += usize::from(labels[v] == truth);
-            let other = LABEL_FETAL + LABEL_MATERNAL - truth;
+            let other = side::FETAL + side::MATERNAL - truth;
             swapped += usize::from(labels[v] == other);
         }
     }
@@ -215,7 +217,7 @@ fn planes_flatten_every_slab_flip_free_sub_voxel_and_fetal_up() {
         assert!(h > 0.0);
         // Fetal side up: every fetal vertex above every maternal vertex's
         // plane side, and the means near +h and -h.
-        let (zf, zm) = (mean_z(&out, LABEL_FETAL), mean_z(&out, LABEL_MATERNAL));
+        let (zf, zm) = (mean_z(&out, side::FETAL), mean_z(&out, side::MATERNAL));
         assert!(zf > 0.0 && zm < 0.0, "{zf} {zm}");
         assert!(
             (zf - h).abs() < 1.5 && (zm + h).abs() < 1.5,
@@ -223,8 +225,8 @@ fn planes_flatten_every_slab_flip_free_sub_voxel_and_fetal_up() {
         );
         for (l, q) in out.labels.iter().zip(&out.flattened.positions) {
             match *l {
-                LABEL_FETAL => assert!(q.z > 0.0),
-                LABEL_MATERNAL => assert!(q.z < 0.0),
+                side::FETAL => assert!(q.z > 0.0),
+                side::MATERNAL => assert!(q.z < 0.0),
                 _ => {}
             }
         }
@@ -249,14 +251,10 @@ fn every_template_converges_and_single_plane_starts_from_planes() {
         TemplateKind::Ellipsoid,
         TemplateKind::SinglePlane,
     ] {
-        let out = flatten(
-            &shape.mesh,
-            &Config {
-                template,
-                ..Config::default()
-            },
-        )
-        .unwrap();
+        let out = Pipeline::new()
+            .template(template.build())
+            .run(&shape.mesh, &[], &mut Quiet)
+            .unwrap();
         let r = &out.report;
         println!(
             "{}: {} iterations, |grad|_F {:.1e}, theta {:?}, template error {:.3} mm, Dirichlet excess {:.2} %",
@@ -277,7 +275,7 @@ fn every_template_converges_and_single_plane_starts_from_planes() {
         match template {
             TemplateKind::SinglePlane => {
                 assert_eq!(r.stages.len(), 2);
-                assert_eq!(r.stages[0].template, "parallel-planes");
+                assert_eq!(r.stages[0].template, "planes");
                 assert_eq!(r.stages[1].template, "single-plane");
                 // Starts from the converged planes with their h, kept fixed.
                 assert_eq!(r.stages[1].theta_initial, r.stages[0].theta);
@@ -422,7 +420,7 @@ fn the_report_holds_every_required_figure() {
         k
     );
     let counts =
-        [LABEL_FETAL, LABEL_MATERNAL, 3].map(|l| out.labels.iter().filter(|&&x| x == l).count());
+        [side::FETAL, side::MATERNAL, 3].map(|l| out.labels.iter().filter(|&&x| x == l).count());
     assert_eq!(
         [
             out.report.boundary.fetal,
@@ -457,18 +455,17 @@ fn progress_reports_every_stage_and_iteration() {
     })
     .unwrap();
     let mut rec = Recorder::default();
-    let config = Config {
-        template: TemplateKind::SinglePlane,
-        ..Config::default()
-    };
-    let out = flatten_with(&shape.mesh, &config, &mut rec).unwrap();
+    let out = Pipeline::new()
+        .template(TemplateKind::SinglePlane.build())
+        .run(&shape.mesh, &[], &mut rec)
+        .unwrap();
     assert_eq!(
         rec.stages,
         [
             "validation",
             "parcellation",
             "initialization",
-            "optimization (parallel-planes)",
+            "optimization (planes)",
             "optimization (single-plane)",
             "evaluation"
         ]
@@ -486,11 +483,14 @@ fn gradient_descent_runs_as_the_baseline() {
     })
     .unwrap();
     let config = Config {
-        solver: unfold_organs::placenta::SolverKind::Gd,
         max_iterations: Some(30),
         ..Config::default()
     };
-    let out = flatten(&shape.mesh, &config).unwrap();
+    let out = Pipeline::new()
+        .solver(SolverKind::Gd.build())
+        .config(config)
+        .run(&shape.mesh, &[], &mut Quiet)
+        .unwrap();
     assert_eq!(out.report.solver, "gd");
     assert_eq!(out.report.iterations, 30);
     assert!(!out.report.converged);

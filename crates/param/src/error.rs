@@ -1,5 +1,6 @@
 //! The error type of unfold-param.
 
+use std::sync::Arc;
 use thiserror::Error;
 use unfold_mesh::MeshError;
 
@@ -18,6 +19,44 @@ impl std::fmt::Display for Elements {
             Elements::Triangles => "triangle",
             Elements::Tets => "tet",
         })
+    }
+}
+
+/// The error of a piece written outside this crate (an organ's
+/// initializer, a method developer's template), carried through
+/// [`ParamError::Piece`] with its own type: the caller can
+/// [`downcast_ref`](PieceError::downcast_ref) it back.
+#[derive(Clone)]
+pub struct PieceError(pub Arc<dyn std::error::Error + Send + Sync>);
+
+impl PieceError {
+    /// Wraps an error.
+    pub fn new(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        PieceError(Arc::new(e))
+    }
+
+    /// The error as its own type, if it is one.
+    pub fn downcast_ref<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.0.downcast_ref::<E>()
+    }
+}
+
+impl std::fmt::Debug for PieceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(&*self.0, f)
+    }
+}
+
+impl std::fmt::Display for PieceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(&*self.0, f)
+    }
+}
+
+/// Two piece errors are equal when they are the same error.
+impl PartialEq for PieceError {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
     }
 }
 
@@ -196,6 +235,14 @@ pub enum ParamError {
     /// error of its own).
     #[error("{0}")]
     InvalidArgument(String),
+    /// A piece from outside this crate failed with its own error.
+    #[error("{piece}: {error}")]
+    Piece {
+        /// The piece's name.
+        piece: &'static str,
+        /// Its error.
+        error: PieceError,
+    },
     /// An internal invariant failed (a bug: please report).
     #[error("internal error: {what} (please report)")]
     Internal {

@@ -38,7 +38,7 @@ pub mod template;
 
 pub use deform::{Deform, DeformOutcome, DeformReport};
 pub use energy::DistortionEnergy;
-pub use error::{Elements, ParamError};
+pub use error::{Elements, ParamError, PieceError};
 pub use initializer::{Constraints, InitialMap, Initializer, Pin};
 pub use linesearch::{Backtracking, LineSearch, LineSearchResult};
 pub use objective::{HessianLayout, Objective, TemplateTerm};

@@ -26,10 +26,7 @@ mod ventricle;
 #[cfg(test)]
 mod test_util;
 
-pub use placenta::{
-    PlacentaParams, PlacentaShape, SIDE_FETAL, SIDE_INTERIOR, SIDE_MATERNAL, SIDE_RIM,
-    placenta_slab,
-};
+pub use placenta::{PlacentaParams, PlacentaShape, placenta_slab, side};
 pub use primitives::{grid_disk, kuhn_grid, uv_sphere};
 pub use shell::{ShellParams, ShellShape, bowl_shell};
 pub use valve::{ValveParams, ValveShape, mitral_valve};

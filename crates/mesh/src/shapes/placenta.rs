@@ -7,15 +7,25 @@ use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
-/// `side` label of a vertex inside the slab.
-pub const SIDE_INTERIOR: u8 = 0;
-/// `side` label of a vertex on the fetal (chorionic, concave, `w = +1`) face.
-pub const SIDE_FETAL: u8 = 1;
-/// `side` label of a vertex on the maternal (basal, convex, `w = -1`) face.
-pub const SIDE_MATERNAL: u8 = 2;
-/// `side` label of a vertex on the lateral rim (including the rim's edges
-/// with the fetal and maternal faces).
-pub const SIDE_RIM: u8 = 3;
+/// The `side` labels of a placenta's vertices, the one vocabulary of the
+/// synthetic placenta here and of the placenta pipeline
+/// (`unfold_organs::placenta::side`, ALGORITHMS 2.5): the boundary splits
+/// into the fetal side, the maternal side and the margin between them.
+pub mod side {
+    /// A vertex inside the volume (no template term).
+    pub const INTERIOR: u8 = 0;
+    /// A vertex on the fetal (chorionic) side; on the synthetic slab the
+    /// concave `w = +1` face.
+    pub const FETAL: u8 = 1;
+    /// A vertex on the maternal (basal) side; on the synthetic slab the
+    /// convex `w = -1` face.
+    pub const MATERNAL: u8 = 2;
+    /// A vertex on the margin between the two sides; on the synthetic slab
+    /// the lateral wall, its edges with the two faces included.
+    pub const MARGIN: u8 = 3;
+    /// The names of the labels, indexed by label.
+    pub const NAMES: [&str; 4] = ["interior", "fetal", "maternal", "margin"];
+}
 
 /// Parameters of [`placenta_slab`]. All lengths in millimetres.
 ///
@@ -158,9 +168,9 @@ pub struct PlacentaShape {
     /// The slab; every tet positively oriented. `mesh.point_data` holds the
     /// same labels as [`PlacentaShape::side`] as an I32 field named `side`.
     pub mesh: TetMesh,
-    /// Per vertex: [`SIDE_INTERIOR`] (0), [`SIDE_FETAL`] (1),
-    /// [`SIDE_MATERNAL`] (2) or [`SIDE_RIM`] (3). Vertices on both a face and
-    /// the lateral rim are rim.
+    /// Per vertex: [`side::INTERIOR`] (0), [`side::FETAL`] (1),
+    /// [`side::MATERNAL`] (2) or [`side::MARGIN`] (3). Vertices on both a face and
+    /// the lateral wall are margin.
     pub side: Vec<u8>,
     /// The parameters that produced it.
     pub params: PlacentaParams,
@@ -231,13 +241,13 @@ pub fn placenta_slab(p: &PlacentaParams) -> Result<PlacentaShape, MeshError> {
             };
             positions.push(pos);
             side.push(if v >= ring_start(n) {
-                SIDE_RIM
+                side::MARGIN
             } else if l == m {
-                SIDE_FETAL
+                side::FETAL
             } else if l == 0 {
-                SIDE_MATERNAL
+                side::MATERNAL
             } else {
-                SIDE_INTERIOR
+                side::INTERIOR
             });
         }
     }
@@ -314,15 +324,15 @@ mod tests {
             }
         }
         for (v, &s) in shape.side.iter().enumerate() {
-            assert_eq!(on_boundary[v], s != SIDE_INTERIOR, "vertex {v} side {s}");
+            assert_eq!(on_boundary[v], s != side::INTERIOR, "vertex {v} side {s}");
         }
         let per_layer = ring_start(n + 1);
         assert_eq!(
-            shape.side.iter().filter(|&&s| s == SIDE_FETAL).count(),
+            shape.side.iter().filter(|&&s| s == side::FETAL).count(),
             ring_start(n)
         );
         assert_eq!(
-            shape.side.iter().filter(|&&s| s == SIDE_RIM).count(),
+            shape.side.iter().filter(|&&s| s == side::MARGIN).count(),
             6 * n * (m + 1)
         );
         assert_eq!(shape.side.len(), per_layer * (m + 1));
@@ -330,7 +340,7 @@ mod tests {
         // all vertices rim; fetal/maternal faces may touch the rim).
         for f in &boundary {
             let s: Vec<u8> = f.iter().map(|&v| shape.side[v as usize]).collect();
-            let non_rim: Vec<u8> = s.iter().copied().filter(|&x| x != SIDE_RIM).collect();
+            let non_rim: Vec<u8> = s.iter().copied().filter(|&x| x != side::MARGIN).collect();
             assert!(non_rim.windows(2).all(|w| w[0] == w[1]), "mixed face {s:?}");
         }
         // Field mirrors the labels.
@@ -373,8 +383,8 @@ mod tests {
         let p = small();
         let shape = placenta_slab(&p).unwrap();
         let centre = p.bowl_centre().unwrap();
-        let fetal = centroid_of(&shape, SIDE_FETAL);
-        let maternal = centroid_of(&shape, SIDE_MATERNAL);
+        let fetal = centroid_of(&shape, side::FETAL);
+        let maternal = centroid_of(&shape, side::MATERNAL);
         // Fetal (concave) side closer to the bowl centre, maternal farther.
         assert!((fetal - centre).norm() < (maternal - centre).norm());
         // Every maternal vertex is farther from the bowl centre than every fetal vertex
@@ -384,8 +394,8 @@ mod tests {
         for v in 0..ring_start(p.cells_radial) {
             let mat = shape.mesh.positions[v];
             let fet = shape.mesh.positions[top + v];
-            assert_eq!(shape.side[v], SIDE_MATERNAL);
-            assert_eq!(shape.side[top + v], SIDE_FETAL);
+            assert_eq!(shape.side[v], side::MATERNAL);
+            assert_eq!(shape.side[top + v], side::FETAL);
             assert!((mat - centre).norm() > (fet - centre).norm());
         }
         // The rim lies above the centre of the bowl's bottom (it is a bowl).
@@ -406,8 +416,8 @@ mod tests {
             check_placenta(&shape);
             for (q, &s) in shape.mesh.positions.iter().zip(&shape.side) {
                 match s {
-                    SIDE_FETAL => assert!(q.z > 0.0),
-                    SIDE_MATERNAL => assert!(q.z < 0.0),
+                    side::FETAL => assert!(q.z > 0.0),
+                    side::MATERNAL => assert!(q.z < 0.0),
                     _ => {}
                 }
             }
@@ -532,8 +542,8 @@ mod tests {
             let shape = placenta_slab(&p).unwrap();
             check_placenta(&shape);
             if let Some(c) = p.bowl_centre() {
-                let f = centroid_of(&shape, SIDE_FETAL);
-                let mm = centroid_of(&shape, SIDE_MATERNAL);
+                let f = centroid_of(&shape, side::FETAL);
+                let mm = centroid_of(&shape, side::MATERNAL);
                 prop_assert!((f - c).norm() < (mm - c).norm());
             }
         }
@@ -562,8 +572,8 @@ mod tests {
                 prop_assert!((d0 - d1).abs() < 1e-9 * (1.0 + d0));
             }
             let c = moved.bowl_centre().unwrap();
-            let f = centroid_of(&s1, SIDE_FETAL);
-            let mm = centroid_of(&s1, SIDE_MATERNAL);
+            let f = centroid_of(&s1, side::FETAL);
+            let mm = centroid_of(&s1, side::MATERNAL);
             prop_assert!((f - c).norm() < (mm - c).norm());
         }
     }

@@ -107,6 +107,33 @@ pub enum PlacentaError {
         /// Total boundary weight of the maternal side.
         maternal_area: f64,
     },
+    /// The rigid motion that best fits the initial map cannot be computed
+    /// (no points, different counts, non-finite coordinates).
+    #[error("no rigid fit of the initial map: {input} input points, {mapped} mapped points")]
+    NoRigidFit {
+        /// Input points.
+        input: usize,
+        /// Mapped points.
+        mapped: usize,
+    },
+    /// A template's starting parameters do not match its parameter names.
+    #[error("template {template}: {found} starting parameters for {expected} named ones")]
+    TemplateParameters {
+        /// The template.
+        template: &'static str,
+        /// Its number of named parameters.
+        expected: usize,
+        /// The number of starting parameters it gave.
+        found: usize,
+    },
+    /// An image is named twice (the outputs would collide).
+    #[error("images {first} and {index} have the same name; rename one of them")]
+    ImageNameRepeated {
+        /// The first image with the name (index in the input).
+        first: usize,
+        /// The image that repeats it.
+        index: usize,
+    },
 
     // ---- the template grid and the image pull-back ----
     /// The template grid or the pull-back failed (boxed: its bounding boxes
@@ -282,6 +309,29 @@ pub enum PullbackError {
         mesh_hi: [f64; 3],
         /// Template voxels inside the mesh.
         voxels: usize,
+    },
+    /// An image's world box does not meet the mesh's bounding box (checked
+    /// before the optimization).
+    #[error(
+        "image {index}: the image does not overlap the mesh: its world bounding box is [{}] - \
+         [{}] mm, the mesh's is [{}] - [{}] mm (is it an image of this placenta, in the same \
+         scanner frame?)",
+        Mm3(.image_lo),
+        Mm3(.image_hi),
+        Mm3(.mesh_lo),
+        Mm3(.mesh_hi)
+    )]
+    Disjoint {
+        /// The image's index in the input.
+        index: usize,
+        /// Lower corner of the image's world bounding box, mm.
+        image_lo: [f64; 3],
+        /// Upper corner of the image's world bounding box, mm.
+        image_hi: [f64; 3],
+        /// Lower corner of the mesh's bounding box, mm.
+        mesh_lo: [f64; 3],
+        /// Upper corner of the mesh's bounding box, mm.
+        mesh_hi: [f64; 3],
     },
     /// The pulled-back image could not be built.
     #[error("image: building the pulled-back image: {0}")]

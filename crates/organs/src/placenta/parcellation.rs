@@ -24,9 +24,10 @@
 //!
 //! Only the largest connected piece of the boundary surface (the outer
 //! surface) is parcellated; the vertices of any other piece (an internal
-//! cavity) stay [`LABEL_INTERIOR`] and carry no template term.
+//! cavity) stay [`side::INTERIOR`] and carry no template term.
 
 use super::error::PlacentaError;
+use super::side;
 use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -40,7 +41,6 @@ use unfold_mesh::topology::{
 use unfold_mesh::{TetMesh, TriMesh};
 use unfold_param::eigen::{EigenOptions, smallest_eigenpairs};
 use unfold_param::operators::SparseSym;
-use unfold_param::template::{LABEL_FETAL, LABEL_INTERIOR, LABEL_MARGIN, LABEL_MATERNAL};
 
 /// The fewest vertices the boundary's largest piece may have.
 pub const MIN_BOUNDARY_VERTICES: usize = 8;
@@ -123,8 +123,8 @@ impl ParcellationConfig {
 /// what was found on the way.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parcellation {
-    /// Per vertex of the tet mesh: [`LABEL_INTERIOR`] (0), [`LABEL_FETAL`]
-    /// (1), [`LABEL_MATERNAL`] (2) or [`LABEL_MARGIN`] (3).
+    /// Per vertex of the tet mesh: [`side::INTERIOR`] (0), [`side::FETAL`]
+    /// (1), [`side::MATERNAL`] (2) or [`side::MARGIN`] (3).
     pub labels: Vec<u8>,
     /// Per vertex of the tet mesh: the Fiedler vector (0 off the
     /// parcellated boundary), signed so that maternal is positive.
@@ -263,7 +263,7 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let total_area: f64 = areas.iter().sum();
     let margin = choose_margin(&adj, &maternal, &seed_distance, &areas, total_area, config);
 
-    let mut labels = vec![LABEL_INTERIOR; mesh.num_vertices()];
+    let mut labels = vec![side::INTERIOR; mesh.num_vertices()];
     let mut fiedler_volume = vec![0.0; mesh.num_vertices()];
     let (mut fetal, mut mat, mut marg) = (0, 0, 0);
     for (k, &sv) in piece.iter().enumerate() {
@@ -271,13 +271,13 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
         fiedler_volume[v] = fiedler[k];
         labels[v] = if seed_distance[k] <= margin.radius {
             marg += 1;
-            LABEL_MARGIN
+            side::MARGIN
         } else if maternal[k] {
             mat += 1;
-            LABEL_MATERNAL
+            side::MATERNAL
         } else {
             fetal += 1;
-            LABEL_FETAL
+            side::FETAL
         };
     }
     if fetal == 0 || mat == 0 {
@@ -734,8 +734,8 @@ mod tests {
         let p = parcellate(&slab(8), &ParcellationConfig::default()).unwrap();
         for (l, f) in p.labels.iter().zip(&p.fiedler) {
             match *l {
-                LABEL_MATERNAL => assert!(*f > 0.0),
-                LABEL_FETAL => assert!(*f <= 0.0),
+                side::MATERNAL => assert!(*f > 0.0),
+                side::FETAL => assert!(*f <= 0.0),
                 _ => {}
             }
         }

@@ -1,0 +1,135 @@
+//! Images pulled into the template (ALGORITHMS 2.7): checked against the
+//! mesh before the optimization, then resampled through one voxel -> source
+//! table per distinct grid spacing, shared by every frame of a 4D series and
+//! by every image with that spacing.
+
+use super::error::{PlacentaError, PullbackError};
+use super::pullback::{PullbackTable, TemplateGrid, image_world_box};
+use super::report::ImageReport;
+use crate::{OrganError, PipelineObserver};
+use unfold_mesh::geometry::bounding_box;
+use unfold_mesh::nalgebra::{Matrix4, Point3};
+use unfold_mesh::{TetMesh, Volume};
+
+/// An image to pull into the template: 3D or 4D, in the mesh's scanner
+/// frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Image<'a> {
+    /// Its name (report entries and, on the command line, the output file
+    /// `<name>_flat.nii.gz`); unique within a run.
+    pub name: &'a str,
+    /// The image.
+    pub volume: &'a Volume<f32>,
+}
+
+/// An image in the template frame.
+#[derive(Debug, Clone)]
+pub struct FlatImage {
+    /// The input image's name.
+    pub name: String,
+    /// The resampled image: dims `[nx, ny, nz, frames]`, affine of the
+    /// template grid.
+    pub volume: Volume<f32>,
+    /// Its entry of `report.json`.
+    pub report: ImageReport,
+}
+
+/// Checks the images before any work: distinct names, and every image's
+/// world box meeting the mesh's bounding box.
+///
+/// # Errors
+/// [`PlacentaError::ImageNameRepeated`]; [`PullbackError::Disjoint`]
+/// naming the first image that misses the mesh.
+pub fn check_images(mesh: &TetMesh, images: &[Image<'_>]) -> Result<(), OrganError> {
+    for (index, image) in images.iter().enumerate() {
+        if let Some(first) = images[..index].iter().position(|i| i.name == image.name) {
+            return Err(PlacentaError::ImageNameRepeated { first, index }.into());
+        }
+    }
+    let Some(bb) = bounding_box(&mesh.positions) else {
+        return Ok(());
+    };
+    let (mesh_lo, mesh_hi) = (
+        [bb.min.x, bb.min.y, bb.min.z],
+        [bb.max.x, bb.max.y, bb.max.z],
+    );
+    for (index, image) in images.iter().enumerate() {
+        let (image_lo, image_hi) = image_world_box(image.volume);
+        if !(0..3).all(|a| image_lo[a] <= mesh_hi[a] && mesh_lo[a] <= image_hi[a]) {
+            return Err(PullbackError::Disjoint {
+                index,
+                image_lo,
+                image_hi,
+                mesh_lo,
+                mesh_hi,
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Whether two grid spacings are the same (to 1e-6 relative).
+fn same_spacing(a: &[f64; 3], b: &[f64; 3]) -> bool {
+    (0..3).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i].abs().max(b[i].abs()))
+}
+
+fn row_major(m: &Matrix4<f64>) -> [[f64; 4]; 4] {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
+}
+
+/// Pulls every image back: the grid covers the flattened mesh at
+/// `spacing_mm` (isotropic) or at each image's own voxel spacing; one table
+/// per distinct spacing.
+///
+/// # Errors
+/// The errors of [`TemplateGrid::covering`], [`PullbackTable::new`] and
+/// [`PullbackTable::apply`].
+pub fn pull_back(
+    flattened: &TetMesh,
+    original: &[Point3<f64>],
+    images: &[Image<'_>],
+    spacing_mm: Option<f64>,
+    observer: &mut dyn PipelineObserver,
+) -> Result<Vec<FlatImage>, OrganError> {
+    let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
+    let mut out = Vec::with_capacity(images.len());
+    for image in images {
+        let spacing = spacing_mm.map_or_else(|| image.volume.spacing(), |s| [s; 3]);
+        let k = match tables.iter().position(|(s, _)| same_spacing(s, &spacing)) {
+            Some(k) => k,
+            None => {
+                observer.stage(&format!(
+                    "pull-back table at [{}] mm",
+                    spacing.map(|s| format!("{s:.3}")).join(", ")
+                ));
+                let grid = TemplateGrid::covering(&flattened.positions, spacing)?;
+                let table =
+                    PullbackTable::new(grid, &flattened.positions, &flattened.tets, original)?;
+                tables.push((spacing, table));
+                tables.len() - 1
+            }
+        };
+        let table = &tables[k].1;
+        observer.stage(&format!("pulling back {}", image.name));
+        let (volume, stats) = table.apply(image.volume)?;
+        let grid = *table.grid();
+        out.push(FlatImage {
+            name: image.name.to_string(),
+            report: ImageReport {
+                name: image.name.to_string(),
+                input: None,
+                output: None,
+                spacing_mm: grid.spacing,
+                dims: grid.dims,
+                frames: volume.frames(),
+                affine: row_major(&grid.affine()),
+                inside_mesh: stats.inside_mesh,
+                sampled: stats.sampled,
+                outside_image: stats.outside_image,
+            },
+            volume,
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,162 @@
+//! `report.json` of the placenta pipeline.
+
+use super::align::TransformReport;
+use super::estimate::Estimates;
+use super::optimize::StageReport;
+use super::parcellation::ParcellationSummary;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use unfold_param::StopReason;
+use unfold_param::metrics::Summary;
+
+/// Boundary vertex counts by side.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BoundaryReport {
+    /// Fetal vertices.
+    pub fetal: usize,
+    /// Maternal vertices.
+    pub maternal: usize,
+    /// Margin vertices.
+    pub margin: usize,
+    /// The parcellation's details.
+    pub parcellation: ParcellationSummary,
+}
+
+/// The input, as the pipeline saw it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct InputReport {
+    /// Vertices.
+    pub vertices: usize,
+    /// Tets.
+    pub tets: usize,
+    /// Tets whose orientation was repaired.
+    pub reoriented_tets: usize,
+    /// Volume, mm^3.
+    pub volume_mm3: f64,
+}
+
+/// Seconds per step.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Timings {
+    /// Validation and orientation.
+    pub prepare: f64,
+    /// Parcellation.
+    pub parcellation: f64,
+    /// Alignment and initial estimates.
+    pub initialization: f64,
+    /// Optimization (all stages).
+    pub optimization: f64,
+    /// Evaluation.
+    pub evaluation: f64,
+    /// Pulling the images back (tables and resampling).
+    pub images: f64,
+}
+
+/// `report.json` (ALGORITHMS 2.6).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The template's name ("planes", "ellipsoid", "single-plane", or a
+    /// method developer's).
+    pub template: &'static str,
+    /// `lambda`.
+    pub lambda: f64,
+    /// The solver's name ("newton", "gd", ...).
+    pub solver: &'static str,
+    /// Every piece the pipeline was built from.
+    pub pieces: Pieces,
+    /// Iterations, all stages.
+    pub iterations: usize,
+    /// Wall-clock seconds of the whole pipeline.
+    pub seconds: f64,
+    /// Whether the last stage converged.
+    pub converged: bool,
+    /// Why the last stage stopped.
+    pub stop_reason: StopReason,
+    /// Final `phi`.
+    pub objective: f64,
+    /// Final `|grad phi|_F`.
+    pub grad_norm: f64,
+    /// `sqrt(sum_m A_m T(x_m, theta))`, mm.
+    pub template_error_mm: f64,
+    /// The same in voxels of `voxel_mm`.
+    pub template_error_voxels: f64,
+    /// The voxel size, mm.
+    pub voxel_mm: f64,
+    /// `(sum V_k D(J_k) - 6) / 6 * 100`.
+    pub dirichlet_excess_percent: f64,
+    /// Smallest `det J`.
+    pub min_det_j: f64,
+    /// Tets with `det J <= 0` (0 by construction).
+    pub inverted_tets: usize,
+    /// Final template parameters, mm (`h`, or `rx`, `ry`, `rz`).
+    pub theta: BTreeMap<&'static str, f64>,
+    /// Initial template parameters (ALGORITHMS 2.4), mm.
+    pub theta_initial: BTreeMap<&'static str, f64>,
+    /// The mesh-only estimates behind `theta_initial`.
+    pub estimates: Estimates,
+    /// Per tet `log2 det J`.
+    pub log2_det_j: Option<Summary>,
+    /// Per edge `log2(|x_ij| / |z_ij|)`.
+    pub log2_edge_ratio: Option<Summary>,
+    /// Per boundary triangle `log2(area ratio)`.
+    pub log2_area_ratio: Option<Summary>,
+    /// Boundary vertex counts.
+    pub boundary: BoundaryReport,
+    /// Input to template frame.
+    pub transform: TransformReport,
+    /// The input.
+    pub input: InputReport,
+    /// One entry per optimization stage.
+    pub stages: Vec<StageReport>,
+    /// One entry per pulled-back image.
+    pub images: Vec<ImageReport>,
+    /// Seconds per step.
+    pub timings: Timings,
+}
+
+/// The pieces a run was built from, by name.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Pieces {
+    /// The template.
+    pub template: &'static str,
+    /// The distortion energy.
+    pub energy: &'static str,
+    /// The initializer.
+    pub initializer: &'static str,
+    /// The choices the initializer reported (`what -> which`).
+    pub initializer_details: BTreeMap<&'static str, &'static str>,
+    /// The line search.
+    pub line_search: &'static str,
+    /// The solver.
+    pub solver: &'static str,
+}
+
+/// One entry of `images` in `report.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ImageReport {
+    /// The image's name (as given in the input).
+    pub name: String,
+    /// Where the image was read from, when a caller that reads files says
+    /// so (the command line: the path).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input: Option<String>,
+    /// Where its template-space image was written, when a caller that
+    /// writes files says so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    /// Voxel size of the template grid, mm.
+    pub spacing_mm: [f64; 3],
+    /// Voxels along x, y, z of the template grid.
+    pub dims: [usize; 3],
+    /// Frames (1 for a 3D image).
+    pub frames: usize,
+    /// Voxel-to-world affine of the template grid (template frame, mm),
+    /// row-major.
+    pub affine: [[f64; 4]; 4],
+    /// Template voxels whose centre lies inside the flattened mesh.
+    pub inside_mesh: usize,
+    /// Of those, voxels whose source point lies inside the image.
+    pub sampled: usize,
+    /// Of those, voxels whose source point lies outside the image (0).
+    pub outside_image: usize,
+}
