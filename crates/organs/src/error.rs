@@ -8,6 +8,7 @@
 //! message is one line a user can act on.
 
 use thiserror::Error;
+use unfold_linalg::LinalgError;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
 
@@ -21,6 +22,11 @@ pub enum OrganError {
     /// The parameterization framework failed (setup or solve).
     #[error(transparent)]
     Param(#[from] ParamError),
+    /// A linear-algebra step called by the pipeline itself failed (the
+    /// ventricle's Laplace field, the mitral layout's Dirichlet solve, the
+    /// placenta's affinity matrix).
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
     /// A setting is out of its range.
     #[error(transparent)]
     Config(#[from] ConfigError),

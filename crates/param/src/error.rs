@@ -1,6 +1,7 @@
 //! The error type of unfold-param.
 
 use thiserror::Error;
+use unfold_linalg::LinalgError;
 use unfold_mesh::MeshError;
 
 /// Everything that can go wrong setting up or running a parameterization.
@@ -29,9 +30,11 @@ pub enum ParamError {
         /// Found length.
         found: usize,
     },
-    /// A sparse factorization failed even after diagonal shifts.
-    #[error("sparse factorization failed: {0}")]
-    Factorization(String),
+    /// A linear-algebra step failed (a factorization that is not positive
+    /// definite even after diagonal shifts, a malformed sparsity pattern,
+    /// ...).
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
     /// The objective or its gradient became NaN or infinite.
     #[error("the objective is not finite ({0})")]
     NotFinite(String),

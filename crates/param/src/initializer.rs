@@ -1,12 +1,12 @@
 //! Initializers: valid (non-inverted) starting maps.
 
-use crate::operators::{
-    cotan_laplacian, mean_value_weights, solve_dirichlet, solve_dirichlet_weights,
-    uniform_laplacian,
-};
 use crate::{ParamError, ParamMesh, RestElements};
 use nalgebra::{Matrix2, Matrix3, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
+use unfold_linalg::{
+    cotan_laplacian, mean_value_weights, solve_dirichlet, solve_dirichlet_weights,
+    uniform_laplacian,
+};
 use unfold_mesh::TriMesh;
 use unfold_mesh::topology::{boundary_loops, connected_components, euler_characteristic};
 
@@ -501,9 +501,11 @@ impl Initializer for TutteDisk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::operators::tests::{Rng, boundary_mask, lift, orient2, perturbed_grid, random_disk};
     use nalgebra::{Point3, Rotation3, Vector3};
     use proptest::prelude::*;
+    use unfold_linalg::test_support::{
+        Rng, boundary_mask, lift, orient2, perturbed_grid, random_disk,
+    };
     use unfold_mesh::TetMesh;
     use unfold_mesh::shapes::primitives::{grid_disk, kuhn_grid, uv_sphere};
 
@@ -779,7 +781,7 @@ mod tests {
         let c = 3 + 7 * 3;
         assert!(x[2 * c].hypot(x[2 * c + 1]) < 0.5);
         // L x = 0 on interior rows.
-        let l = crate::operators::cotan_laplacian(&m);
+        let l = unfold_linalg::laplacian::cotan_laplacian(&m);
         let bnd = boundary_mask(&m);
         for k in 0..2 {
             let col: Vec<f64> = x.chunks(2).map(|q| q[k]).collect();

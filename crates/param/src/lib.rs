@@ -14,18 +14,14 @@
 //! (gradient descent, the placenta paper's baseline; projected Newton, the
 //! default) reporting every iteration to [`Observer`]s.
 
-pub mod eigen;
 pub mod energy;
 mod error;
 pub mod initializer;
 pub mod linesearch;
 pub mod metrics;
-pub mod multigrid;
 pub mod objective;
-pub mod operators;
 pub mod rest;
 pub mod solver;
-pub mod sparse;
 pub mod template;
 
 pub use energy::DistortionEnergy;
@@ -39,4 +35,5 @@ pub use solver::{
     StopReason, Stopping,
 };
 pub use template::Template;
+pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;

@@ -253,7 +253,7 @@ fn line_value(
 /// `d = -A^-1 g`: `S = C - B^T A^-1 B`, `dt = S^-1 (-g_t - B^T d)`,
 /// `dx = d - A^-1 B dt`. Returns `dt` and updates `d` in place.
 fn eliminate_theta(
-    factor: &crate::sparse::SpdFactor,
+    factor: &unfold_linalg::sparse::SpdFactor,
     tb: &crate::objective::ThetaBlock,
     d: &mut [f64],
 ) -> Result<Vec<f64>, ParamError> {
@@ -291,7 +291,11 @@ fn eliminate_theta(
             shift * 10.0
         };
         if shift > scale {
-            return Err(ParamError::Factorization("template parameter block".into()));
+            return Err(unfold_linalg::LinalgError::NotPositiveDefinite {
+                size: p,
+                last_shift: shift / 10.0, // the last one tried
+            }
+            .into());
         }
     };
     for j in 0..p {
@@ -462,7 +466,7 @@ impl Solver for ProjectedNewton {
         let mut buf = Vec::with_capacity(n);
         let mut values = Vec::new();
         // The factor's storage, reused by every factorization.
-        let mut storage: Option<crate::sparse::SpdFactor> = None;
+        let mut storage: Option<unfold_linalg::sparse::SpdFactor> = None;
         let (mut step, mut a_max, mut shift) = (0.0, f64::INFINITY, 0.0);
         let mut try_exact = self.exact_first;
         let mut it = 0;
@@ -512,7 +516,7 @@ impl Solver for ProjectedNewton {
                 );
                 let used = match factored {
                     Ok(used) => used,
-                    Err(e) if projected => return Err(e),
+                    Err(e) if projected => return Err(e.into()),
                     Err(_) => {
                         // Not positive definite here: do not pay for the
                         // attempt again in this solve.

@@ -34,12 +34,12 @@ use super::Leaflet;
 use super::annulus::AnnulusMap;
 use crate::OrganError;
 use std::collections::VecDeque;
+use unfold_linalg::{mean_value_weights, solve_dirichlet_weights};
 use unfold_mesh::TriMesh;
 use unfold_mesh::topology::{Adjacency, vertex_adjacency};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::initializer::disk_boundary_loop;
 use unfold_param::linesearch::max_step_tris;
-use unfold_param::operators::{mean_value_weights, solve_dirichlet_weights};
 use unfold_param::solver::NoObserver;
 use unfold_param::{Objective, ParamMesh, ProjectedNewton, Solver, Stopping};
 
