@@ -630,7 +630,10 @@ fn bad_settings_are_clear_errors() {
         ),
     ] {
         let e = flatten(&m, &config).unwrap_err();
-        assert!(matches!(e, OrganError::Config(_) | OrganError::ConfigText(_)), "{e}");
+        assert!(
+            matches!(e, OrganError::Config(_) | OrganError::ConfigText(_)),
+            "{e}"
+        );
         assert!(e.to_string().contains(needle), "{e} lacks {needle}");
     }
 }
