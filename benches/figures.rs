@@ -56,7 +56,9 @@ fn figures(c: &mut Criterion) {
         ..PlacentaParams::default()
     })
     .expect("slab");
-    let placenta_out = pl::flatten(&slab.mesh, &pl::Config::default()).expect("placenta");
+    let placenta_out = pl::Pipeline::new()
+        .run(&slab.mesh, &[], &mut unfold::organs::Quiet)
+        .expect("placenta");
     let scan = image(&slab.mesh.positions);
     let flat = placenta_out
         .pullback_table([2.0; 3])

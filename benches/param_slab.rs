@@ -32,9 +32,9 @@ use std::time::{Duration, Instant};
 use unfold::mesh::geometry::vertex_areas;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::topology::tet_boundary;
+use unfold::organs::placenta::ParallelPlanes;
 use unfold::param::energy::SymmetricDirichlet;
 use unfold::param::metrics::inverted_count;
-use unfold::param::template::ParallelPlanes;
 use unfold::param::{
     Executor, GradientDescent, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver,
     TemplateTerm,

@@ -21,7 +21,8 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 use unfold::mesh::TetMesh;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
-use unfold::organs::placenta::{Config, Outcome, flatten};
+use unfold::organs::Quiet;
+use unfold::organs::placenta::{Outcome, Pipeline};
 
 /// The allocator the `unfold` command uses (see `src/main.rs`).
 #[global_allocator]
@@ -38,7 +39,9 @@ fn slab(cells_radial: usize) -> TetMesh {
 }
 
 fn check(mesh: &TetMesh, what: &str) -> Outcome {
-    let out = flatten(mesh, &Config::default()).expect("pipeline");
+    let out = Pipeline::new()
+        .run(mesh, &[], &mut Quiet)
+        .expect("pipeline");
     let r = &out.report;
     assert!(r.converged, "{what}: {:?}", r.stop_reason);
     assert_eq!(r.inverted_tets, 0, "{what}");
@@ -74,7 +77,11 @@ fn placenta(c: &mut Criterion) {
                 let mut total = Duration::ZERO;
                 for _ in 0..iters {
                     let t0 = Instant::now();
-                    black_box(flatten(mesh, &Config::default()).expect("pipeline"));
+                    black_box(
+                        Pipeline::new()
+                            .run(mesh, &[], &mut Quiet)
+                            .expect("pipeline"),
+                    );
                     let dt = t0.elapsed();
                     times.push(dt.as_secs_f64());
                     total += dt;

@@ -6,6 +6,7 @@
 pub mod figures;
 
 pub use unfold_io as io;
+pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;
 pub use unfold_organs as organs;
 pub use unfold_param as param;

@@ -16,7 +16,7 @@ use unfold::mesh::shapes::{
     PlacentaParams, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
 };
 use unfold::mesh::{CellMesh, CellType, Volume};
-use unfold::organs::placenta::{Config, prepare_mesh};
+use unfold::organs::placenta::{Pipeline, prepare_mesh};
 
 /// Arguments of `unfold demo`.
 #[derive(Debug, Args)]
@@ -159,8 +159,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         label: &label,
         mesh: &prepared,
         images: &images,
-        config: &Config::default(),
-        spacing_mm: None,
+        pipeline: &Pipeline::new(),
         dir: &dir.join("placenta"),
         progress: true,
         segmentation: None,

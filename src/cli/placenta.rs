@@ -46,17 +46,15 @@ use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::{
     NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
 };
-use unfold::mesh::geometry::bounding_box;
 use unfold::mesh::mask::{dilate_box, inside_distance_quantile};
 use unfold::mesh::mesher::MeshQuality;
-use unfold::mesh::{CellMesh, CellType, MeshError, TetMesh};
-use unfold::organs::OrganError;
+use unfold::mesh::{CellMesh, MeshError};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
-use unfold::organs::placenta::pullback::{PullbackTable, image_world_box};
 use unfold::organs::placenta::{
-    Config, PipelineObserver, PreparedMesh, Report, SolverKind, TemplateKind,
-    flatten_prepared_with, prepare_mesh,
+    Config, Image, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report, SolverKind,
+    TemplateKind, prepare_mesh,
 };
+use unfold::organs::{OrganError, PipelineObserver};
 use unfold::param::Iteration;
 
 /// Templates on the command line.
@@ -205,9 +203,7 @@ impl PlacentaArgs {
             ));
         }
         let config = Config {
-            template: self.template.into(),
             lambda,
-            solver: self.solver.into(),
             grad_tol,
             max_iterations: self.max_iterations,
             max_seconds: None,
@@ -217,49 +213,22 @@ impl PlacentaArgs {
                 ..ParcellationConfig::default()
             },
             half_thickness_mm,
+            spacing_mm: self.spacing_mm,
         };
         config
             .validate()
             .map_err(|e| CliError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
         Ok(config)
     }
-}
 
-/// The tets of a cell mesh as read from a file. Lower-dimensional cells
-/// (boundary triangles, edges, points) are dropped with their cell data;
-/// other volume cells are an error. A mesh without tets gives a [`TetMesh`]
-/// without tets, which the pipeline rejects with its own message.
-fn tets_of(cells: &CellMesh) -> Result<TetMesh, String> {
-    let mut tets = Vec::with_capacity(cells.num_cells());
-    let mut rows = Vec::with_capacity(cells.num_cells());
-    for (i, (t, vs)) in cells.cells().enumerate() {
-        match t {
-            CellType::Tetra => {
-                let tet = <[u32; 4]>::try_from(vs)
-                    .map_err(|_| format!("cell {i} is a tet with {} vertices", vs.len()))?;
-                tets.push(tet);
-                rows.push(i);
-            }
-            t if t.dimension() == 3 => {
-                return Err(format!(
-                    "cell {i} is a {t:?}; the placenta pipeline needs a tetrahedral mesh \
-                     (split other volume cells into tets first)"
-                ));
-            }
-            _ => {}
-        }
+    /// The pipeline: the template and solver of the flags, the published
+    /// pieces otherwise, and `config`.
+    fn pipeline(&self, config: Config) -> Pipeline {
+        Pipeline::new()
+            .template(TemplateKind::from(self.template).build())
+            .solver(SolverKind::from(self.solver).build())
+            .config(config)
     }
-    let cell_data = if rows.len() == cells.num_cells() {
-        cells.cell_data.clone()
-    } else {
-        cells.cell_data.select(&rows)
-    };
-    Ok(TetMesh {
-        positions: cells.positions.clone(),
-        tets,
-        point_data: cells.point_data.clone(),
-        cell_data,
-    })
 }
 
 /// `<name>` of an image file `<name>.nii` or `<name>.nii.gz` (any case).
@@ -304,11 +273,8 @@ pub(crate) struct PipelineInput<'a> {
     pub mesh: &'a PreparedMesh,
     /// Images to pull into the template.
     pub images: &'a [ImageInput],
-    /// Pipeline settings (already validated).
-    pub config: &'a Config,
-    /// Isotropic spacing of the template grids, mm; `None`: each image's
-    /// own spacing.
-    pub spacing_mm: Option<f64>,
+    /// The pipeline (settings already validated).
+    pub pipeline: &'a Pipeline,
     /// Output directory (created if missing).
     pub dir: &'a Path,
     /// Show a progress spinner on stderr (only if stderr is a terminal).
@@ -349,30 +315,6 @@ pub(crate) struct SegReport {
     pub quality: MeshQuality,
 }
 
-/// One entry of `images` in `report.json`.
-#[derive(Debug, Clone, Serialize)]
-pub(crate) struct ImageReport {
-    /// The input image.
-    pub input: String,
-    /// The template-space image written.
-    pub output: String,
-    /// Voxel size of the template grid, mm.
-    pub spacing_mm: [f64; 3],
-    /// Voxels along x, y, z of the template grid.
-    pub dims: [usize; 3],
-    /// Frames (1 for a 3D image).
-    pub frames: usize,
-    /// Voxel-to-world affine of the template grid (template frame, mm),
-    /// row-major.
-    pub affine: [[f64; 4]; 4],
-    /// Template voxels whose centre lies inside the flattened mesh.
-    pub inside_mesh: usize,
-    /// Of those, voxels whose source point lies inside the image.
-    pub sampled: usize,
-    /// Of those, voxels whose source point lies outside the image (0).
-    pub outside_image: usize,
-}
-
 /// `report.json`: the library's report with the inputs and images added.
 #[derive(Serialize)]
 struct FullReport<'a> {
@@ -381,7 +323,6 @@ struct FullReport<'a> {
     segmentation: Option<&'a SegReport>,
     #[serde(flatten)]
     report: &'a Report,
-    images: &'a [ImageReport],
 }
 
 /// What a run produced, for the summary on stdout.
@@ -391,8 +332,6 @@ pub(crate) struct Summary {
     pub label: String,
     /// The library's report.
     pub report: Report,
-    /// The pulled-back images.
-    pub images: Vec<ImageReport>,
     /// Every file written, in order.
     pub written: Vec<PathBuf>,
 }
@@ -470,11 +409,15 @@ impl fmt::Display for Summary {
             "  boundary vertices: {} fetal, {} maternal, {} margin",
             r.boundary.fetal, r.boundary.maternal, r.boundary.margin
         )?;
-        for i in &self.images {
+        for i in &r.images {
             writeln!(
                 f,
                 "  {} -> {}: {} voxels inside the mesh, {} sampled, {} outside the image",
-                i.input, i.output, i.inside_mesh, i.sampled, i.outside_image
+                i.input.as_deref().unwrap_or(&i.name),
+                i.output.as_deref().unwrap_or("-"),
+                i.inside_mesh,
+                i.sampled,
+                i.outside_image
             )?;
         }
         for (k, p) in self.written.iter().enumerate() {
@@ -562,76 +505,35 @@ fn check_names<'a>(images: impl IntoIterator<Item = (&'a Path, &'a str)>) -> Res
     Ok(())
 }
 
-fn fmt3(p: &[f64; 3]) -> String {
-    format!("{:.1}, {:.1}, {:.1}", p[0], p[1], p[2])
-}
-
-/// Checks that every image's world box meets the mesh's bounding box.
-fn check_overlap(mesh: &TetMesh, images: &[ImageInput]) -> Result<(), CliError> {
-    let Some(bb) = bounding_box(&mesh.positions) else {
-        return Ok(());
-    };
-    let (mlo, mhi) = (
-        [bb.min.x, bb.min.y, bb.min.z],
-        [bb.max.x, bb.max.y, bb.max.z],
-    );
-    for img in images {
-        let (lo, hi) = image_world_box(&img.image.volume);
-        let meets = (0..3).all(|a| lo[a] <= mhi[a] && mlo[a] <= hi[a]);
-        if !meets {
-            return Err(at(
-                &img.path,
-                format!(
-                    "the image does not overlap the mesh: its world bounding box is [{}] - [{}] \
-                     mm, the mesh's is [{}] - [{}] mm (is it an image of this placenta, in the \
-                     same scanner frame?)",
-                    fmt3(&lo),
-                    fmt3(&hi),
-                    fmt3(&mlo),
-                    fmt3(&mhi)
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Whether two grid spacings are the same (to 1e-6 relative).
-fn same_spacing(a: &[f64; 3], b: &[f64; 3]) -> bool {
-    (0..3).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i].abs().max(b[i].abs()))
-}
-
-fn row_major(m: &unfold::mesh::nalgebra::Matrix4<f64>) -> [[f64; 4]; 4] {
-    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
-}
-
 /// Runs the placenta pipeline and writes its outputs into `input.dir`:
-/// checks the mesh and images first (mesh validity, distinct image names,
-/// every image overlapping the mesh), flattens, pulls every image back
-/// (one table per distinct spacing) and writes `original.vtu`,
-/// `flattened.vtu`, `<name>_flat.nii.gz` per image and `report.json` (last).
+/// checks the image names (their outputs must differ), runs the library's
+/// [`Pipeline`] (which checks the images against the mesh before any work,
+/// flattens and pulls every image back) and writes `original.vtu`,
+/// `flattened.vtu`, `<name>_flat.nii.gz` per image, the figures and
+/// `report.json` (last).
 pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliError> {
     let label = input.label;
-    // Fail fast: everything that can be checked before the optimization.
     check_names(
         input
             .images
             .iter()
             .map(|i| (i.path.as_path(), i.name.as_str())),
     )?;
-    check_overlap(&input.mesh.mesh, input.images)?;
-    if let Some(s) = input.spacing_mm {
-        positive("--spacing-mm", s)?;
-    }
     super::ensure_dir(input.dir)?;
 
+    let images: Vec<Image<'_>> = input
+        .images
+        .iter()
+        .map(|i| Image {
+            name: &i.name,
+            volume: &i.image.volume,
+        })
+        .collect();
     let mut progress = Progress::new(input.progress);
-    let outcome = flatten_prepared_with(input.mesh.clone(), input.config, &mut progress).map_err(
-        |e| match e {
-            OrganError::Config(_) => CliError::Usage(e.to_string()),
-            e => organ(label, e),
-        },
-    )?;
+    let mut outcome = input
+        .pipeline
+        .run_prepared(input.mesh.clone(), &images, &mut progress)
+        .map_err(|e| pipeline_error(label, input.images, e))?;
 
     let dir = input.dir;
     let mut written = Vec::new();
@@ -645,76 +547,43 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         write_mesh(&p, &CellMesh::from(mesh), &opts)?;
         written.push(p);
     }
-
-    let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
-    let mut image_reports = Vec::with_capacity(input.images.len());
-    let mut flats: Vec<(String, unfold::mesh::Volume<f32>)> = Vec::new();
-    for img in input.images {
-        let in_path = img.path.display().to_string();
-        let spacing = match input.spacing_mm {
-            Some(s) => [s; 3],
-            None => img.image.volume.spacing(),
-        };
-        let k = match tables.iter().position(|(s, _)| same_spacing(s, &spacing)) {
-            Some(k) => k,
-            None => {
-                progress.set(&format!(
-                    "pull-back table at [{}] mm",
-                    spacing.map(|s| format!("{s:.3}")).join(", ")
-                ));
-                let table = outcome
-                    .pullback_table(spacing)
-                    .map_err(|e| organ(&in_path, e))?;
-                tables.push((spacing, table));
-                tables.len() - 1
-            }
-        };
-        let table = &tables[k].1;
-        progress.set(&format!("pulling back {in_path}"));
-        let (volume, stats) = table
-            .apply(&img.image.volume)
-            .map_err(|e| organ(&in_path, e))?;
-        let grid = *table.grid();
-        let frames = volume.frames();
-        let mut out = NiftiImage::new(volume);
+    for ((flat, entry), img) in outcome
+        .images
+        .iter()
+        .zip(&mut outcome.report.images)
+        .zip(input.images)
+    {
+        let mut out = NiftiImage::new(flat.volume.clone());
         out.time_step = img.image.time_step;
         out.xyzt_units = img.image.xyzt_units;
         out.description = "unfold placenta: pulled back into the template".into();
         let out_path = dir.join(flat_name(&img.name));
         write_image(&out_path, &out)?;
-        flats.push((img.name.clone(), out.volume));
-        image_reports.push(ImageReport {
-            input: in_path,
-            output: out_path.display().to_string(),
-            spacing_mm: grid.spacing,
-            dims: grid.dims,
-            frames,
-            affine: row_major(&grid.affine()),
-            inside_mesh: stats.inside_mesh,
-            sampled: stats.sampled,
-            outside_image: stats.outside_image,
-        });
+        entry.input = Some(img.path.display().to_string());
+        entry.output = Some(out_path.display().to_string());
         written.push(out_path);
     }
 
     if input.figures {
         progress.set("figures");
-        let images: Vec<FlatImage<'_>> = flats
+        let images: Vec<FlatImage<'_>> = outcome
+            .images
             .iter()
-            .map(|(name, volume)| FlatImage { name, volume })
+            .map(|i| FlatImage {
+                name: &i.name,
+                volume: &i.volume,
+            })
             .collect();
         let figs = placenta_figures(&outcome, &images, &FigureOptions::default())
             .map_err(|e| at(dir, e))?;
         written.extend(super::write_figures(dir, &figs)?);
     }
-    drop(flats);
 
     let report_path = dir.join(REPORT);
     let full = FullReport {
         mesh: label,
         segmentation: input.segmentation,
         report: &outcome.report,
-        images: &image_reports,
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
@@ -725,9 +594,32 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     Ok(Summary {
         label: label.to_string(),
         report: outcome.report,
-        images: image_reports,
         written,
     })
+}
+
+/// A pipeline error, attributed to the file it is about: an image's errors
+/// to the image, bad settings to the command line, the rest to the mesh.
+fn pipeline_error(label: &str, images: &[ImageInput], e: OrganError) -> CliError {
+    let image_path = |index: usize| images.get(index).map(|i| i.path.display().to_string());
+    match e {
+        OrganError::Config(_) => CliError::Usage(e.to_string()),
+        OrganError::Placenta(PlacentaError::ImagePullback { index, source }) => {
+            let path = image_path(index).unwrap_or_else(|| label.to_string());
+            organ(&path, *source)
+        }
+        OrganError::Placenta(PlacentaError::Pullback(source)) => {
+            let index = match *source {
+                PullbackError::Disjoint { index, .. } => Some(index),
+                _ => None,
+            };
+            let path = index
+                .and_then(image_path)
+                .unwrap_or_else(|| label.to_string());
+            organ(&path, *source)
+        }
+        e => organ(label, e),
+    }
 }
 
 /// Runs `unfold placenta`.
@@ -802,7 +694,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     let (mesh, config, seg) = match &a.seg {
         None => {
             let cells = read_mesh(input)?;
-            let mesh = tets_of(&cells).map_err(|e| at(input, e))?;
+            let mesh = cells.volume_tets().map_err(|e| at(input, e))?;
             (mesh, a.config(3.0, None)?, None)
         }
         Some(seg) => {
@@ -860,8 +752,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         label: &label,
         mesh: &prepared,
         images: &images,
-        config: &config,
-        spacing_mm: a.spacing_mm,
+        pipeline: &a.pipeline(config),
         dir,
         progress: true,
         segmentation: seg.as_ref(),
@@ -874,7 +765,6 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use unfold::mesh::nalgebra::Point3;
 
     #[test]
     fn image_names_drop_the_nifti_extension() {
@@ -886,32 +776,5 @@ mod tests {
         assert_eq!(image_name(Path::new("x.y.nii")).as_deref(), Some("x.y"));
         assert_eq!(image_name(Path::new(".nii")), None);
         assert_eq!(image_name(Path::new("img.vtu")), None);
-    }
-
-    #[test]
-    fn spacings_compare_relatively() {
-        assert!(same_spacing(&[2.0; 3], &[2.0 + 1e-9, 2.0, 2.0]));
-        assert!(!same_spacing(&[2.0; 3], &[2.0, 2.1, 2.0]));
-    }
-
-    #[test]
-    fn surface_cells_are_dropped_and_volume_cells_rejected() {
-        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
-        let mut m = CellMesh::from_points(vec![
-            p(0.0, 0.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(0.0, 0.0, 1.0),
-        ]);
-        m.push_cell(CellType::Triangle, &[0, 1, 2]);
-        m.push_cell(CellType::Tetra, &[0, 1, 2, 3]);
-        let t = tets_of(&m).unwrap();
-        assert_eq!(t.tets, vec![[0, 1, 2, 3]]);
-        let mut tri = CellMesh::from_points(m.positions.clone());
-        tri.push_cell(CellType::Triangle, &[0, 1, 2]);
-        assert!(tets_of(&tri).unwrap().tets.is_empty());
-        let mut wedge = CellMesh::from_points(m.positions.clone());
-        wedge.push_cell(CellType::Pyramid, &[0, 1, 2, 3, 0]);
-        assert!(tets_of(&wedge).unwrap_err().contains("Pyramid"));
     }
 }

@@ -16,7 +16,8 @@ use unfold::mesh::geometry::bounding_box;
 use unfold::mesh::nalgebra::{Matrix4, Point3};
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::{Field, Volume};
-use unfold::organs::placenta::{Config, Outcome, flatten};
+use unfold::organs::Quiet;
+use unfold::organs::placenta::{Outcome, Pipeline};
 
 struct Fixture {
     outcome: Outcome,
@@ -67,7 +68,9 @@ fn fixture() -> &'static Fixture {
             ..PlacentaParams::default()
         };
         let shape = placenta_slab(&params).expect("slab");
-        let outcome = flatten(&shape.mesh, &Config::default()).expect("pipeline");
+        let outcome = Pipeline::new()
+            .run(&shape.mesh, &[], &mut Quiet)
+            .expect("pipeline");
         let image = scanner_image(&params, &shape.mesh.positions);
         let table = outcome.pullback_table([3.0; 3]).expect("table");
         let (flat, _) = table.apply(&image).expect("pull-back");

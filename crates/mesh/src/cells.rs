@@ -267,6 +267,48 @@ impl CellMesh {
         })
     }
 
+    /// The tets of the mesh, as a file holds them: lower-dimensional cells
+    /// (boundary triangles, edges, points) are dropped with their cell data;
+    /// any other volume cell is an error. A mesh without tets gives a
+    /// [`TetMesh`] without tets (the caller decides whether that is an
+    /// error). The lenient twin of [`CellMesh::to_tet_mesh`].
+    ///
+    /// # Errors
+    /// [`MeshError::WrongCellType`] for a volume cell that is not a tet;
+    /// the errors of the cell checks.
+    pub fn volume_tets(&self) -> Result<TetMesh, MeshError> {
+        self.check()?;
+        let mut tets = Vec::with_capacity(self.num_cells());
+        let mut rows = Vec::with_capacity(self.num_cells());
+        for (i, (t, vs)) in self.cells().enumerate() {
+            match t {
+                CellType::Tetra => {
+                    tets.push([vs[0], vs[1], vs[2], vs[3]]);
+                    rows.push(i);
+                }
+                t if t.dimension() == 3 => {
+                    return Err(MeshError::WrongCellType {
+                        cell: i,
+                        found: t,
+                        expected: "tetrahedral (split other volume cells into tets first)",
+                    });
+                }
+                _ => {}
+            }
+        }
+        let cell_data = if rows.len() == self.num_cells() {
+            self.cell_data.clone()
+        } else {
+            self.cell_data.select(&rows)
+        };
+        Ok(TetMesh {
+            positions: self.positions.clone(),
+            tets,
+            point_data: self.point_data.clone(),
+            cell_data,
+        })
+    }
+
     /// The line cells (lines and polylines) as vertex sequences.
     pub fn polylines(&self) -> Vec<Vec<u32>> {
         self.cells()
@@ -345,6 +387,40 @@ impl From<&TetMesh> for CellMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn volume_tets_drop_lower_cells_and_refuse_other_volume_cells() {
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let mut m = CellMesh::from_points(vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+            p(1.0, 1.0, 0.0),
+        ]);
+        m.push_cell(CellType::Triangle, &[0, 1, 2]);
+        m.push_cell(CellType::Tetra, &[0, 1, 2, 3]);
+        let t = m.volume_tets().unwrap();
+        assert_eq!(t.tets, vec![[0, 1, 2, 3]]);
+        let mut tri = CellMesh::from_points(m.positions.clone());
+        tri.push_cell(CellType::Triangle, &[0, 1, 2]);
+        assert!(tri.volume_tets().unwrap().tets.is_empty());
+        let mut pyramid = CellMesh::from_points(m.positions.clone());
+        pyramid.push_cell(CellType::Pyramid, &[0, 1, 4, 2, 3]);
+        let e = pyramid.volume_tets().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                MeshError::WrongCellType {
+                    cell: 0,
+                    found: CellType::Pyramid,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("split other volume cells"), "{e}");
+    }
 
     fn quad_mesh() -> CellMesh {
         let mut m = CellMesh::from_points(vec![

@@ -11,6 +11,7 @@ use crate::mitral::MitralError;
 use crate::placenta::error::PlacentaError;
 use crate::ventricle::error::VentricleError;
 use thiserror::Error;
+use unfold_linalg::LinalgError;
 use unfold_mesh::MeshError;
 use unfold_param::ParamError;
 
@@ -24,6 +25,11 @@ pub enum OrganError {
     /// The parameterization framework failed (setup or solve).
     #[error(transparent)]
     Param(#[from] ParamError),
+    /// A linear-algebra step called by the pipeline itself failed (the
+    /// ventricle's Laplace field, the mitral layout's Dirichlet solve, the
+    /// placenta's affinity matrix).
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
     /// A setting is out of its range.
     #[error(transparent)]
     Config(#[from] ConfigError),

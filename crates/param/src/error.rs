@@ -2,6 +2,7 @@
 
 use std::sync::Arc;
 use thiserror::Error;
+use unfold_linalg::LinalgError;
 use unfold_mesh::MeshError;
 
 /// The kind of elements of a mesh.
@@ -87,9 +88,11 @@ pub enum ParamError {
         /// Found length.
         found: usize,
     },
-    /// A sparse factorization failed even after diagonal shifts.
-    #[error("sparse factorization failed: {0}")]
-    Factorization(String),
+    /// A linear-algebra step failed (a factorization that is not positive
+    /// definite even after diagonal shifts, a malformed sparsity pattern,
+    /// ...).
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
     /// A setting is out of its range.
     #[error("{name} must be {expected}, got {value}")]
     Setting {
@@ -227,14 +230,6 @@ pub enum ParamError {
         /// Number of points.
         points: usize,
     },
-    /// The linear-algebra toolbox's free-text errors (moving to a typed
-    /// error of its own).
-    #[error("the objective is not finite ({0})")]
-    NotFinite(String),
-    /// The linear-algebra toolbox's free-text errors (moving to a typed
-    /// error of its own).
-    #[error("{0}")]
-    InvalidArgument(String),
     /// A piece from outside this crate failed with its own error.
     #[error("{piece}: {error}")]
     Piece {

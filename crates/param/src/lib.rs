@@ -21,19 +21,15 @@
 //! `docs/ALGORITHMS.md` in the repository.
 
 pub mod deform;
-pub mod eigen;
 pub mod energy;
 mod error;
 pub mod flips;
 pub mod initializer;
 pub mod linesearch;
 pub mod metrics;
-pub mod multigrid;
 pub mod objective;
-pub mod operators;
 pub mod rest;
 pub mod solver;
-pub mod sparse;
 pub mod template;
 
 pub use deform::{Deform, DeformOutcome, DeformReport};
@@ -48,4 +44,5 @@ pub use solver::{
     SolveReport, Solver, State, Step, StopReason, Stopping,
 };
 pub use template::Template;
+pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;

@@ -502,7 +502,7 @@ pub fn template_matching_error<T: Template + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::template::{LABEL_FETAL, LABEL_MARGIN, LABEL_MATERNAL, ParallelPlanes};
+    use crate::template::PointTargets;
     use nalgebra::Rotation3;
     use proptest::prelude::*;
     use unfold_mesh::shapes::{grid_disk, kuhn_grid};
@@ -727,11 +727,14 @@ mod tests {
 
     #[test]
     fn metrics_template_matching_error() {
-        let labels = [LABEL_FETAL, LABEL_MATERNAL, LABEL_MARGIN];
+        let labels = [0, 0, 0];
         let xs = [0.0, 0.0, 11.0, 0.0, 0.0, -10.0, 0.0, 0.0, 50.0];
         let w = [0.5, 0.25, 0.25];
-        // 0.5 * 1^2 on the fetal side, 0 maternal, margin free.
-        let e = template_matching_error(&ParallelPlanes::new(), &labels, &xs, 3, &w, &[10.0]);
+        // 0.5 * 1^2 at vertex 0, 0 at vertex 1, vertex 2 without a target.
+        let targets =
+            PointTargets::from_pairs(3, 3, &[(0, [0.0, 0.0, 10.0]), (1, [0.0, 0.0, -10.0])])
+                .unwrap();
+        let e = template_matching_error(&targets, &labels, &xs, 3, &w, &[]);
         assert!((e - 0.5f64.sqrt()).abs() < 1e-15);
     }
 

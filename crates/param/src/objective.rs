@@ -4,11 +4,11 @@
 //! (ALGORITHMS 1.1, 1.2, 2.1).
 
 use crate::energy::{Eigen2, HessianMode, density2, density3, eval2, eval3, hessian2_eigen};
-use crate::sparse::SpdPattern;
 use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
 use nalgebra::{Matrix2, Matrix3};
 use rayon::prelude::*;
 use std::sync::Arc;
+use unfold_linalg::sparse::SpdPattern;
 
 /// The template part of the objective: `sum_m weights[m] T(m, labels[m],
 /// x_m, theta)`; vertices with weight 0 carry no term.

@@ -34,12 +34,12 @@ use super::annulus::AnnulusMap;
 use super::{LayoutError, LayoutKind, Leaflet};
 use crate::OrganError;
 use std::collections::VecDeque;
+use unfold_linalg::{mean_value_weights, solve_dirichlet_weights};
 use unfold_mesh::TriMesh;
 use unfold_mesh::topology::{Adjacency, vertex_adjacency};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::initializer::disk_boundary_loop;
 use unfold_param::linesearch::max_step_tris;
-use unfold_param::operators::{mean_value_weights, solve_dirichlet_weights};
 use unfold_param::{Executor, Objective, ParamMesh, ProjectedNewton, Stopping};
 
 /// The `(u, v)` of every annulus vertex of a leaflet: `q_k =

@@ -12,7 +12,6 @@ use crate::OrganError;
 use std::fmt;
 use thiserror::Error;
 use unfold_mesh::MeshError;
-use unfold_param::ParamError;
 
 /// Everything the placenta pipeline itself can reject (besides bad
 /// settings, mesh validation and solver failures).
@@ -76,7 +75,7 @@ pub enum PlacentaError {
     },
     /// The eigensolver could not find the Fiedler vector.
     #[error("parcellation: Fiedler vector: {0}")]
-    Fiedler(#[source] ParamError),
+    Fiedler(#[source] unfold_linalg::LinalgError),
     /// The Fiedler vector has one sign on the whole boundary (e.g. a
     /// sphere has no two sides).
     #[error("parcellation: the Fiedler vector does not split the boundary into two sides")]
@@ -133,6 +132,16 @@ pub enum PlacentaError {
         first: usize,
         /// The image that repeats it.
         index: usize,
+    },
+
+    /// Pulling one image back failed (the table of its spacing or its
+    /// resampling).
+    #[error("{source}")]
+    ImagePullback {
+        /// The image's index in the input.
+        index: usize,
+        /// What failed.
+        source: Box<PullbackError>,
     },
 
     // ---- the template grid and the image pull-back ----
@@ -313,7 +322,7 @@ pub enum PullbackError {
     /// An image's world box does not meet the mesh's bounding box (checked
     /// before the optimization).
     #[error(
-        "image {index}: the image does not overlap the mesh: its world bounding box is [{}] - \
+        "the image does not overlap the mesh: its world bounding box is [{}] - \
          [{}] mm, the mesh's is [{}] - [{}] mm (is it an image of this placenta, in the same \
          scanner frame?)",
         Mm3(.image_lo),

@@ -83,7 +83,8 @@ fn row_major(m: &Matrix4<f64>) -> [[f64; 4]; 4] {
 /// per distinct spacing.
 ///
 /// # Errors
-/// The errors of [`TemplateGrid::covering`], [`PullbackTable::new`] and
+/// [`PlacentaError::ImagePullback`] naming the image, with the error of
+/// [`TemplateGrid::covering`], [`PullbackTable::new`] or
 /// [`PullbackTable::apply`].
 pub fn pull_back(
     flattened: &TetMesh,
@@ -94,7 +95,11 @@ pub fn pull_back(
 ) -> Result<Vec<FlatImage>, OrganError> {
     let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
     let mut out = Vec::with_capacity(images.len());
-    for image in images {
+    for (index, image) in images.iter().enumerate() {
+        let failed = |e: PullbackError| PlacentaError::ImagePullback {
+            index,
+            source: Box::new(e),
+        };
         let spacing = spacing_mm.map_or_else(|| image.volume.spacing(), |s| [s; 3]);
         let k = match tables.iter().position(|(s, _)| same_spacing(s, &spacing)) {
             Some(k) => k,
@@ -103,16 +108,17 @@ pub fn pull_back(
                     "pull-back table at [{}] mm",
                     spacing.map(|s| format!("{s:.3}")).join(", ")
                 ));
-                let grid = TemplateGrid::covering(&flattened.positions, spacing)?;
+                let grid = TemplateGrid::covering(&flattened.positions, spacing).map_err(failed)?;
                 let table =
-                    PullbackTable::new(grid, &flattened.positions, &flattened.tets, original)?;
+                    PullbackTable::new(grid, &flattened.positions, &flattened.tets, original)
+                        .map_err(failed)?;
                 tables.push((spacing, table));
                 tables.len() - 1
             }
         };
         let table = &tables[k].1;
         observer.stage(&format!("pulling back {}", image.name));
-        let (volume, stats) = table.apply(image.volume)?;
+        let (volume, stats) = table.apply(image.volume).map_err(failed)?;
         let grid = *table.grid();
         out.push(FlatImage {
             name: image.name.to_string(),
@@ -132,4 +138,15 @@ pub fn pull_back(
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spacings_compare_relatively() {
+        assert!(same_spacing(&[2.0; 3], &[2.0 + 1e-9, 2.0, 2.0]));
+        assert!(!same_spacing(&[2.0; 3], &[2.0, 2.1, 2.0]));
+    }
 }

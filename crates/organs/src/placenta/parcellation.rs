@@ -10,7 +10,7 @@
 //! 2. The normalized Laplacian `L = I - D^-1/2 W D^-1/2`; its second-smallest
 //!    eigenvector (the Fiedler vector) splits the boundary at 0. The smallest
 //!    eigenvector `D^1/2 1` (eigenvalue 0) is known and deflated, so a sparse
-//!    shift-invert eigensolver ([`unfold_param::eigen`]) finds the Fiedler
+//!    shift-invert eigensolver ([`unfold_linalg::eigen`]) finds the Fiedler
 //!    vector directly.
 //! 3. Margin: the vertices with a neighbour in the other cluster, grown to
 //!    every boundary vertex within geodesic distance `r` of them. `r` adapts
@@ -33,14 +33,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+use unfold_linalg::Csr;
+use unfold_linalg::eigen::{EigenOptions, smallest_eigenpairs};
 use unfold_mesh::geodesic::EdgeGraph;
 use unfold_mesh::geometry::{convex_hull_vertices, vertex_areas, vertex_normals};
 use unfold_mesh::topology::{
     Adjacency, TetBoundary, connected_components, tet_boundary, vertex_adjacency,
 };
 use unfold_mesh::{TetMesh, TriMesh};
-use unfold_param::eigen::{EigenOptions, smallest_eigenpairs};
-use unfold_param::operators::SparseSym;
 
 /// The fewest vertices the boundary's largest piece may have.
 pub const MIN_BOUNDARY_VERTICES: usize = 8;
@@ -311,7 +311,7 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
 
 /// The normalized Laplacian of the affinity and `sqrt(d)` (its null vector).
 struct AffinityLaplacian {
-    l: SparseSym,
+    l: Csr,
     sqrt_degree: Vec<f64>,
 }
 
@@ -355,13 +355,13 @@ fn normalized_affinity_laplacian(
         return Err(PlacentaError::AffinityOverflow { vertex }.into());
     }
     let sqrt_degree: Vec<f64> = degree.iter().map(|d| d.sqrt()).collect();
-    let l = SparseSym::from_entries(
+    let l = Csr::from_symmetric_entries(
         n,
         w.into_iter().map(|(i, j, v)| {
             let s = v / (sqrt_degree[i as usize] * sqrt_degree[j as usize]);
             (i, j, if i == j { 1.0 - s } else { -s })
         }),
-    );
+    )?;
     Ok(AffinityLaplacian { l, sqrt_degree })
 }
 

@@ -22,7 +22,7 @@
 //! the boundary value there (Gibou et al. 2002, symmetric and second order):
 //! `(u_n - u_b) / theta` in place of `u_n - u_m`. A link that leaves through
 //! the skirt carries no flux. The system is solved by conjugate gradients
-//! with a multigrid preconditioner ([`unfold_param::multigrid`]).
+//! with a multigrid preconditioner ([`unfold_linalg::multigrid`]).
 //!
 //! **Gradient.** At each unknown node, `df/dx_a` is the second-order
 //! three-point derivative on the two (possibly shortened) arms of axis `a`,
@@ -38,9 +38,10 @@ use super::error::VentricleError;
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
+use unfold_linalg::Csr;
+use unfold_linalg::multigrid::{COARSEST, Multigrid, pcg};
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
-use unfold_param::multigrid::{COARSEST, Csr, Multigrid, pcg};
 
 /// Default grid spacing, mm (`--grid-mm`).
 pub const DEFAULT_GRID_MM: f64 = 0.5;

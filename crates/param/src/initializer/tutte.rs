@@ -4,12 +4,12 @@
 use super::{Constraints, InitialMap, Initializer};
 use crate::error::Elements;
 use crate::flips::check_no_flips;
-use crate::operators::{
+use crate::{ParamError, ParamMesh, RestElements};
+use nalgebra::Point3;
+use unfold_linalg::{
     cotan_laplacian, mean_value_weights, solve_dirichlet, solve_dirichlet_weights,
     uniform_laplacian,
 };
-use crate::{ParamError, ParamMesh, RestElements};
-use nalgebra::Point3;
 use unfold_mesh::TriMesh;
 use unfold_mesh::topology::disk_boundary_loop;
 
@@ -250,9 +250,11 @@ impl Initializer for TutteDisk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::operators::tests::{Rng, boundary_mask, lift, orient2, perturbed_grid, random_disk};
     use nalgebra::{Point3, Vector3};
     use proptest::prelude::*;
+    use unfold_linalg::test_support::{
+        Rng, boundary_mask, lift, orient2, perturbed_grid, random_disk,
+    };
     use unfold_mesh::TetMesh;
     use unfold_mesh::shapes::primitives::{grid_disk, uv_sphere};
 
@@ -430,7 +432,7 @@ mod tests {
         let c = 3 + 7 * 3;
         assert!(x[2 * c].hypot(x[2 * c + 1]) < 0.5);
         // L x = 0 on interior rows.
-        let l = crate::operators::cotan_laplacian(&m);
+        let l = unfold_linalg::laplacian::cotan_laplacian(&m);
         let bnd = boundary_mask(&m);
         for k in 0..2 {
             let col: Vec<f64> = x.chunks(2).map(|q| q[k]).collect();

@@ -6,7 +6,7 @@ use crate::ParamError;
 use crate::energy::HessianMode;
 use crate::linesearch::LineSearch;
 use crate::objective::{Objective, ThetaBlock};
-use crate::sparse::SpdFactor;
+use unfold_linalg::sparse::SpdFactor;
 
 /// Projected Newton: solve `H d = -g` with `H` the sum of the PSD-projected
 /// element Hessians and the template Hessian (sparse Cholesky; the symbolic
@@ -148,7 +148,7 @@ impl ProjectedNewton {
                 pattern.refactorize(factor, values, self.shift, if projected { 16 } else { 0 });
             let used = match factored {
                 Ok(used) => used,
-                Err(e) if projected => return Err(e),
+                Err(e) if projected => return Err(e.into()),
                 Err(_) => {
                     // Not positive definite here: do not pay for the
                     // attempt again in this solve.

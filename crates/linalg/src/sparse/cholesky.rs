@@ -1,5 +1,4 @@
-//! Sparse symmetric positive definite solves: faer's sparse Cholesky behind
-//! one module (faer changes its API often).
+//! Sparse symmetric positive definite solves by faer's sparse Cholesky.
 //!
 //! The pattern is analysed once ([`SpdPattern`]: a fill-reducing ordering
 //! and the symbolic factorization), then refactorized for every new set of
@@ -21,8 +20,11 @@
 //! together, and factorized supernodally: the factor then has dense column
 //! blocks of at least `d` columns, which the supernodal kernels handle with
 //! dense (BLAS-3 style) updates.
+//!
+//! A [`Csr`] matrix enters through [`SpdPattern::of_symmetric`] (its
+//! pattern) and [`SpdPattern::values_of`] (its values in the slots).
 
-use crate::ParamError;
+use crate::{Csr, LinalgError};
 use faer::dyn_stack::{MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::SupernodalThreshold;
@@ -65,10 +67,14 @@ impl SpdPattern {
     /// either triangle; duplicates merged); the diagonal is always included.
     /// AMD ordering of the unknowns; faer picks the simplicial or
     /// supernodal factorization from the predicted flop count.
+    ///
+    /// # Errors
+    /// [`LinalgError::EntryOutOfRange`] for an index `>= n`;
+    /// [`LinalgError::Faer`] when faer's ordering or analysis fails.
     pub fn new(
         n: usize,
         entries: impl IntoIterator<Item = (u32, u32)>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         Self::build(n, 1, entries)
     }
 
@@ -81,22 +87,70 @@ impl SpdPattern {
         n: usize,
         block: usize,
         entries: impl IntoIterator<Item = (u32, u32)>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         Self::build(n, block, entries)
+    }
+
+    /// The pattern of the symmetric matrix `a` (both triangles stored):
+    /// [`SpdPattern::new`] of the entries of its upper triangle
+    /// ([`Csr::upper_triangle`]).
+    ///
+    /// # Errors
+    /// [`LinalgError::NotSquare`]; those of [`SpdPattern::new`].
+    pub fn of_symmetric(a: &Csr) -> Result<Self, LinalgError> {
+        if a.n_rows() != a.n_cols() {
+            return Err(LinalgError::NotSquare {
+                rows: a.n_rows(),
+                cols: a.n_cols(),
+            });
+        }
+        Self::new(a.n_rows(), a.upper_triangle().map(|(i, j, _)| (i, j)))
+    }
+
+    /// The value array of the symmetric matrix `a` in this pattern: every
+    /// entry of its upper triangle added into its slot (so each slot holds
+    /// `a_ij` once).
+    ///
+    /// # Errors
+    /// [`LinalgError::DimensionMismatch`] when `a` is not `n x n`;
+    /// [`LinalgError::EntryNotInPattern`] for an entry without a slot.
+    pub fn values_of(&self, a: &Csr) -> Result<Vec<f64>, LinalgError> {
+        for (what, found) in [("rows", a.n_rows()), ("columns", a.n_cols())] {
+            if found != self.n {
+                return Err(LinalgError::DimensionMismatch {
+                    what,
+                    expected: self.n,
+                    found,
+                });
+            }
+        }
+        let mut values = vec![0.0; self.nnz()];
+        for (i, j, v) in a.upper_triangle() {
+            let s = self.slot(i, j).ok_or(LinalgError::EntryNotInPattern {
+                row: i as usize,
+                col: j as usize,
+            })?;
+            values[s] += v;
+        }
+        Ok(values)
     }
 
     fn build(
         n: usize,
         block: usize,
         entries: impl IntoIterator<Item = (u32, u32)>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         let mut cols: Vec<Vec<u32>> = vec![Vec::new(); n];
-        for (i, j) in entries {
+        for (entry, (i, j)) in entries.into_iter().enumerate() {
             let (r, c) = if i <= j { (i, j) } else { (j, i) };
             if c as usize >= n {
-                return Err(ParamError::InvalidArgument(format!(
-                    "sparse entry ({i}, {j}) outside a {n} x {n} matrix"
-                )));
+                return Err(LinalgError::EntryOutOfRange {
+                    entry,
+                    row: i as usize,
+                    col: j as usize,
+                    n_rows: n,
+                    n_cols: n,
+                });
             }
             cols[c as usize].push(r);
         }
@@ -125,11 +179,9 @@ impl SpdPattern {
         block: usize,
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         if block == 0 || !n.is_multiple_of(block) {
-            return Err(ParamError::InvalidArgument(format!(
-                "sparse pattern: block size {block} does not divide the matrix size {n}"
-            )));
+            return Err(LinalgError::BlockSize { block, n });
         }
         let upper = validated_upper(n, col_ptr, row_idx)?;
         let (fwd, inv) = if block == 1 {
@@ -175,11 +227,9 @@ impl SpdPattern {
         block: usize,
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         if block == 0 {
-            return Err(ParamError::InvalidArgument(
-                "sparse pattern: block size 0".into(),
-            ));
+            return Err(LinalgError::BlockSize { block, n: nv });
         }
         let graph = validated_upper(nv, col_ptr, row_idx)?;
         let (vfwd, vinv) = scalar_amd(&graph)?;
@@ -269,7 +319,7 @@ impl SpdPattern {
         inv: Vec<usize>,
         input_slots: Vec<usize>,
         blocks: Option<VertexBlocks>,
-    ) -> Result<Self, ParamError> {
+    ) -> Result<Self, LinalgError> {
         let n = lower.nrows();
         let threshold = if block == 1 {
             SupernodalThreshold::AUTO
@@ -285,7 +335,7 @@ impl SpdPattern {
                 ..Default::default()
             },
         )
-        .map_err(|e| ParamError::Factorization(format!("symbolic analysis: {e:?}")))?;
+        .map_err(LinalgError::faer("symbolic Cholesky analysis"))?;
         // Rows are sorted and >= the column, so the diagonal comes first.
         let diagonal = (0..n).map(|i| lower.col_ptr()[inv[i]]).collect();
         let factor_scratch =
@@ -376,7 +426,7 @@ impl SpdPattern {
         values: &[f64],
         shift: f64,
         max_tries: usize,
-    ) -> Result<(SpdFactor, f64), ParamError> {
+    ) -> Result<(SpdFactor, f64), LinalgError> {
         let mut factor = self.new_factor();
         let used = self.refactorize(&mut factor, values, shift, max_tries)?;
         Ok((factor, used))
@@ -404,21 +454,22 @@ impl SpdPattern {
         values: &[f64],
         shift: f64,
         max_tries: usize,
-    ) -> Result<f64, ParamError> {
+    ) -> Result<f64, LinalgError> {
         if !Arc::ptr_eq(&factor.cholesky, &self.cholesky) {
-            return Err(ParamError::InvalidArgument(
-                "refactorize: the factor belongs to another pattern".into(),
-            ));
+            return Err(LinalgError::ForeignFactor);
         }
         if values.len() != self.nnz() {
-            return Err(ParamError::Length {
+            return Err(LinalgError::DimensionMismatch {
                 what: "sparse values",
                 expected: self.nnz(),
                 found: values.len(),
             });
         }
-        if !values.iter().all(|v| v.is_finite()) {
-            return Err(ParamError::NotFinite("matrix values".into()));
+        if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+            return Err(LinalgError::NotFinite {
+                what: "sparse matrix value",
+                index,
+            });
         }
         let scale = self
             .diagonal
@@ -435,7 +486,8 @@ impl SpdPattern {
         let mut current = values;
         let mut used = 0.0;
         let mut delta = shift;
-        for attempt in 0..=max_tries {
+        let mut attempt = 0;
+        loop {
             let mat = SparseColMatRef::new(self.lower.as_ref(), current);
             let result = self.cholesky.factorize_numeric_llt(
                 &mut factor.values,
@@ -451,10 +503,12 @@ impl SpdPattern {
                     factor.factored = true;
                     return Ok(used);
                 }
-                Err(e) if attempt == max_tries => {
-                    return Err(ParamError::Factorization(format!(
-                        "{e:?} (after diagonal shift {used:e})"
-                    )));
+                // (faer's only numeric failure: a pivot that is not positive)
+                Err(_) if attempt == max_tries => {
+                    return Err(LinalgError::NotPositiveDefinite {
+                        size: self.n,
+                        last_shift: used,
+                    });
                 }
                 Err(_) => {
                     used = delta * scale;
@@ -464,10 +518,10 @@ impl SpdPattern {
                     }
                     current = &shifted;
                     delta *= 10.0;
+                    attempt += 1;
                 }
             }
         }
-        Err(ParamError::Factorization("no attempt made".into()))
     }
 }
 
@@ -522,7 +576,9 @@ fn compress(n: usize, rows: &[usize], cols: &[usize]) -> (SymbolicSparseColMat<u
 
 /// AMD on the pattern of `A + A^T` (given its upper triangle): the forward
 /// and inverse permutations.
-fn scalar_amd(upper: &SymbolicSparseColMat<usize>) -> Result<(Vec<usize>, Vec<usize>), ParamError> {
+fn scalar_amd(
+    upper: &SymbolicSparseColMat<usize>,
+) -> Result<(Vec<usize>, Vec<usize>), LinalgError> {
     let n = upper.nrows();
     let mut fwd = vec![0usize; n];
     let mut inv = vec![0usize; n];
@@ -538,7 +594,7 @@ fn scalar_amd(upper: &SymbolicSparseColMat<usize>) -> Result<(Vec<usize>, Vec<us
         amd::Control::default(),
         MemStack::new(&mut scratch),
     )
-    .map_err(|e| ParamError::Factorization(format!("ordering: {e:?}")))?;
+    .map_err(LinalgError::faer("AMD ordering"))?;
     Ok((fwd, inv))
 }
 
@@ -548,7 +604,7 @@ fn scalar_amd(upper: &SymbolicSparseColMat<usize>) -> Result<(Vec<usize>, Vec<us
 fn block_amd(
     upper: &SymbolicSparseColMat<usize>,
     block: usize,
-) -> Result<(Vec<usize>, Vec<usize>), ParamError> {
+) -> Result<(Vec<usize>, Vec<usize>), LinalgError> {
     let n = upper.nrows();
     let nb = n / block;
     let mut cols: Vec<Vec<usize>> = vec![Vec::new(); nb];
@@ -608,28 +664,35 @@ fn validated_upper(
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-) -> Result<SymbolicSparseColMat<usize>, ParamError> {
-    let bad = |why: String| {
-        Err(ParamError::InvalidArgument(format!(
-            "sparse pattern: {why}"
-        )))
-    };
-    if col_ptr.len() != n + 1 || col_ptr[0] != 0 || col_ptr[n] != row_idx.len() {
-        return bad(format!(
-            "{} column pointers for {n} columns and {} rows",
-            col_ptr.len(),
-            row_idx.len()
-        ));
+) -> Result<SymbolicSparseColMat<usize>, LinalgError> {
+    if col_ptr.len() != n + 1 {
+        return Err(LinalgError::DimensionMismatch {
+            what: "sparse pattern: column pointers (columns + 1)",
+            expected: n + 1,
+            found: col_ptr.len(),
+        });
+    }
+    for at in [0, n] {
+        let want = if at == 0 { 0 } else { row_idx.len() };
+        if col_ptr[at] != want {
+            return Err(LinalgError::BadPointers {
+                what: "sparse pattern: column pointers",
+                at,
+                value: col_ptr[at],
+                entries: row_idx.len(),
+            });
+        }
     }
     for c in 0..n {
         let (start, end) = (col_ptr[c], col_ptr[c + 1]);
         if start >= end || end > row_idx.len() || row_idx[end - 1] != c {
-            return bad(format!("column {c} does not end with its diagonal"));
+            return Err(LinalgError::MissingDiagonal { column: c });
         }
         if row_idx[start..end].windows(2).any(|w| w[0] >= w[1]) {
-            return bad(format!(
-                "the rows of column {c} are not strictly increasing"
-            ));
+            return Err(LinalgError::UnsortedIndices {
+                what: "rows of column",
+                line: c,
+            });
         }
     }
     Ok(SymbolicSparseColMat::new_checked(
@@ -696,18 +759,21 @@ pub struct SpdFactor {
 
 impl SpdFactor {
     /// Solves `A x = b` in place (`b` has length `n`).
-    pub fn solve_in_place(&self, b: &mut [f64]) -> Result<(), ParamError> {
+    ///
+    /// # Errors
+    /// [`LinalgError::DimensionMismatch`] for a wrong length;
+    /// [`LinalgError::NotFactorized`] when the factorization failed or
+    /// never ran.
+    pub fn solve_in_place(&self, b: &mut [f64]) -> Result<(), LinalgError> {
         if b.len() != self.n {
-            return Err(ParamError::Length {
+            return Err(LinalgError::DimensionMismatch {
                 what: "right-hand side",
                 expected: self.n,
                 found: b.len(),
             });
         }
         if !self.factored {
-            return Err(ParamError::Factorization(
-                "solve with a factor whose factorization failed or never ran".into(),
-            ));
+            return Err(LinalgError::NotFactorized);
         }
         let par = parallelism();
         let mut y: Vec<f64> = self.fwd.iter().map(|&i| b[i]).collect();
@@ -739,7 +805,7 @@ pub fn solve_spd(
     n: usize,
     triplets: &[(u32, u32, f64)],
     b: &[f64],
-) -> Result<Vec<f64>, ParamError> {
+) -> Result<Vec<f64>, LinalgError> {
     let pattern = SpdPattern::new(n, triplets.iter().map(|&(i, j, _)| (i, j)))?;
     let mut values = vec![0.0; pattern.nnz()];
     for &(i, j, v) in triplets {
@@ -815,9 +881,44 @@ mod tests {
         }
         let (_, shift) = p.factorize(&v, 1e-8, 12).unwrap();
         assert!(shift > 0.0);
-        assert!(p.factorize(&v, 1e-8, 0).is_err());
-        assert!(p.factorize(&v[1..], 1e-8, 0).is_err());
-        assert!(SpdPattern::new(2, [(0, 5)]).is_err());
+        assert!(matches!(
+            p.factorize(&v, 1e-8, 0),
+            Err(LinalgError::NotPositiveDefinite { size: 5, .. })
+        ));
+        // Three tries: the last shift is 1e-6 max|diag|.
+        match p.factorize(&v, 1e-8, 2) {
+            Err(LinalgError::NotPositiveDefinite {
+                size: 5,
+                last_shift,
+            }) => {
+                assert_eq!(last_shift, 1e-8 * 10.0)
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            p.factorize(&v[1..], 1e-8, 0),
+            Err(LinalgError::DimensionMismatch {
+                expected: 9,
+                found: 8,
+                ..
+            })
+        ));
+        let mut nan = v.clone();
+        nan[4] = f64::NAN;
+        assert!(matches!(
+            p.factorize(&nan, 1e-8, 0),
+            Err(LinalgError::NotFinite { index: 4, .. })
+        ));
+        assert_eq!(
+            SpdPattern::new(2, [(0, 1), (0, 5)]).unwrap_err(),
+            LinalgError::EntryOutOfRange {
+                entry: 1,
+                row: 0,
+                col: 5,
+                n_rows: 2,
+                n_cols: 2
+            }
+        );
     }
 
     /// A 2D grid Laplacian with 2 unknowns per vertex (both coupled),
@@ -935,18 +1036,37 @@ mod tests {
     fn vertex_graph_patterns_refuse_malformed_graphs() {
         let bad = |nv: usize, block: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>| {
             match SpdPattern::from_vertex_graph(nv, block, col_ptr, row_idx) {
-                Err(ParamError::InvalidArgument(m)) => m,
-                other => panic!("expected an error, got {other:?}"),
+                Err(e) => e,
+                Ok(p) => panic!("expected an error, got {p:?}"),
             }
         };
-        assert!(bad(2, 0, vec![0, 1, 3], vec![0, 0, 1]).contains("block size 0"));
-        assert!(bad(2, 2, vec![0, 1], vec![0]).contains("column pointers"));
-        assert!(
-            bad(2, 2, vec![0, 1, 2], vec![0, 0])
-                .contains("column 1 does not end with its diagonal")
+        assert_eq!(
+            bad(2, 0, vec![0, 1, 3], vec![0, 0, 1]),
+            LinalgError::BlockSize { block: 0, n: 2 }
+        );
+        assert!(matches!(
+            bad(2, 2, vec![0, 1], vec![0]),
+            LinalgError::DimensionMismatch {
+                expected: 3,
+                found: 2,
+                ..
+            }
+        ));
+        assert_eq!(
+            bad(2, 2, vec![0, 1, 2], vec![0, 0]),
+            LinalgError::MissingDiagonal { column: 1 }
         );
         assert!(
-            bad(3, 1, vec![0, 1, 2, 5], vec![0, 1, 1, 0, 2]).contains("not strictly increasing")
+            bad(2, 2, vec![0, 1, 2], vec![0, 0])
+                .to_string()
+                .contains("column 1 of the upper-triangle pattern does not end with its diagonal")
+        );
+        assert_eq!(
+            bad(3, 1, vec![0, 1, 2, 5], vec![0, 1, 1, 0, 2]),
+            LinalgError::UnsortedIndices {
+                what: "rows of column",
+                line: 2
+            }
         );
         // Scalar patterns have no block slots.
         let p = SpdPattern::new(2, [(0, 1)]).unwrap();
@@ -990,19 +1110,66 @@ mod tests {
         // 2 x 2: column 0 = {0}, column 1 = {0, 1}.
         assert!(SpdPattern::from_upper_csc(2, 1, vec![0, 1, 3], vec![0, 0, 1]).is_ok());
         assert!(SpdPattern::from_upper_csc(2, 2, vec![0, 1, 3], vec![0, 0, 1]).is_ok());
-        for (block, ptr, rows, why) in [
-            (3, vec![0, 1, 3], vec![0, 0, 1], "does not divide"),
-            (0, vec![0, 1, 3], vec![0, 0, 1], "does not divide"),
-            (1, vec![0, 1], vec![0], "column pointers"),
-            (1, vec![0, 1, 4], vec![0, 0, 1], "column pointers"),
-            (1, vec![0, 1, 3], vec![0, 1, 0], "diagonal"),
-            (1, vec![0, 0, 2], vec![0, 1], "diagonal"),
-            (1, vec![0, 1, 4], vec![0, 1, 0, 1], "strictly increasing"),
+        let pointers = |at, value, entries| LinalgError::BadPointers {
+            what: "sparse pattern: column pointers",
+            at,
+            value,
+            entries,
+        };
+        for (block, ptr, rows, want) in [
+            (
+                3,
+                vec![0, 1, 3],
+                vec![0, 0, 1],
+                LinalgError::BlockSize { block: 3, n: 2 },
+            ),
+            (
+                0,
+                vec![0, 1, 3],
+                vec![0, 0, 1],
+                LinalgError::BlockSize { block: 0, n: 2 },
+            ),
+            (
+                1,
+                vec![0, 1],
+                vec![0],
+                LinalgError::DimensionMismatch {
+                    what: "sparse pattern: column pointers (columns + 1)",
+                    expected: 3,
+                    found: 2,
+                },
+            ),
+            (1, vec![0, 1, 4], vec![0, 0, 1], pointers(2, 4, 3)),
+            (1, vec![1, 1, 3], vec![0, 0, 1], pointers(0, 1, 3)),
+            (
+                1,
+                vec![0, 1, 3],
+                vec![0, 1, 0],
+                LinalgError::MissingDiagonal { column: 1 },
+            ),
+            (
+                1,
+                vec![0, 0, 2],
+                vec![0, 1],
+                LinalgError::MissingDiagonal { column: 0 },
+            ),
+            (
+                1,
+                vec![0, 1, 4],
+                vec![0, 1, 0, 1],
+                LinalgError::UnsortedIndices {
+                    what: "rows of column",
+                    line: 1,
+                },
+            ),
         ] {
             let e = SpdPattern::from_upper_csc(2, block, ptr, rows).unwrap_err();
-            assert!(e.to_string().contains(why), "{e}");
+            assert_eq!(e, want);
         }
-        assert!(SpdPattern::with_blocks(3, 2, [(0, 1)]).is_err());
+        assert_eq!(
+            SpdPattern::with_blocks(3, 2, [(0, 1)]).unwrap_err(),
+            LinalgError::BlockSize { block: 2, n: 3 }
+        );
     }
 
     #[test]
@@ -1017,7 +1184,7 @@ mod tests {
         let mut f = p.new_factor();
         let mut b = vec![1.0; n];
         // Not factorized yet: a solve is an error, not garbage.
-        assert!(f.solve_in_place(&mut b).is_err());
+        assert_eq!(f.solve_in_place(&mut b), Err(LinalgError::NotFactorized));
         assert_eq!(p.refactorize(&mut f, &vals, 0.0, 0).unwrap(), 0.0);
         f.solve_in_place(&mut b).unwrap();
         let (g, _) = p.factorize(&vals, 0.0, 0).unwrap();
@@ -1037,10 +1204,17 @@ mod tests {
         for &s in p.diagonal_slots() {
             bad[s] = -1.0;
         }
-        assert!(p.refactorize(&mut f, &bad, 0.0, 0).is_err());
-        assert!(f.solve_in_place(&mut d).is_err());
+        assert_eq!(
+            p.refactorize(&mut f, &bad, 0.0, 0),
+            Err(LinalgError::NotPositiveDefinite {
+                size: n,
+                last_shift: 0.0
+            })
+        );
+        assert_eq!(f.solve_in_place(&mut d), Err(LinalgError::NotFactorized));
         // Another pattern's factor is refused.
         let e = other.refactorize(&mut f, &vals, 0.0, 0).unwrap_err();
+        assert_eq!(e, LinalgError::ForeignFactor);
         assert!(e.to_string().contains("another pattern"), "{e}");
     }
 }

@@ -5,12 +5,12 @@ use proptest::prelude::*;
 use unfold_mesh::geometry::vertex_areas;
 use unfold_mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold_mesh::topology::tet_boundary;
+use unfold_organs::placenta::ParallelPlanes;
 use unfold_param::ParamMesh;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::inverted_count;
 use unfold_param::objective::{Objective, TemplateTerm};
 use unfold_param::solver::{Executor, GradientDescent, History, ProjectedNewton, Solver, Stopping};
-use unfold_param::template::ParallelPlanes;
 
 /// The slab's rest data, labels (its ground-truth sides) and normalized
 /// barycentric boundary vertex areas.

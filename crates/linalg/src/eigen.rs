@@ -64,9 +64,8 @@
 //! Every eigenvector is normalized and its largest-magnitude component is
 //! made positive.
 
-use crate::ParamError;
-use crate::operators::SparseSym;
 use crate::sparse::{SpdFactor, SpdPattern};
+use crate::{Csr, LinalgError};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rayon::prelude::*;
 
@@ -123,6 +122,7 @@ pub struct Eigenpairs {
 }
 
 /// The `k` smallest eigenpairs of the symmetric positive semidefinite matrix `a`
+/// (both triangles stored, as [`Csr::from_symmetric_entries`] builds it)
 /// restricted to the orthogonal complement of `deflate` (vectors of length n, need not be normalized
 /// or orthogonal; they are orthonormalized first; typically the known null vector).
 ///
@@ -145,53 +145,62 @@ pub struct Eigenpairs {
 /// eigenvalues.
 ///
 /// # Errors
-/// - [`ParamError::InvalidArgument`] if `k == 0`, `k + deflate.len() > n`,
-///   `tol` is not positive and finite, a matrix index is out of range, or
-///   the iteration has not converged after `max_iterations` (the message
-///   gives the largest residual);
-/// - [`ParamError::Length`] if a deflation vector does not have length `n`;
-/// - [`ParamError::NotFinite`] if a matrix entry or deflation component is
+/// - [`LinalgError::NotSquare`] / [`LinalgError::NotSymmetric`] if `a` is
+///   not symmetric;
+/// - [`LinalgError::EigenpairCount`] if `k == 0` or `k + deflate.len() > n`;
+/// - [`LinalgError::InvalidTolerance`] if `tol` is not positive and finite;
+/// - [`LinalgError::DimensionMismatch`] if a deflation vector does not have
+///   length `n`;
+/// - [`LinalgError::NotFinite`] if a matrix entry or deflation vector is
 ///   not finite (or the iterates become so);
-/// - [`ParamError::Factorization`] if `A + sigma I` cannot be factored even
-///   with the raised shifts.
+/// - [`LinalgError::NotPositiveDefinite`] if `A + sigma I` cannot be
+///   factored even with the raised shifts;
+/// - [`LinalgError::NoConvergence`] if the iteration has not converged
+///   after `max_iterations` (with the largest residual).
 pub fn smallest_eigenpairs(
-    a: &SparseSym,
+    a: &Csr,
     k: usize,
     deflate: &[Vec<f64>],
     opts: &EigenOptions,
-) -> Result<Eigenpairs, ParamError> {
-    let n = a.n;
-    if k == 0 {
-        return Err(ParamError::InvalidArgument(
-            "eigensolver: k must be at least 1".into(),
-        ));
+) -> Result<Eigenpairs, LinalgError> {
+    let n = a.n_rows();
+    if a.n_cols() != n {
+        return Err(LinalgError::NotSquare {
+            rows: n,
+            cols: a.n_cols(),
+        });
     }
-    if k + deflate.len() > n {
-        return Err(ParamError::InvalidArgument(format!(
-            "eigensolver: {k} eigenpairs and {} deflation vectors exceed the matrix size {n}",
-            deflate.len()
-        )));
+    if k == 0 || k + deflate.len() > n {
+        return Err(LinalgError::EigenpairCount {
+            wanted: k,
+            deflated: deflate.len(),
+            size: n,
+        });
     }
     if !(opts.tol > 0.0 && opts.tol.is_finite()) {
-        return Err(ParamError::InvalidArgument(format!(
-            "eigensolver: tolerance must be positive and finite, got {}",
-            opts.tol
-        )));
+        return Err(LinalgError::InvalidTolerance {
+            what: "eigensolver tolerance",
+            value: opts.tol,
+        });
     }
-    for v in deflate {
+    for (index, v) in deflate.iter().enumerate() {
         if v.len() != n {
-            return Err(ParamError::Length {
+            return Err(LinalgError::DimensionMismatch {
                 what: "deflation vector",
                 expected: n,
                 found: v.len(),
             });
         }
         if !v.iter().all(|x| x.is_finite()) {
-            return Err(ParamError::NotFinite("deflation vector".into()));
+            return Err(LinalgError::NotFinite {
+                what: "deflation vector",
+                index,
+            });
         }
     }
-    let csr = Csr::new(a)?;
-    let norm = csr.norm_estimate();
+    a.check_finite("eigensolver matrix value")?;
+    a.check_symmetric()?;
+    let norm = a.max_row_sum();
     let threshold = opts.tol * norm.max(1.0);
 
     // Orthonormal basis of span(deflate).
@@ -233,17 +242,19 @@ pub fn smallest_eigenpairs(
         }
 
         // Rayleigh–Ritz with H = V^T A V.
-        let av: Vec<Vec<f64>> = basis.par_iter().map(|v| csr.multiply(v)).collect();
+        let av: Vec<Vec<f64>> = basis.par_iter().map(|v| a.multiply(v)).collect();
         let m = basis.len();
         let h = DMatrix::from_fn(m, m, |i, j| {
             0.5 * (dot(&basis[i], &av[j]) + dot(&basis[j], &av[i]))
         });
-        if !h.iter().all(|v| v.is_finite()) {
-            return Err(ParamError::NotFinite("eigensolver iterates".into()));
+        if let Some(index) = h.iter().position(|v| !v.is_finite()) {
+            return Err(LinalgError::NotFinite {
+                what: "Rayleigh–Ritz matrix entry (column-major)",
+                index,
+            });
         }
-        let eig = SymmetricEigen::try_new(h, f64::EPSILON, 10_000).ok_or_else(|| {
-            ParamError::NotFinite("eigensolver: Rayleigh–Ritz did not converge".into())
-        })?;
+        let eig = SymmetricEigen::try_new(h, f64::EPSILON, 10_000)
+            .ok_or(LinalgError::RayleighRitz { size: m })?;
         let mut order: Vec<usize> = (0..m).collect();
         order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
         let theta: Vec<f64> = order[..b].iter().map(|&c| eig.eigenvalues[c]).collect();
@@ -259,15 +270,18 @@ pub fn smallest_eigenpairs(
             let mut v = v.clone();
             let nv = dot(&v, &v).sqrt();
             v.iter_mut().for_each(|c| *c /= nv);
-            let mut r = csr.multiply(&v);
+            let mut r = a.multiply(&v);
             axpy(-theta[j], &v, &mut r);
             project_out(&u, &mut r);
             residuals.push(dot(&r, &r).sqrt());
             vectors.push(v);
         }
         largest = residuals.iter().copied().fold(0.0, f64::max);
-        if residuals.iter().any(|r| !r.is_finite()) {
-            return Err(ParamError::NotFinite("eigensolver residuals".into()));
+        if let Some(index) = residuals.iter().position(|r| !r.is_finite()) {
+            return Err(LinalgError::NotFinite {
+                what: "eigenpair residual",
+                index,
+            });
         }
         if largest <= threshold {
             for v in &mut vectors {
@@ -291,85 +305,10 @@ pub fn smallest_eigenpairs(
         }
         refill(&mut x, n, b, &u, &mut rng)?;
     }
-    Err(ParamError::InvalidArgument(format!(
-        "eigensolver: not converged after {} iterations (largest residual {:e})",
-        opts.max_iterations, largest
-    )))
-}
-
-/// The full symmetric matrix in compressed rows (both triangles), for
-/// products whose per-row sums run in a fixed order.
-struct Csr {
-    ptr: Vec<usize>,
-    col: Vec<u32>,
-    val: Vec<f64>,
-}
-
-impl Csr {
-    /// Checks indices (`InvalidArgument`) and values (`NotFinite`).
-    fn new(a: &SparseSym) -> Result<Self, ParamError> {
-        let n = a.n;
-        let mut count = vec![0usize; n + 1];
-        for &(i, j, v) in &a.triplets {
-            if i as usize >= n || j as usize >= n {
-                return Err(ParamError::InvalidArgument(format!(
-                    "eigensolver: matrix entry ({i}, {j}) outside a {n} x {n} matrix"
-                )));
-            }
-            if !v.is_finite() {
-                return Err(ParamError::NotFinite(format!(
-                    "eigensolver: matrix entry ({i}, {j}) = {v}"
-                )));
-            }
-            count[i as usize + 1] += 1;
-            if i != j {
-                count[j as usize + 1] += 1;
-            }
-        }
-        for r in 0..n {
-            count[r + 1] += count[r];
-        }
-        let ptr = count.clone();
-        let mut next = count;
-        let mut col = vec![0u32; ptr[n]];
-        let mut val = vec![0.0; ptr[n]];
-        for &(i, j, v) in &a.triplets {
-            let s = next[i as usize];
-            col[s] = j;
-            val[s] = v;
-            next[i as usize] += 1;
-            if i != j {
-                let s = next[j as usize];
-                col[s] = i;
-                val[s] = v;
-                next[j as usize] += 1;
-            }
-        }
-        Ok(Csr { ptr, col, val })
-    }
-
-    /// `|A|_est = max_i sum_j |a_ij|` (an upper bound on `|A|_2`).
-    fn norm_estimate(&self) -> f64 {
-        self.ptr
-            .windows(2)
-            .map(|w| self.val[w[0]..w[1]].iter().map(|v| v.abs()).sum::<f64>())
-            .fold(0.0, f64::max)
-    }
-
-    /// `A x`.
-    fn multiply(&self, x: &[f64]) -> Vec<f64> {
-        self.ptr
-            .windows(2)
-            .map(|w| {
-                let (lo, hi) = (w[0], w[1]);
-                self.col[lo..hi]
-                    .iter()
-                    .zip(&self.val[lo..hi])
-                    .map(|(&c, &v)| v * x[c as usize])
-                    .sum()
-            })
-            .collect()
-    }
+    Err(LinalgError::NoConvergence {
+        iterations: opts.max_iterations,
+        residual: largest,
+    })
 }
 
 /// `S x = T x - T U (U^T T U)^-1 U^T T x`, `T = (A + sigma I)^-1`: the
@@ -385,18 +324,11 @@ struct ShiftInvert {
 }
 
 impl ShiftInvert {
-    fn new(a: &SparseSym, norm: f64, u: &[Vec<f64>]) -> Result<Self, ParamError> {
-        let n = a.n;
+    fn new(a: &Csr, norm: f64, u: &[Vec<f64>]) -> Result<Self, LinalgError> {
         let scale = if norm > 0.0 { norm } else { 1.0 };
         let sigma = RELATIVE_SHIFT * scale;
-        let pattern = SpdPattern::new(n, a.triplets.iter().map(|&(i, j, _)| (i, j)))?;
-        let mut values = vec![0.0; pattern.nnz()];
-        for &(i, j, v) in &a.triplets {
-            let s = pattern.slot(i, j).ok_or_else(|| {
-                ParamError::Factorization(format!("entry ({i}, {j}) missing from its pattern"))
-            })?;
-            values[s] += v;
-        }
+        let pattern = SpdPattern::of_symmetric(a)?;
+        let mut values = pattern.values_of(a)?;
         for &s in pattern.diagonal_slots() {
             values[s] += sigma;
         }
@@ -413,8 +345,10 @@ impl ShiftInvert {
         } else {
             let d = u.len();
             let g = DMatrix::from_fn(d, d, |i, j| 0.5 * (dot(&u[i], &tu[j]) + dot(&u[j], &tu[i])));
-            Some(g.cholesky().ok_or_else(|| {
-                ParamError::Factorization("U^T (A + sigma I)^-1 U is not positive definite".into())
+            // U^T (A + sigma I)^-1 U
+            Some(g.cholesky().ok_or(LinalgError::NotPositiveDefinite {
+                size: d,
+                last_shift: 0.0,
             })?)
         };
         Ok(ShiftInvert {
@@ -425,7 +359,7 @@ impl ShiftInvert {
         })
     }
 
-    fn apply(&self, x: &[f64]) -> Result<Vec<f64>, ParamError> {
+    fn apply(&self, x: &[f64]) -> Result<Vec<f64>, LinalgError> {
         let mut y = x.to_vec();
         self.factor.solve_in_place(&mut y)?;
         if let Some(gram) = &self.gram {
@@ -447,13 +381,14 @@ fn refill(
     b: usize,
     u: &[Vec<f64>],
     rng: &mut SplitMix,
-) -> Result<(), ParamError> {
+) -> Result<(), LinalgError> {
     let mut tries = 0;
     while x.len() < b {
         if tries > 10 * b + 100 {
-            return Err(ParamError::InvalidArgument(
-                "eigensolver: could not build a start block in the complement".into(),
-            ));
+            return Err(LinalgError::StartBlock {
+                wanted: b,
+                built: x.len(),
+            });
         }
         tries += 1;
         let v: Vec<f64> = (0..n).map(|_| rng.uniform()).collect();
@@ -555,6 +490,7 @@ impl SplitMix {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::dense;
     use proptest::prelude::*;
     use std::f64::consts::PI;
 
@@ -571,17 +507,17 @@ mod tests {
     }
 
     /// The graph Laplacian `D - W` of weighted edges.
-    fn laplacian(n: usize, edges: &[(u32, u32, f64)]) -> SparseSym {
+    fn laplacian(n: usize, edges: &[(u32, u32, f64)]) -> Csr {
         let mut entries = Vec::new();
         for &(i, j, w) in edges {
             entries.extend([(i, j, -w), (i, i, w), (j, j, w)]);
         }
-        SparseSym::from_entries(n, entries)
+        Csr::from_symmetric_entries(n, entries).unwrap()
     }
 
     /// The normalized Laplacian `I - D^-1/2 W D^-1/2` and its null vector
     /// `D^1/2 1`.
-    fn normalized_laplacian(n: usize, edges: &[(u32, u32, f64)]) -> (SparseSym, Vec<f64>) {
+    fn normalized_laplacian(n: usize, edges: &[(u32, u32, f64)]) -> (Csr, Vec<f64>) {
         let mut d = vec![0.0; n];
         for &(i, j, w) in edges {
             d[i as usize] += w;
@@ -593,7 +529,7 @@ mod tests {
                 .iter()
                 .map(|&(i, j, w)| (i, j, -w / (s[i as usize] * s[j as usize]))),
         );
-        (SparseSym::from_entries(n, entries), s)
+        (Csr::from_symmetric_entries(n, entries).unwrap(), s)
     }
 
     /// A random connected graph: a random spanning tree plus `extra * n`
@@ -615,16 +551,9 @@ mod tests {
     }
 
     /// Ascending eigenvalues and the matching eigenvectors of the dense matrix.
-    fn dense_eigen(a: &SparseSym) -> (Vec<f64>, Vec<Vec<f64>>) {
-        let mut m = DMatrix::<f64>::zeros(a.n, a.n);
-        for &(i, j, v) in &a.triplets {
-            m[(i as usize, j as usize)] += v;
-            if i != j {
-                m[(j as usize, i as usize)] += v;
-            }
-        }
-        let eig: SymmetricEigen<f64, nalgebra::Dyn> = SymmetricEigen::new(m);
-        let mut order: Vec<usize> = (0..a.n).collect();
+    fn dense_eigen(a: &Csr) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let eig: SymmetricEigen<f64, nalgebra::Dyn> = SymmetricEigen::new(dense(a));
+        let mut order: Vec<usize> = (0..a.n_rows()).collect();
         order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
         (
             order.iter().map(|&c| eig.eigenvalues[c]).collect(),
@@ -643,8 +572,8 @@ mod tests {
 
     /// Unit vectors, orthogonal to each other and to `deflate`, residuals
     /// `|P (A v - lambda v)|` recomputed and within `tol * max(1, |A|_est)`, values ascending.
-    fn check_invariants(a: &SparseSym, deflate: &[Vec<f64>], r: &Eigenpairs, tol: f64) {
-        let bound = tol * Csr::new(a).unwrap().norm_estimate().max(1.0);
+    fn check_invariants(a: &Csr, deflate: &[Vec<f64>], r: &Eigenpairs, tol: f64) {
+        let bound = tol * a.max_row_sum().max(1.0);
         let mut u: Vec<Vec<f64>> = Vec::new();
         for d in deflate {
             u.extend(orthonormalize(d.clone(), &[], &u));
@@ -869,14 +798,7 @@ mod tests {
         let cols: Vec<usize> = (0..n).filter(|&c| pe.eigenvalues[c] > 0.5).collect();
         assert_eq!(cols.len(), n - 2);
         let q = pe.eigenvectors.select_columns(&cols);
-        let mut dense = DMatrix::<f64>::zeros(n, n);
-        for &(i, j, v) in &a.triplets {
-            dense[(i as usize, j as usize)] += v;
-            if i != j {
-                dense[(j as usize, i as usize)] += v;
-            }
-        }
-        let mut values: Vec<f64> = SymmetricEigen::new(q.transpose() * dense * &q)
+        let mut values: Vec<f64> = SymmetricEigen::new(q.transpose() * dense(&a) * &q)
             .eigenvalues
             .iter()
             .copied()
@@ -910,7 +832,7 @@ mod tests {
         let c = 1.0 / (n as f64).sqrt();
         assert!(r.vectors[0].iter().all(|&x| (x - c).abs() < 1e-6));
         // A 1 x 1 matrix.
-        let one = SparseSym::from_entries(1, [(0, 0, 3.0)]);
+        let one = Csr::from_symmetric_entries(1, [(0, 0, 3.0)]).unwrap();
         let r = smallest_eigenpairs(&one, 1, &[], &opts).unwrap();
         assert_eq!((r.values[0], r.vectors[0][0]), (3.0, 1.0));
     }
@@ -921,33 +843,34 @@ mod tests {
         let a = laplacian(n, &random_graph(n, 1, 5));
         let ones = vec![vec![1.0; n]];
         let opts = EigenOptions::default();
-        let invalid =
-            |r: Result<Eigenpairs, ParamError>| matches!(r, Err(ParamError::InvalidArgument(_)));
-        assert!(invalid(smallest_eigenpairs(&a, 0, &ones, &opts)));
-        assert!(invalid(smallest_eigenpairs(&a, 10, &ones, &opts)));
-        assert!(invalid(smallest_eigenpairs(
-            &a,
-            1,
-            &vec![vec![1.0; n]; 10],
-            &opts
-        )));
-        assert!(invalid(smallest_eigenpairs(
-            &SparseSym::default(),
-            1,
-            &[],
-            &opts
-        )));
+        let count = |r: Result<Eigenpairs, LinalgError>| match r {
+            Err(LinalgError::EigenpairCount {
+                wanted,
+                deflated,
+                size,
+            }) => (wanted, deflated, size),
+            other => panic!("expected EigenpairCount, got {other:?}"),
+        };
+        assert_eq!(count(smallest_eigenpairs(&a, 0, &ones, &opts)), (0, 1, 10));
+        assert_eq!(
+            count(smallest_eigenpairs(&a, 10, &ones, &opts)),
+            (10, 1, 10)
+        );
+        assert_eq!(
+            count(smallest_eigenpairs(&a, 1, &vec![vec![1.0; n]; 10], &opts)),
+            (1, 10, 10)
+        );
+        let empty = Csr::from_symmetric_entries(0, []).unwrap();
+        assert_eq!(count(smallest_eigenpairs(&empty, 1, &[], &opts)), (1, 0, 0));
         for tol in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(invalid(smallest_eigenpairs(
-                &a,
-                1,
-                &ones,
-                &EigenOptions { tol, ..opts }
-            )));
+            assert!(matches!(
+                smallest_eigenpairs(&a, 1, &ones, &EigenOptions { tol, ..opts }),
+                Err(LinalgError::InvalidTolerance { .. })
+            ));
         }
         assert!(matches!(
             smallest_eigenpairs(&a, 1, &[vec![1.0; n - 1]], &opts),
-            Err(ParamError::Length {
+            Err(LinalgError::DimensionMismatch {
                 expected: 10,
                 found: 9,
                 ..
@@ -957,17 +880,42 @@ mod tests {
         nan[0][3] = f64::NAN;
         assert!(matches!(
             smallest_eigenpairs(&a, 1, &nan, &opts),
-            Err(ParamError::NotFinite(_))
+            Err(LinalgError::NotFinite { index: 0, .. })
         ));
-        let mut bad = a.clone();
-        bad.triplets[2].2 = f64::INFINITY;
+        // A non-finite matrix value (only the unchecked mesh-operator
+        // constructor lets one in).
+        let bad = Csr::symmetric(
+            n,
+            a.upper_triangle()
+                .enumerate()
+                .map(|(k, (i, j, v))| (i, j, if k == 2 { f64::INFINITY } else { v })),
+        );
         assert!(matches!(
             smallest_eigenpairs(&bad, 1, &ones, &opts),
-            Err(ParamError::NotFinite(_))
+            Err(LinalgError::NotFinite { .. })
         ));
-        let mut bad = a.clone();
-        bad.triplets.push((3, 10, 1.0));
-        assert!(invalid(smallest_eigenpairs(&bad, 1, &ones, &opts)));
+        // An entry outside the matrix is refused when the matrix is built.
+        let entries: Vec<(u32, u32, f64)> = a.upper_triangle().chain([(3, 10, 1.0)]).collect();
+        assert!(matches!(
+            Csr::from_symmetric_entries(n, entries),
+            Err(LinalgError::EntryOutOfRange {
+                row: 3,
+                col: 10,
+                ..
+            })
+        ));
+        // Not symmetric (the upper triangle only), or not square.
+        let upper: Vec<(u32, u32, f64)> = a.upper_triangle().collect();
+        let half = Csr::from_triplets(n, n, &upper).unwrap();
+        assert!(matches!(
+            smallest_eigenpairs(&half, 1, &ones, &opts),
+            Err(LinalgError::NotSymmetric { .. })
+        ));
+        let rect = Csr::from_triplets(n, n + 1, &[]).unwrap();
+        assert!(matches!(
+            smallest_eigenpairs(&rect, 1, &ones, &opts),
+            Err(LinalgError::NotSquare { rows: 10, cols: 11 })
+        ));
         // Not converged: a tolerance below rounding, or no iterations.
         let big = laplacian(200, &random_graph(200, 2, 6));
         let tight = EigenOptions {
@@ -976,15 +924,19 @@ mod tests {
             ..opts
         };
         match smallest_eigenpairs(&big, 2, &[vec![1.0; 200]], &tight) {
-            Err(ParamError::InvalidArgument(m)) => {
-                assert!(m.contains("not converged after 3 iterations"), "{m}")
-            }
+            Err(LinalgError::NoConvergence {
+                iterations: 3,
+                residual,
+            }) => assert!(residual > 0.0 && residual.is_finite(), "{residual}"),
             other => panic!("{other:?}"),
         }
         let none = EigenOptions {
             max_iterations: 0,
             ..opts
         };
-        assert!(invalid(smallest_eigenpairs(&a, 1, &ones, &none)));
+        assert!(matches!(
+            smallest_eigenpairs(&a, 1, &ones, &none),
+            Err(LinalgError::NoConvergence { iterations: 0, .. })
+        ));
     }
 }
