@@ -49,6 +49,7 @@ use unfold::io::{
 use unfold::mesh::mask::{dilate_box, inside_distance_quantile};
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
+use unfold::organs::placenta::images::check_images;
 use unfold::organs::placenta::parcellation::ParcellationConfig;
 use unfold::organs::placenta::{
     Config, Image, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report, SolverKind,
@@ -519,8 +520,6 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
             .iter()
             .map(|i| (i.path.as_path(), i.name.as_str())),
     )?;
-    super::ensure_dir(input.dir)?;
-
     let images: Vec<Image<'_>> = input
         .images
         .iter()
@@ -529,6 +528,10 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
             volume: &i.image.volume,
         })
         .collect();
+    // The library checks the images again; checking them here first means
+    // nothing is created for a run that cannot start.
+    check_images(&input.mesh.mesh, &images).map_err(|e| pipeline_error(label, input.images, e))?;
+    super::ensure_dir(input.dir)?;
     let mut progress = Progress::new(input.progress);
     let mut outcome = input
         .pipeline
