@@ -83,15 +83,13 @@ fn figures(c: &mut Criterion) {
     .expect("ventricle");
 
     let valve = mitral_valve(&ValveParams::default()).expect("valve");
-    let mitral_out = mv::run(
-        &mv::ValveInput {
+    let mitral_out = mv::Pipeline::new()
+        .run(&mv::ValveInput {
             anterior: &valve.anterior,
             posterior: &valve.posterior,
             annulus: &valve.annulus,
-        },
-        &mv::Config::default(),
-    )
-    .expect("mitral");
+        })
+        .expect("mitral");
 
     let opts = FigureOptions::default();
     let all = || {

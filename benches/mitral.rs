@@ -18,7 +18,7 @@ use std::hint::black_box;
 use unfold::mesh::TriMesh;
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{ValveParams, mitral_valve};
-use unfold::organs::mitral::{Config, ValveInput, run, run_series};
+use unfold::organs::mitral::{Pipeline, ValveInput};
 
 /// The allocator the `unfold` command uses (see `src/main.rs`).
 #[global_allocator]
@@ -48,15 +48,13 @@ fn valve(step: usize) -> Valve {
 }
 
 fn solve(v: &Valve) -> f64 {
-    let out = run(
-        &ValveInput {
+    let out = Pipeline::new()
+        .run(&ValveInput {
             anterior: &v.anterior,
             posterior: &v.posterior,
             annulus: &v.annulus,
-        },
-        &Config::default(),
-    )
-    .expect("pipeline");
+        })
+        .expect("pipeline");
     assert_eq!(out.report.flipped_triangles, 0);
     out.report.distortion.r#final.angle
 }
@@ -79,7 +77,8 @@ fn mitral(c: &mut Criterion) {
         .collect();
     g.bench_function("series_10", |b| {
         b.iter(|| {
-            run_series(&inputs, &Config::default())
+            Pipeline::new()
+                .run_series(&inputs)
                 .into_iter()
                 .map(|out| {
                     let out = out.expect("pipeline");

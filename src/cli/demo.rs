@@ -176,7 +176,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
     let mitral_dir = dir.join("mitral");
     let outcome = super::mitral::run_valve(
         &files,
-        &unfold::organs::mitral::Config::default(),
+        &unfold::organs::mitral::Pipeline::new(),
         &mitral_dir,
         true,
     )?;

@@ -27,8 +27,7 @@ use unfold::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::mitral::{
-    AnnulusMode, Config, InitMode, Outcome, RelaxMode, Report, ValveInput, run as run_mitral,
-    run_series,
+    AnnulusMode, Config, InitMode, LeafletLayout, Outcome, Pipeline, RelaxMode, Report, ValveInput,
 };
 
 /// `--annulus-mode`.
@@ -118,17 +117,25 @@ pub struct MitralArgs {
 }
 
 impl MitralArgs {
+    /// The pipeline of the flags: the layout mode as the initializer, the
+    /// published pieces otherwise, every setting checked.
+    fn pipeline(&self) -> Result<Pipeline, CliError> {
+        let init = LeafletLayout {
+            mode: match self.init {
+                InitArg::Auto => InitMode::Auto,
+                InitArg::Longitudes => InitMode::Longitudes,
+                InitArg::Tutte => InitMode::Tutte,
+            },
+        };
+        Ok(Pipeline::new().initializer(init).config(self.config()?))
+    }
+
     fn config(&self) -> Result<Config, CliError> {
         let mut c = Config {
             annulus_mode: match self.annulus_mode {
                 AnnulusArg::Straight => AnnulusMode::Straight,
                 AnnulusArg::LeastSquares => AnnulusMode::LeastSquares,
                 AnnulusArg::Landmark => AnnulusMode::Landmark,
-            },
-            init: match self.init {
-                InitArg::Auto => InitMode::Auto,
-                InitArg::Longitudes => InitMode::Longitudes,
-                InitArg::Tutte => InitMode::Tutte,
             },
             relax: match self.relax {
                 RelaxArg::Spring => RelaxMode::Spring,
@@ -306,7 +313,7 @@ impl ValveFiles {
 /// `dir`.
 pub(crate) fn run_valve(
     files: &ValveFiles,
-    config: &Config,
+    pipeline: &Pipeline,
     dir: &Path,
     figures: bool,
 ) -> Result<Outcome, CliError> {
@@ -314,15 +321,13 @@ pub(crate) fn run_valve(
     let posterior = read_leaflet(&files.posterior)?;
     let ring = read_ring(&files.annulus)?;
     let label = files.label();
-    let outcome = run_mitral(
-        &ValveInput {
+    let outcome = pipeline
+        .run(&ValveInput {
             anterior: &anterior,
             posterior: &posterior,
             annulus: &ring,
-        },
-        config,
-    )
-    .map_err(|e| organ(&label, e))?;
+        })
+        .map_err(|e| organ(&label, e))?;
     write_outcome(&outcome, dir, &label, figures)?;
     Ok(outcome)
 }
@@ -492,7 +497,7 @@ struct SeriesRow {
 
 /// Runs `unfold mitral`.
 pub fn run(a: &MitralArgs) -> Result<(), CliError> {
-    let config = a.config()?;
+    let pipeline = a.pipeline()?;
     let out = a.output.as_path();
     if out.exists() && !out.is_dir() {
         return Err(at(
@@ -514,7 +519,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
             annulus: annulus.clone(),
         };
         check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
-        let outcome = run_valve(&files, &config, out, !a.no_figures)?;
+        let outcome = run_valve(&files, &pipeline, out, !a.no_figures)?;
         println!("{}", summary(&outcome.report));
         for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
             println!("wrote {}", out.join(f).display());
@@ -546,7 +551,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
             annulus,
         })
         .collect();
-    let outcomes = run_series(&inputs, &config);
+    let outcomes = pipeline.run_series(&inputs);
     let mut rows = Vec::with_capacity(steps.len());
     for ((name, files), outcome) in steps.iter().zip(outcomes) {
         let dir = out.join(name);

@@ -15,7 +15,15 @@ use unfold::figures::mitral::{
 use unfold::figures::render::{Colormap, Image, Rgb, Rgba};
 use unfold::figures::{Figure, FigureError, FigureOptions};
 use unfold::mesh::shapes::{ValveParams, mitral_valve};
-use unfold::organs::mitral::{ANTERIOR, Config, Outcome, POSTERIOR, ValveInput, run};
+use unfold::organs::mitral::{ANTERIOR, Config, Outcome, POSTERIOR, Pipeline, ValveInput};
+
+/// The published pipeline with `config`.
+fn run_valve(
+    input: &ValveInput<'_>,
+    config: &Config,
+) -> Result<Outcome, unfold::organs::OrganError> {
+    Pipeline::new().config(*config).run(input)
+}
 
 /// Every figure, in order.
 const NAMES: [&str; 11] = [
@@ -35,7 +43,7 @@ const NAMES: [&str; 11] = [
 /// The pipeline on the built-in valve, as `unfold demo` runs it.
 fn outcome_of(p: &ValveParams) -> Outcome {
     let shape = mitral_valve(p).expect("valve");
-    run(
+    run_valve(
         &ValveInput {
             anterior: &shape.anterior,
             posterior: &shape.posterior,
@@ -552,7 +560,7 @@ fn other_layouts_render_too() {
         cut_posteromedial: true,
         ..Config::default()
     };
-    let out = run(
+    let out = run_valve(
         &ValveInput {
             anterior: &shape.anterior,
             posterior: &shape.posterior,

@@ -140,6 +140,18 @@ impl ConfigError {
 }
 
 impl OrganError {
+    /// A [`ParamError::Piece`] that carries an [`OrganError`] becomes that
+    /// error again (an organ initializer's typed failure, passed through
+    /// the framework); any other `ParamError` is [`OrganError::Param`].
+    pub fn from_param(e: ParamError) -> OrganError {
+        if let ParamError::Piece { error, .. } = &e
+            && let Some(organ) = error.downcast_ref::<OrganError>()
+        {
+            return organ.clone();
+        }
+        OrganError::Param(e)
+    }
+
     /// [`ConfigError::check_positive`] as an [`OrganError`].
     pub(crate) fn check_positive(values: &[(&'static str, f64)]) -> Result<(), OrganError> {
         Ok(ConfigError::check_positive(values)?)

@@ -8,9 +8,19 @@ use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::shapes::{Pose, ValveParams, ValveShape, mitral_valve};
 use unfold_organs::OrganError;
 use unfold_organs::mitral::{
-    ANTERIOR, AnnulusMode, Config, ContractError, InitMode, LayoutError, LeafletSide, MitralError,
-    Outcome, POSTERIOR, RelaxMode, ValveInput, run, run_series,
+    ANTERIOR, AnnulusMode, Config, ContractError, InitMode, LayoutError, LeafletLayout,
+    LeafletSide, MitralError, Outcome, POSTERIOR, Pipeline, RelaxMode, ValveInput,
 };
+
+/// The published pipeline with `config`.
+fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganError> {
+    Pipeline::new().config(*config).run(input)
+}
+
+/// The published pipeline with `config`, on a series.
+fn run_series(inputs: &[ValveInput<'_>], config: &Config) -> Vec<Result<Outcome, OrganError>> {
+    Pipeline::new().config(*config).run_series(inputs)
+}
 
 /// Splits every `every`-th triangle at its centroid: the leaflet keeps its
 /// shape and disk topology but loses its longitude (grid) structure.
@@ -540,11 +550,10 @@ fn longitudes_asked_for_but_missing_name_the_leaflet() {
         posterior: &posterior,
         annulus: &shape.annulus,
     };
-    let config = Config {
-        init: InitMode::Longitudes,
-        ..Config::default()
-    };
-    let e = run(&input, &config).unwrap_err();
+    let longitudes = Pipeline::new().initializer(LeafletLayout {
+        mode: InitMode::Longitudes,
+    });
+    let e = longitudes.run(&input).unwrap_err();
     assert_eq!(
         e,
         OrganError::Mitral(MitralError::Layout(LayoutError::NoLongitudes {
@@ -557,12 +566,11 @@ fn longitudes_asked_for_but_missing_name_the_leaflet() {
          the free edge); use --init tutte or auto"
     );
     // Auto falls back to Tutte there.
-    let config = Config {
-        init: InitMode::Auto,
-        ..Config::default()
-    };
+    let auto = Pipeline::new().initializer(LeafletLayout {
+        mode: InitMode::Auto,
+    });
     assert_eq!(
-        run(&input, &config).unwrap().report.init,
+        auto.run(&input).unwrap().report.init,
         ["longitudes", "tutte"]
     );
 }

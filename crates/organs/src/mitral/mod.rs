@@ -19,9 +19,14 @@
 pub mod annulus;
 pub mod contract;
 pub mod error;
+pub mod initializer;
 pub mod layout;
 pub mod maps;
+mod pipeline;
 pub mod relax;
+
+pub use initializer::LeafletLayout;
+pub use pipeline::Pipeline;
 
 pub use error::{
     AnnulusError, ContractError, LayoutError, LayoutKind, LeafletSide, MapsError, MitralError,
@@ -67,6 +72,64 @@ pub struct Leaflet {
     /// The rest of its boundary loop (the free edge), from the vertex after
     /// the last annulus vertex to the vertex before the first.
     pub free_edge: Vec<u32>,
+}
+
+impl Leaflet {
+    /// A leaflet from its mesh and its annulus vertices in ring order: the
+    /// annulus arc lengths are the 3D distances along them from the first,
+    /// the free edge the rest of the mesh's boundary loop, from the vertex
+    /// after the last annulus vertex to the vertex before the first.
+    ///
+    /// # Errors
+    /// [`LayoutError::AnnulusVertexOutOfRange`] for an annulus vertex out of
+    /// range; `Mesh` when the mesh is not a disk;
+    /// [`LayoutError::AnnulusNotABoundaryRun`] when the annulus is not a run
+    /// of the boundary loop.
+    pub fn from_annulus(mesh: TriMesh, annulus: Vec<u32>) -> Result<Leaflet, OrganError> {
+        let n = mesh.positions.len();
+        if let Some(&vertex) = annulus.iter().find(|&&v| v as usize >= n) {
+            return Err(LayoutError::AnnulusVertexOutOfRange {
+                vertex,
+                vertices: n,
+            }
+            .into());
+        }
+        let mut annulus_s = Vec::with_capacity(annulus.len());
+        let mut s = 0.0;
+        for (k, &v) in annulus.iter().enumerate() {
+            if k > 0 {
+                s += (mesh.positions[v as usize] - mesh.positions[annulus[k - 1] as usize]).norm();
+            }
+            annulus_s.push(s);
+        }
+        let boundary = unfold_mesh::topology::disk_boundary_loop(&mesh)?;
+        let m = boundary.len();
+        let at = |v: u32| boundary.iter().position(|&b| b == v);
+        let (Some(first), Some(last)) = (
+            annulus.first().copied().and_then(at),
+            annulus.last().copied().and_then(at),
+        ) else {
+            return Err(LayoutError::AnnulusNotABoundaryRun.into());
+        };
+        // The direction in which the loop runs along the annulus.
+        let step = if annulus.len() < 2 || boundary[(first + 1) % m] == annulus[1] {
+            1
+        } else {
+            m - 1
+        };
+        let mut free_edge = Vec::new();
+        let mut k = (last + step) % m;
+        while k != first && free_edge.len() < m {
+            free_edge.push(boundary[k]);
+            k = (k + step) % m;
+        }
+        Ok(Leaflet {
+            mesh,
+            annulus,
+            annulus_s,
+            free_edge,
+        })
+    }
 }
 
 /// The valve after [`contract::prepare`].
@@ -147,7 +210,6 @@ pub enum RelaxMode {
 }
 
 use crate::OrganError;
-use std::time::Instant;
 use unfold_mesh::Field;
 
 /// Settings of the mitral pipeline; every default from ALGORITHMS 4.
@@ -155,8 +217,6 @@ use unfold_mesh::Field;
 pub struct Config {
     /// How the annulus is laid out (default: landmark plane).
     pub annulus_mode: AnnulusMode,
-    /// The initial layout (default: longitudes when present, else Tutte).
-    pub init: InitMode,
     /// The relaxation (default: flip-free symmetric Dirichlet).
     pub relax: RelaxMode,
     /// Settings of the spring relaxation (`relax = spring`).
@@ -179,7 +239,6 @@ impl Default for Config {
     fn default() -> Self {
         Config {
             annulus_mode: AnnulusMode::default(),
-            init: InitMode::default(),
             relax: RelaxMode::default(),
             spring: relax::SpringConfig::default(),
             sd: relax::SdConfig::default(),
@@ -234,8 +293,11 @@ pub struct Report {
     pub flipped_triangles: usize,
     /// The relaxation ("sd" or "spring").
     pub relax: &'static str,
-    /// The initial layout used per leaflet ("longitudes" or "tutte").
+    /// The initial layout used per leaflet ("longitudes" or "tutte" for
+    /// the default initializer, else the initializer's name).
     pub init: [&'static str; 2],
+    /// The pieces the pipeline was built from.
+    pub pieces: Pieces,
     /// The annulus mode.
     pub annulus_mode: AnnulusMode,
     /// Per leaflet relaxation reports.
@@ -261,7 +323,20 @@ pub struct Report {
     pub timings: Timings,
 }
 
-/// Seconds per step of [`run`].
+/// The pieces a run was built from, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Pieces {
+    /// The relaxation's distortion energy.
+    pub energy: &'static str,
+    /// The initial layout.
+    pub initializer: &'static str,
+    /// The line search.
+    pub line_search: &'static str,
+    /// The solver.
+    pub solver: &'static str,
+}
+
+/// Seconds per step of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Timings {
     /// The input contract.
@@ -449,204 +524,6 @@ fn merged(
         .collect();
     mesh.add_point_field(Field::new("uv", 2, unfold_mesh::FieldValues::F64(uv_all))?)?;
     Ok(mesh)
-}
-
-/// Runs the whole pipeline on one valve (see the module docs).
-///
-/// # Errors
-/// [`OrganError::Config`] for bad settings; [`OrganError::Mitral`] when the
-/// inputs do not fit a step ([`ContractError`]: leaflets not touching the
-/// ring, wrong number of commissures, non-disk leaflets, ...;
-/// [`LayoutError::NoLongitudes`] for `InitMode::Longitudes` on a leaflet
-/// without them; ...); [`OrganError::Mesh`] / [`OrganError::Param`] when a
-/// mesh check or a solve fails.
-pub fn run(input: &ValveInput<'_>, config: &Config) -> Result<Outcome, OrganError> {
-    run_cached(input, config, None)
-}
-
-/// Runs the pipeline on every step of a time series (ALGORITHMS 4.6), in
-/// parallel, each step exactly as [`run`] would (the same result, bit for
-/// bit); the results come in the order of `inputs`. Steps whose leaflets
-/// have the connectivity and annulus of an earlier one share its Newton
-/// Hessian layout ([`relax::LayoutCache`]: the ordering and symbolic
-/// analysis are done once per distinct leaflet), as the steps of one
-/// recording often do.
-pub fn run_series(inputs: &[ValveInput<'_>], config: &Config) -> Vec<Result<Outcome, OrganError>> {
-    use rayon::prelude::*;
-    let cache = relax::LayoutCache::default();
-    inputs
-        .par_iter()
-        .map(|input| run_cached(input, config, Some(&cache)))
-        .collect()
-}
-
-fn run_cached(
-    input: &ValveInput<'_>,
-    config: &Config,
-    cache: Option<&relax::LayoutCache>,
-) -> Result<Outcome, OrganError> {
-    let start = Instant::now();
-    config.validate()?;
-    let mut timings = Timings::default();
-    let t = Instant::now();
-    let valve = contract::prepare(input, config.tolerance_mm)?;
-    timings.contract = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let amap = annulus::parameterize(&valve, config.annulus_mode)?;
-    // Tenting, the saddle-horn height and the areas above / below are
-    // measured from the least-squares plane of the annulus whatever the
-    // layout mode: the landmark plane (through the two low commissures and
-    // the posterior barycentre) tilts towards the posterior, and would show
-    // a healthy anterior leaflet as prolapsing.
-    let plane = annulus::plane(&valve, AnnulusMode::LeastSquares)?
-        .ok_or(AnnulusError::NoLeastSquaresPlane)?;
-
-    // Each leaflet's layout below the annulus, in parallel.
-    let layout_one = |k: usize| -> Result<(Vec<[f64; 2]>, &'static str), OrganError> {
-        let leaflet = &valve.leaflets[k];
-        let targets = layout::annulus_uv(leaflet, &amap);
-        let chains = match config.init {
-            InitMode::Tutte => None,
-            InitMode::Auto | InitMode::Longitudes => layout::longitudes(leaflet),
-        };
-        match (config.init, chains) {
-            (_, Some(chains)) => Ok((
-                layout::longitude_layout(leaflet, &chains, &targets)?,
-                "longitudes",
-            )),
-            (InitMode::Longitudes, None) => Err(LayoutError::NoLongitudes {
-                leaflet: LeafletSide::of(k),
-            }
-            .into()),
-            _ => Ok((layout::tutte_layout(leaflet, &targets)?, "tutte")),
-        }
-    };
-    let (la, lp) = rayon::join(|| layout_one(ANTERIOR), || layout_one(POSTERIOR));
-    let ((uv_a, init_a), (uv_p, init_p)) = (la?, lp?);
-    let mut uv: [Vec<[f64; 2]>; 2] = [uv_a, uv_p];
-    let init = [init_a, init_p];
-    timings.layout = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-
-    // The leaflets relax independently (each with its annulus pinned): in
-    // parallel, each with the energies of its initial layout, then its
-    // coaptation distances (3D only, parallel over the vertices: the
-    // leaflet that relaxes first starts them, the other joins in).
-    type Relaxed = (relax::RelaxReport, [Vec<f64>; 3], Vec<f64>);
-    let relax_one = |k: usize, uv: &mut Vec<[f64; 2]>| -> Result<Relaxed, OrganError> {
-        let leaflet = &valve.leaflets[k];
-        let initial = maps::leaflet_energies(&leaflet.mesh, k, uv)?;
-        let mut fixed = vec![false; leaflet.mesh.positions.len()];
-        for &v in &leaflet.annulus {
-            fixed[v as usize] = true;
-        }
-        let report = match config.relax {
-            RelaxMode::Spring => relax::spring(&leaflet.mesh, uv, &fixed, &config.spring),
-            RelaxMode::Sd => {
-                relax::symmetric_dirichlet_cached(&leaflet.mesh, uv, &fixed, &config.sd, cache)
-            }
-        }?;
-        Ok((report, initial, maps::coaptation_distances(&valve, k)))
-    };
-    let [uv_a, uv_p] = &mut uv;
-    let (ra, rp) = rayon::join(|| relax_one(ANTERIOR, uv_a), || relax_one(POSTERIOR, uv_p));
-    let ((report_a, initial_a, dist_a), (report_p, initial_p, dist_p)) = (ra?, rp?);
-    let relax_reports = [report_a, report_p];
-    let initial = maps::summarize(
-        [&initial_a, &initial_p]
-            .into_iter()
-            .map(|[a, m, l]| [&a[..], m, l]),
-    );
-    timings.relax = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    if config.cut_posteromedial {
-        for q in &mut uv[POSTERIOR] {
-            q[0] += config.cut_gap_mm;
-        }
-    }
-    let leaflet_maps = maps::leaflet_maps_with(
-        &valve,
-        [&uv[ANTERIOR], &uv[POSTERIOR]],
-        &plane,
-        &config.maps,
-        [dist_a, dist_p],
-    )?;
-    let final_distortion = maps::summary(&leaflet_maps);
-    let (m, (valve3d, valve2d)) = rayon::join(
-        || maps::measurements(&valve, &plane),
-        || {
-            rayon::join(
-                || merged(&valve, &uv, &leaflet_maps, false),
-                || merged(&valve, &uv, &leaflet_maps, true),
-            )
-        },
-    );
-    let (valve3d, valve2d) = (valve3d?, valve2d?);
-
-    let flipped = [ANTERIOR, POSTERIOR]
-        .iter()
-        .map(|&k| flipped_triangles(&valve.leaflets[k].mesh, &uv[k]))
-        .sum();
-    let mut carpentier = [0usize; 6];
-    let (mut within, mut near) = (0, 0);
-    for lm in &leaflet_maps {
-        for &c in &lm.carpentier {
-            if (1..=6).contains(&c) {
-                carpentier[(c - 1) as usize] += 1;
-            }
-        }
-        within += lm.coaptation.iter().filter(|&&c| c == 2).count();
-        near += lm.coaptation.iter().filter(|&&c| c == 1).count();
-    }
-    timings.maps = t.elapsed().as_secs_f64();
-    let pt = |p: &Point3<f64>| [p.x, p.y, p.z];
-    let report = Report {
-        annulus_length_mm: m.annulus_length_mm,
-        u_extent_mm: amap.u_extent(),
-        leaflet_area_mm2: m.leaflet_area_mm2,
-        saddle_horn_height_mm: m.saddle_horn_height_mm,
-        area_above_plane_mm2: m.area_above_plane_mm2,
-        area_below_plane_mm2: m.area_below_plane_mm2,
-        distortion: DistortionReport {
-            initial,
-            r#final: final_distortion,
-        },
-        flipped_triangles: flipped,
-        relax: match config.relax {
-            RelaxMode::Spring => "spring",
-            RelaxMode::Sd => "sd",
-        },
-        init,
-        annulus_mode: config.annulus_mode,
-        relax_reports,
-        coaptation_vertices: CoaptationCounts {
-            within,
-            near,
-            threshold_mm: config.maps.coaptation_mm,
-        },
-        carpentier_vertices: carpentier,
-        commissures_mm: [pt(&valve.ring[0]), pt(&valve.ring[valve.posteromedial])],
-        layout_plane: amap.plane.map(|p| PlaneReport {
-            point: pt(&p.point),
-            normal: [p.normal.x, p.normal.y, p.normal.z],
-        }),
-        annulus_plane: PlaneReport {
-            point: pt(&plane.point),
-            normal: [plane.normal.x, plane.normal.y, plane.normal.z],
-        },
-        cut_posteromedial: config.cut_posteromedial,
-        seconds: start.elapsed().as_secs_f64(),
-        timings,
-    };
-    Ok(Outcome {
-        valve,
-        annulus: amap,
-        uv,
-        valve3d,
-        valve2d,
-        maps: leaflet_maps,
-        report,
-    })
 }
 
 #[cfg(test)]

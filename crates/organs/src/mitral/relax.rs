@@ -42,7 +42,8 @@ use unfold_mesh::TriMesh;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
 use unfold_param::{
-    Executor, HessianLayout, Objective, ParamMesh, ProjectedNewton, SolveReport, Stopping,
+    DistortionEnergy, Executor, HessianLayout, LineSearch, Objective, ParamMesh, ProjectedNewton,
+    SolveReport, Solver, Stopping,
 };
 
 /// Largest move of a vertex in one [`spring`] step, as a fraction of its
@@ -380,7 +381,40 @@ pub fn symmetric_dirichlet(
     fixed: &[bool],
     config: &SdConfig,
 ) -> Result<RelaxReport, OrganError> {
-    symmetric_dirichlet_cached(mesh, uv, fixed, config, None)
+    let solver = default_solver();
+    let pieces = Minimizer {
+        energy: &SymmetricDirichlet,
+        solver: &solver,
+        line_search: None,
+    };
+    minimize(mesh, uv, fixed, config, &pieces, None)
+}
+
+/// The relaxation's default solver: projected Newton without the exact
+/// Hessian first, with step expansion [`STEP_EXPANSION`]. The unprojected
+/// Hessian does not pay here: on the generator's valves it is indefinite
+/// for the first iterations (the attempt costs a Hessian and a failed
+/// factorization), and where it does factorize later the iteration count
+/// is the same (9 and 7 on the bench valve either way).
+pub fn default_solver() -> ProjectedNewton {
+    ProjectedNewton {
+        exact_first: false,
+        expand: STEP_EXPANSION,
+        ..ProjectedNewton::default()
+    }
+}
+
+/// The pieces of the flip-free relaxation ([`minimize`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Minimizer<'a> {
+    /// The distortion energy `D` (a barrier energy keeps every iterate
+    /// flip-free by itself; any energy stays flip-free through the
+    /// injective line search).
+    pub energy: &'a dyn DistortionEnergy,
+    /// The solver.
+    pub solver: &'a dyn Solver,
+    /// The line search (`None`: the solver's own).
+    pub line_search: Option<&'a dyn LineSearch>,
 }
 
 /// Hessian layouts ([`HessianLayout`]: the sparsity pattern's ordering and
@@ -418,18 +452,22 @@ impl LayoutCache {
     }
 }
 
-/// [`symmetric_dirichlet`] with a [`LayoutCache`]: the Hessian layout is
-/// taken from `cache` when one fits this leaflet (same triangles, same
-/// fixed vertices) and added to it otherwise. The result is the same as
-/// without the cache, bit for bit.
+/// The flip-free relaxation with any energy, solver and line search
+/// ([`Minimizer`]; [`symmetric_dirichlet`] is the published one), with an
+/// optional [`LayoutCache`]: the Hessian layout is taken from `cache` when
+/// one fits this leaflet (same triangles, same fixed vertices) and added to
+/// it otherwise. The result is the same as without the cache, bit for bit.
+/// `phi(q) = sum_t w_t D(J_t)` as in [`symmetric_dirichlet`], with the
+/// minimizer's `D`.
 ///
 /// # Errors
 /// As [`symmetric_dirichlet`].
-pub fn symmetric_dirichlet_cached(
+pub fn minimize(
     mesh: &TriMesh,
     uv: &mut [[f64; 2]],
     fixed: &[bool],
     config: &SdConfig,
+    pieces: &Minimizer<'_>,
     cache: Option<&LayoutCache>,
 ) -> Result<RelaxReport, OrganError> {
     let t0 = Instant::now();
@@ -466,7 +504,7 @@ pub fn symmetric_dirichlet_cached(
     }
     let mut x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
     let total_area: f64 = pm.measure.iter().sum();
-    let mut objective = Objective::new(&pm, &SymmetricDirichlet, 1.0, None, &pinned)?;
+    let mut objective = Objective::new(&pm, pieces.energy, 1.0, None, &pinned)?;
     if let Some(cache) = cache {
         objective = match cache.find(&pm, &pinned) {
             Some(layout) => objective.with_layout(layout)?,
@@ -482,20 +520,12 @@ pub fn symmetric_dirichlet_cached(
         decrement_tol: config.decrement_tol,
         ..Stopping::default()
     };
-    let solver = ProjectedNewton {
-        // The unprojected Hessian does not pay here: on the generator's
-        // valves it is indefinite for the first iterations (the attempt
-        // costs a Hessian and a failed factorization), and where it does
-        // factorize later the iteration count is the same (9 and 7 on the
-        // bench valve either way).
-        exact_first: false,
-        expand: STEP_EXPANSION,
-        ..ProjectedNewton::default()
-    };
-    let report: SolveReport =
-        Executor::new(&solver)
-            .stopping(stopping)
-            .run(&mut objective, &mut x, &mut [])?;
+    let report: SolveReport = match pieces.line_search {
+        Some(l) => Executor::new(pieces.solver).line_search(l),
+        None => Executor::new(pieces.solver),
+    }
+    .stopping(stopping)
+    .run(&mut objective, &mut x, &mut [])?;
     let mut q = uv.to_vec();
     for (i, qi) in q.iter_mut().enumerate() {
         if !pinned[i] {
@@ -751,16 +781,23 @@ mod tests {
 
     #[test]
     fn sd_with_a_layout_cache_is_bitwise_the_same_and_shares_layouts() {
+        let solver = default_solver();
+        let published = Minimizer {
+            energy: &SymmetricDirichlet,
+            solver: &solver,
+            line_search: None,
+        };
         let cache = LayoutCache::default();
         assert!(cache.is_empty());
         let c = leaflet(&coarse(), true);
         let (plain, rp) = sd(&c);
         let mut first = c.uv.clone();
-        let r1 = symmetric_dirichlet_cached(
+        let r1 = minimize(
             &c.mesh,
             &mut first,
             &c.fixed,
             &SdConfig::default(),
+            &published,
             Some(&cache),
         )
         .unwrap();
@@ -772,11 +809,12 @@ mod tests {
         }
         let (plain_moved, _) = sd(&moved);
         let mut second = moved.uv.clone();
-        symmetric_dirichlet_cached(
+        minimize(
             &moved.mesh,
             &mut second,
             &moved.fixed,
             &SdConfig::default(),
+            &published,
             Some(&cache),
         )
         .unwrap();
@@ -789,11 +827,12 @@ mod tests {
         let v = fixed.iter().position(|&f| !f).unwrap();
         fixed[v] = true;
         let mut third = c.uv.clone();
-        symmetric_dirichlet_cached(
+        minimize(
             &c.mesh,
             &mut third,
             &fixed,
             &SdConfig::default(),
+            &published,
             Some(&cache),
         )
         .unwrap();

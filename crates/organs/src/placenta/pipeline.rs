@@ -20,8 +20,7 @@ use unfold_mesh::{Field, TetMesh};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::Summary;
 use unfold_param::{
-    Constraints, DistortionEnergy, Initializer, LineSearch, ParamError, ParamMesh, ProjectedNewton,
-    Solver,
+    Constraints, DistortionEnergy, Initializer, LineSearch, ParamMesh, ProjectedNewton, Solver,
 };
 
 /// The placenta pipeline: its pieces and settings. [`Pipeline::new`] is the
@@ -112,18 +111,6 @@ impl Outcome {
 
 fn side_field(labels: &[u8]) -> Field {
     Field::labels("side", labels.iter().map(|&l| i32::from(l)).collect())
-}
-
-/// A [`ParamError::Piece`] that carries an [`OrganError`] becomes that
-/// error again (an organ initializer's typed failure); anything else is
-/// [`OrganError::Param`].
-pub(crate) fn from_param(e: ParamError) -> OrganError {
-    if let ParamError::Piece { error, .. } = &e
-        && let Some(organ) = error.downcast_ref::<OrganError>()
-    {
-        return organ.clone();
-    }
-    OrganError::Param(e)
 }
 
 impl Pipeline {
@@ -257,7 +244,7 @@ impl Pipeline {
                     weights: &weights,
                 },
             )
-            .map_err(from_param)?;
+            .map_err(OrganError::from_param)?;
         let initial: Vec<Point3<f64>> = start_map
             .x
             .chunks_exact(3)

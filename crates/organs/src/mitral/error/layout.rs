@@ -37,6 +37,23 @@ pub enum LayoutError {
         /// The leaflet.
         leaflet: LeafletSide,
     },
+    /// An initializer did not place an annulus vertex at its `(u, v)`
+    /// target.
+    #[error(
+        "the {leaflet} leaflet's initializer moved annulus vertex {vertex} {distance} from its \
+         (u, v) target"
+    )]
+    PinMoved {
+        /// The leaflet.
+        leaflet: LeafletSide,
+        /// The annulus vertex.
+        vertex: u32,
+        /// How far it is from its target, mm.
+        distance: f64,
+    },
+    /// The layout initializer was not given the leaflet's annulus as pins.
+    #[error("the leaflet layout needs the annulus as pins (one per annulus vertex, in order)")]
+    NoAnnulusPins,
     /// Not one annulus `(u, v)` target per annulus vertex.
     #[error("{layout}: {targets} annulus (u, v) for {annulus_vertices} annulus vertices")]
     TargetCount {
