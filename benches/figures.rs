@@ -70,17 +70,18 @@ fn figures(c: &mut Criterion) {
     let cup = ventricle_cup(&VentricleParams::default()).expect("cup");
     let mut config = lv::Config::default();
     config.chart.field.grid_mm = 1.0;
-    let ventricle_out = lv::run(
-        &CellMesh::from(&cup.anatomy),
-        &cup.surface,
-        &lv::LandmarkPoints {
-            anterior: cup.anterior,
-            inferior: cup.inferior,
-            apex: Some(cup.apex),
-        },
-        &config,
-    )
-    .expect("ventricle");
+    let ventricle_out = lv::Pipeline::new()
+        .config(config)
+        .run(
+            &CellMesh::from(&cup.anatomy),
+            &cup.surface,
+            &lv::LandmarkPoints {
+                anterior: cup.anterior,
+                inferior: cup.inferior,
+                apex: Some(cup.apex),
+            },
+        )
+        .expect("ventricle");
 
     let valve = mitral_valve(&ValveParams::default()).expect("valve");
     let mitral_out = mv::Pipeline::new()

@@ -15,7 +15,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::time::Duration;
 use unfold::io::{read_mesh, read_tri_mesh};
-use unfold::organs::ventricle::{Chart, Config, LandmarkPoints, run};
+use unfold::organs::ventricle::{Chart, Config, LandmarkPoints, Pipeline};
 use unfold::param::initializer::disk_boundary_loop;
 
 /// The allocator the `unfold` command uses (see `src/main.rs`).
@@ -36,7 +36,10 @@ fn ventricle(c: &mut Criterion) {
     };
     let mut config = Config::default();
     config.chart.field.grid_mm = 1.0;
-    let once = run(&anatomy, &s, &landmarks, &config).expect("pipeline");
+    let once = Pipeline::new()
+        .config(config)
+        .run(&anatomy, &s, &landmarks)
+        .expect("pipeline");
     println!(
         "geo2 at 1 mm: round trip um {:?}, seconds {:?}, field {:?}",
         once.report.roundtrip_error_um, once.report.seconds, once.report.field
@@ -46,7 +49,10 @@ fn ventricle(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(60));
     g.bench_function("geo2_1mm", |b| {
         b.iter(|| {
-            let out = run(&anatomy, &s, &landmarks, &config).expect("pipeline");
+            let out = Pipeline::new()
+                .config(config)
+                .run(&anatomy, &s, &landmarks)
+                .expect("pipeline");
             black_box(out.report.roundtrip_error_um.max)
         })
     });

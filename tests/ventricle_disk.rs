@@ -6,6 +6,7 @@
 use unfold::io::read_tri_mesh;
 use unfold::mesh::TriMesh;
 use unfold::organs::ventricle::disk::lv_disk;
+use unfold::organs::ventricle::harmonic_disk::HarmonicDisk;
 use unfold::organs::ventricle::landmarks::{DEFAULT_SNAP_MM, Landmarks};
 use unfold::param::initializer::disk_boundary_loop;
 
@@ -20,7 +21,7 @@ fn flattens_flip_free(name: &str, s: &TriMesh) {
         s.positions[rim[rim.len() / 3] as usize],
     );
     let l = Landmarks::resolve(s, &a, &i, None, DEFAULT_SNAP_MM).unwrap();
-    let d = lv_disk(s, &l).unwrap();
+    let d = lv_disk(s, &l, &HarmonicDisk).unwrap();
     println!(
         "{name}: {} vertices, {} triangles, rim {}: flipped {}, weights {}, apex warp {}",
         s.positions.len(),

@@ -11,10 +11,23 @@ use unfold::io::{read_mesh, read_tri_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, ventricle_cup};
 use unfold::mesh::{CellMesh, TriMesh};
+use unfold::organs::OrganError;
 use unfold::organs::ventricle::{
-    Chart, ChartConfig, Config, CylinderPoint, LandmarkPoints, Outcome, run,
+    Chart, ChartConfig, Config, CylinderPoint, LandmarkPoints, Outcome, Pipeline,
 };
 use unfold::param::initializer::disk_boundary_loop;
+
+/// The published pipeline with `config`.
+fn run(
+    anatomy: &CellMesh,
+    surface: &TriMesh,
+    landmarks: &LandmarkPoints,
+    config: &Config,
+) -> Result<Outcome, OrganError> {
+    Pipeline::new()
+        .config(*config)
+        .run(anatomy, surface, landmarks)
+}
 
 /// Two rim points a third of the loop apart (after the repair of S).
 fn rim_landmarks(s: &TriMesh) -> LandmarkPoints {

@@ -2,7 +2,7 @@
 //! -o DIR`: the anatomy inside a heart chamber carried into the canonical
 //! cylinder (ALGORITHMS 3).
 //!
-//! The pipeline is [`unfold::organs::ventricle::run`]: S (a triangle mesh
+//! The pipeline is [`unfold::organs::ventricle::Pipeline`]: S (a triangle mesh
 //! with disk topology, its one boundary loop the basal rim) is flattened to
 //! the unit disk (LV) or half disk (RV) with the landmarks in place, the
 //! Laplace field between S and the hemisphere H is solved on a grid, and
@@ -47,7 +47,7 @@ use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use unfold::organs::ventricle::{
-    Chamber, Chart, ChartConfig, Config, LandmarkPoints, Outcome, Report, run as run_ventricle,
+    Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
 };
 
 /// `--chamber`.
@@ -329,13 +329,10 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
             input.anatomy.positions.len()
         )
     });
-    let outcome = run_ventricle(
-        input.anatomy,
-        input.surface,
-        &input.landmarks,
-        &input.config,
-    )
-    .map_err(|e| organ(&label, e))?;
+    let pipeline = Pipeline::new().config(input.config);
+    let outcome = pipeline
+        .run(input.anatomy, input.surface, &input.landmarks)
+        .map_err(|e| organ(&label, e))?;
     let r = &outcome.report;
     progress(|| {
         format!(
@@ -362,14 +359,9 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
                 )
             });
             let t0 = Instant::now();
-            let chart = Chart::new(
-                t.surface,
-                &t.landmarks.anterior,
-                &t.landmarks.inferior,
-                t.landmarks.apex.as_ref(),
-                &input.config.chart,
-            )
-            .map_err(|e| organ(t.label, e))?;
+            let chart = pipeline
+                .chart(t.surface, &t.landmarks)
+                .map_err(|e| organ(t.label, e))?;
             progress(|| {
                 format!(
                     "transfer: mapping {} anatomy points into {} ...",

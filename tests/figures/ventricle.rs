@@ -15,8 +15,9 @@ use unfold::figures::ventricle::{
 use unfold::figures::{Figure, FigureError, FigureOptions};
 use unfold::mesh::CellMesh;
 use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
+use unfold::organs::OrganError;
 use unfold::organs::ventricle::aha::aha_segment;
-use unfold::organs::ventricle::{Chamber, Config, LandmarkPoints, Outcome, run};
+use unfold::organs::ventricle::{Chamber, Config, LandmarkPoints, Outcome, Pipeline};
 
 fn cup() -> &'static VentricleShape {
     static C: OnceLock<VentricleShape> = OnceLock::new();
@@ -39,6 +40,18 @@ fn run_cup(chamber: Chamber, anatomy: &CellMesh) -> Outcome {
         &config,
     )
     .unwrap()
+}
+
+/// The published pipeline with `config`.
+fn run(
+    anatomy: &CellMesh,
+    surface: &unfold::mesh::TriMesh,
+    landmarks: &LandmarkPoints,
+    config: &Config,
+) -> Result<Outcome, OrganError> {
+    Pipeline::new()
+        .config(*config)
+        .run(anatomy, surface, landmarks)
 }
 
 /// The LV pipeline on the cup, its inner cup (a triangle surface) the

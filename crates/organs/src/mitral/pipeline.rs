@@ -175,7 +175,7 @@ impl Pipeline {
         for pin in &pins {
             let (q, t) = (uv[pin.vertex as usize], pin.position);
             let distance = (q[0] - t[0]).hypot(q[1] - t[1]);
-            if !(distance <= PIN_TOLERANCE * t[0].hypot(t[1]).max(1.0)) {
+            if distance.is_nan() || distance > PIN_TOLERANCE * t[0].hypot(t[1]).max(1.0) {
                 return Err(LayoutError::PinMoved {
                     leaflet: LeafletSide::of(k),
                     vertex: pin.vertex,

@@ -4,118 +4,12 @@
 //! spline warp that keeps the rim and moves the apex to the centre.
 
 use super::error::VentricleError;
+use super::harmonic_disk::{ANTERIOR, APEX, INFERIOR, wrap};
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use unfold_mesh::TriMesh;
-use unfold_mesh::nalgebra::{DMatrix, DVector};
-use unfold_param::initializer::{DiskBoundary, TutteDisk, TutteWeights, circle_boundary};
-
-/// A 2D thin-plate spline `f(p) = a0 + A p + sum_i w_i U(|p - c_i|)` with
-/// `U(r) = r^2 log r`, interpolating given targets at its centres with the
-/// least bending energy (the affine part absorbs whatever is affine).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ThinPlateSpline {
-    centres: Vec<[f64; 2]>,
-    /// Kernel weights per centre, one column per output coordinate.
-    w: Vec<[f64; 2]>,
-    /// Affine part: `[a0, A e_x, A e_y]`, one column per output coordinate.
-    affine: [[f64; 2]; 3],
-}
-
-/// `U(r) = r^2 log r` from `r^2` (`U(0) = 0`).
-#[inline]
-fn kernel(r2: f64) -> f64 {
-    if r2 > 0.0 { 0.5 * r2 * r2.ln() } else { 0.0 }
-}
-
-impl ThinPlateSpline {
-    /// The spline with `f(c_i) = t_i`: solves
-    /// `[K P; P^T 0] [w; a] = [t; 0]`, `K_ij = U(|c_i - c_j|)`,
-    /// `P_i = (1, c_i)`.
-    ///
-    /// # Errors
-    /// [`VentricleError::SplineLengths`] for different lengths,
-    /// [`VentricleError::SplineTooFewCentres`] for fewer than 3 centres,
-    /// [`VentricleError::SplineNotFinite`] for non-finite values,
-    /// [`VentricleError::SplineSingular`] for a singular system (repeated
-    /// or collinear centres).
-    pub fn fit(centres: &[[f64; 2]], targets: &[[f64; 2]]) -> Result<Self, VentricleError> {
-        let m = centres.len();
-        if targets.len() != m {
-            return Err(VentricleError::SplineLengths {
-                centres: m,
-                targets: targets.len(),
-            });
-        }
-        if m < 3 {
-            return Err(VentricleError::SplineTooFewCentres {
-                centres: m,
-                needed: 3,
-            });
-        }
-        let finite = |p: &[f64; 2]| p.iter().all(|x| x.is_finite());
-        for (what, points) in [("centre", centres), ("target", targets)] {
-            if let Some(index) = points.iter().position(|p| !finite(p)) {
-                return Err(VentricleError::SplineNotFinite { what, index });
-            }
-        }
-        let n = m + 3;
-        let mut a = DMatrix::<f64>::zeros(n, n);
-        for i in 0..m {
-            for j in 0..i {
-                let (dx, dy) = (centres[i][0] - centres[j][0], centres[i][1] - centres[j][1]);
-                let k = kernel(dx * dx + dy * dy);
-                a[(i, j)] = k;
-                a[(j, i)] = k;
-            }
-            let p = [1.0, centres[i][0], centres[i][1]];
-            for (c, &x) in p.iter().enumerate() {
-                a[(i, m + c)] = x;
-                a[(m + c, i)] = x;
-            }
-        }
-        let lu = a.lu();
-        let mut w = vec![[0.0; 2]; m];
-        let mut affine = [[0.0; 2]; 3];
-        for d in 0..2 {
-            let mut b = DVector::<f64>::zeros(n);
-            for i in 0..m {
-                b[i] = targets[i][d];
-            }
-            let x = lu
-                .solve(&b)
-                .filter(|x| x.iter().all(|v| v.is_finite()))
-                .ok_or(VentricleError::SplineSingular { centres: m })?;
-            for i in 0..m {
-                w[i][d] = x[i];
-            }
-            for c in 0..3 {
-                affine[c][d] = x[m + c];
-            }
-        }
-        Ok(ThinPlateSpline {
-            centres: centres.to_vec(),
-            w,
-            affine,
-        })
-    }
-
-    /// `f(p)`.
-    pub fn eval(&self, p: [f64; 2]) -> [f64; 2] {
-        let [a0, ax, ay] = self.affine;
-        let mut out = [
-            a0[0] + ax[0] * p[0] + ay[0] * p[1],
-            a0[1] + ax[1] * p[0] + ay[1] * p[1],
-        ];
-        for (c, w) in self.centres.iter().zip(&self.w) {
-            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
-            let k = kernel(dx * dx + dy * dy);
-            out[0] += w[0] * k;
-            out[1] += w[1] * k;
-        }
-        out
-    }
-}
+use unfold_param::initializer::circle_boundary;
+use unfold_param::{Constraints, Initializer, ParamError, ParamMesh, Pin};
 
 /// The LV disk map of S.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,80 +55,92 @@ pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
         .count()
 }
 
-/// The LV disk map (ALGORITHMS 3.2):
+/// The LV disk map (ALGORITHMS 3.2), by the disk initializer `disk`
+/// ([`HarmonicDisk`] by default, see [`super::harmonic_disk`] for what it
+/// is handed):
 ///
-/// 1. the harmonic (cotangent) map of S with the rim on the unit circle by
-///    cumulative edge length (mean-value weights instead when the harmonic
-///    map flips a triangle);
-/// 2. mirrored if needed so that the anterior landmark follows the inferior
-///    one counter-clockwise along their shorter arc, then rotated so that
-///    the bisector of that arc points along +x (the septum; the anterior
-///    landmark on the +y side);
-/// 3. warped by the thin-plate spline that keeps every rim vertex and
-///    moves the apex to `(0, 0)`.
+/// 1. the rim on the unit circle by cumulative edge length, mirrored if
+///    needed so that the anterior landmark follows the inferior one
+///    counter-clockwise along their shorter arc, and turned so that the
+///    bisector of that arc points along +x (the septum; the anterior
+///    landmark on the +y side): the rim pins;
+/// 2. the apex pinned at the centre;
+/// 3. `disk` maps S with those pins (the harmonic map, a thin-plate spline
+///    taking the apex to the centre, a Mobius warp where that folds).
 ///
-/// When the spline folds triangles (an apex far from the centre, near the
-/// rim), the apex is moved instead by the Mobius transformation of the
-/// disk `z -> (z - a) / (1 - conj(a) z)`, a conformal bijection of the disk
-/// onto itself: nothing folds, but the rim slides along the circle (it is
-/// no longer at arc length), and the bisector is put back on +x after. The
-/// result's flips are counted ([`DiskMap::flipped_triangles`]).
+/// The result's flips are counted ([`DiskMap::flipped_triangles`]).
 ///
 /// # Errors
-/// `Ventricle` for landmarks that do not fit S ([`Landmarks::check`]), a
-/// spline that cannot be fitted ([`ThinPlateSpline::fit`]) or (RV) a rim
-/// arc of zero length; `Param` / `Mesh` when S cannot be embedded (not a
-/// disk, degenerate).
-pub fn lv_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+/// `Ventricle` for landmarks that do not fit S ([`Landmarks::check`]);
+/// `Param` / `Mesh` when S cannot be embedded (not a disk, degenerate), and
+/// the initializer's own errors.
+pub fn lv_disk(
+    surface: &TriMesh,
+    landmarks: &Landmarks,
+    disk: &dyn Initializer,
+) -> Result<DiskMap, OrganError> {
     landmarks.check(surface)?;
     let rim = &landmarks.rim;
-    let (mut uv, weights) = embed(surface, circle_boundary(&surface.positions, rim)?)?;
+    let mut circle = circle_boundary(&surface.positions, rim)?;
     let angle = |q: [f64; 2]| q[1].atan2(q[0]);
-    let wrap = |a: f64| {
-        let t = a.rem_euclid(std::f64::consts::TAU);
-        if t > std::f64::consts::PI {
-            t - std::f64::consts::TAU
-        } else {
-            t
-        }
-    };
     let (ta, ti) = (
-        angle(uv[rim[landmarks.anterior] as usize]),
-        angle(uv[rim[landmarks.inferior] as usize]),
+        angle(circle[landmarks.anterior].1),
+        angle(circle[landmarks.inferior].1),
     );
     let mirrored = wrap(ta - ti) < 0.0;
-    if mirrored {
-        for q in &mut uv {
-            q[1] = -q[1];
-        }
-    }
     let (ta, ti) = if mirrored { (-ta, -ti) } else { (ta, ti) };
     let bisector = ti + 0.5 * wrap(ta - ti);
-    rotate(&mut uv, -bisector);
-    let a = uv[landmarks.apex as usize];
-    let mut warped = spline_apex(&uv, landmarks, [0.0, 0.0])?;
-    let mut flipped = flipped_triangles(surface, &warped);
-    let mut apex_warp = "thin-plate spline";
-    if flipped > 0 {
-        let mut m: Vec<[f64; 2]> = uv.iter().map(|&q| mobius(q, a)).collect();
-        m[landmarks.apex as usize] = [0.0, 0.0];
-        let (qa, qi) = (
-            m[rim[landmarks.anterior] as usize],
-            m[rim[landmarks.inferior] as usize],
-        );
-        let (ta, ti) = (angle(qa), angle(qi));
-        rotate(&mut m, -(ti + 0.5 * wrap(ta - ti)));
-        let f = flipped_triangles(surface, &m);
-        if f < flipped {
-            (warped, flipped, apex_warp) = (m, f, "mobius");
+    let (c, s) = ((-bisector).cos(), (-bisector).sin());
+    for (_, q) in &mut circle {
+        if mirrored {
+            q[1] = -q[1];
         }
+        *q = [c * q[0] - s * q[1], s * q[0] + c * q[1]];
     }
+    let mut pins: Vec<Pin> = circle.iter().map(|&(v, q)| Pin::planar(v, q)).collect();
+    pins.push(Pin::planar(landmarks.apex, [0.0, 0.0]));
+    map_disk(surface, landmarks, &pins, mirrored, disk)
+}
+
+/// Runs the disk initializer with the pins and the landmark labels.
+fn map_disk(
+    surface: &TriMesh,
+    landmarks: &Landmarks,
+    pins: &[Pin],
+    mirrored: bool,
+    disk: &dyn Initializer,
+) -> Result<DiskMap, OrganError> {
+    let pm = ParamMesh::from_triangles(surface)?;
+    let mut labels = vec![0u8; surface.num_vertices()];
+    labels[landmarks.rim[landmarks.anterior] as usize] = ANTERIOR;
+    labels[landmarks.rim[landmarks.inferior] as usize] = INFERIOR;
+    labels[landmarks.apex as usize] = APEX;
+    let start = disk
+        .initialize(
+            &pm,
+            &Constraints {
+                pins,
+                labels: &labels,
+                weights: &[],
+            },
+        )
+        .map_err(OrganError::from_param)?;
+    let n = surface.num_vertices();
+    if start.x.len() != 2 * n {
+        return Err(ParamError::Length {
+            what: "disk map",
+            expected: 2 * n,
+            found: start.x.len(),
+        }
+        .into());
+    }
+    let uv: Vec<[f64; 2]> = start.x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
     Ok(DiskMap {
-        flipped_triangles: flipped,
-        uv: warped,
-        weights,
+        flipped_triangles: flipped_triangles(surface, &uv),
+        uv,
+        weights: start.detail("weights").unwrap_or(disk.name()),
         mirrored,
-        apex_warp,
+        apex_warp: start.detail("apex warp").unwrap_or(disk.name()),
     })
 }
 
@@ -247,14 +153,19 @@ pub const RV_CENTRE: [f64; 2] = [1.25, 0.0];
 /// straight edge, the first corner (`landmarks.anterior`) at `(1.25, 1)`,
 /// the second (`landmarks.inferior`) at `(1.25, -1)`, by cumulative edge
 /// length; the rest of the rim to the half circle through `(2.25, 0)`, by
-/// cumulative edge length. The embedding is the harmonic map (mean-value
-/// weights when it flips a triangle; the half disk is convex, so that one is
-/// bijective), then the thin-plate spline that keeps the rim and moves the
-/// apex to `(1.75, 0)`. Flips are counted, not repaired.
+/// cumulative edge length: the rim pins; the apex pinned at `(1.75, 0)`.
+/// `disk` maps S with those pins ([`HarmonicDisk`]: the harmonic map,
+/// mean-value weights when it flips a triangle, the half disk being convex,
+/// then the thin-plate spline that keeps the rim and moves the apex).
+/// Flips are counted, not repaired.
 ///
 /// # Errors
 /// As [`lv_disk`].
-pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap, OrganError> {
+pub fn rv_half_disk(
+    surface: &TriMesh,
+    landmarks: &Landmarks,
+    disk: &dyn Initializer,
+) -> Result<DiskMap, OrganError> {
     landmarks.check(surface)?;
     let rim = &landmarks.rim;
     let m = rim.len();
@@ -301,87 +212,12 @@ pub fn rv_half_disk(surface: &TriMesh, landmarks: &Landmarks) -> Result<DiskMap,
         let t = std::f64::consts::FRAC_PI_2 - std::f64::consts::PI * s / lf;
         given.push((rim[*k], [RV_CENTRE[0] + t.cos(), RV_CENTRE[1] + t.sin()]));
     }
-    let (uv, weights) = embed(surface, given)?;
-    let warped = spline_apex(&uv, landmarks, [RV_CENTRE[0] + 0.5, RV_CENTRE[1]])?;
-    Ok(DiskMap {
-        flipped_triangles: flipped_triangles(surface, &warped),
-        uv: warped,
-        weights,
-        mirrored: false,
-        apex_warp: "thin-plate spline",
-    })
-}
-
-/// The harmonic (cotangent) embedding of S with the rim at `given`, or the
-/// mean-value one when the harmonic map flips a triangle, with the name of
-/// the weights used.
-fn embed(
-    surface: &TriMesh,
-    given: Vec<(u32, [f64; 2])>,
-) -> Result<(Vec<[f64; 2]>, &'static str), OrganError> {
-    let layout = |weights| {
-        TutteDisk {
-            weights,
-            boundary: DiskBoundary::Given(given.clone()),
-        }
-        .layout(surface)
-    };
-    let harmonic = layout(TutteWeights::Cotangent)?;
-    Ok(if flipped_triangles(surface, &harmonic) == 0 {
-        (harmonic, "cotangent")
-    } else {
-        (layout(TutteWeights::MeanValue)?, "mean-value")
-    })
-}
-
-/// `uv` warped by the thin-plate spline that keeps every rim vertex where
-/// it is and takes the apex to `target` (rim and apex set exactly).
-fn spline_apex(
-    uv: &[[f64; 2]],
-    landmarks: &Landmarks,
-    target: [f64; 2],
-) -> Result<Vec<[f64; 2]>, OrganError> {
-    let rim = &landmarks.rim;
-    let mut centres: Vec<[f64; 2]> = rim.iter().map(|&v| uv[v as usize]).collect();
-    let mut targets = centres.clone();
-    centres.push(uv[landmarks.apex as usize]);
-    targets.push(target);
-    let tps = ThinPlateSpline::fit(&centres, &targets)?;
-    let mut on_rim = vec![false; uv.len()];
-    for &v in rim {
-        on_rim[v as usize] = true;
-    }
-    let mut warped: Vec<[f64; 2]> = uv
-        .iter()
-        .enumerate()
-        .map(|(v, &q)| if on_rim[v] { q } else { tps.eval(q) })
-        .collect();
-    warped[landmarks.apex as usize] = target;
-    Ok(warped)
-}
-
-/// Rotates every point by `angle` (radians, counter-clockwise).
-fn rotate(uv: &mut [[f64; 2]], angle: f64) {
-    let (c, s) = (angle.cos(), angle.sin());
-    for q in uv {
-        *q = [c * q[0] - s * q[1], s * q[0] + c * q[1]];
-    }
-}
-
-/// The Mobius automorphism of the unit disk taking `a` to 0:
-/// `(z - a) / (1 - conj(a) z)` in complex numbers.
-fn mobius(z: [f64; 2], a: [f64; 2]) -> [f64; 2] {
-    let num = [z[0] - a[0], z[1] - a[1]];
-    // 1 - conj(a) z = 1 - (a0 - i a1)(z0 + i z1)
-    let den = [
-        1.0 - (a[0] * z[0] + a[1] * z[1]),
-        -(a[0] * z[1] - a[1] * z[0]),
-    ];
-    let d2 = den[0] * den[0] + den[1] * den[1];
-    [
-        (num[0] * den[0] + num[1] * den[1]) / d2,
-        (num[1] * den[0] - num[0] * den[1]) / d2,
-    ]
+    let mut pins: Vec<Pin> = given.iter().map(|&(v, q)| Pin::planar(v, q)).collect();
+    pins.push(Pin::planar(
+        landmarks.apex,
+        [RV_CENTRE[0] + 0.5, RV_CENTRE[1]],
+    ));
+    map_disk(surface, landmarks, &pins, false, disk)
 }
 
 /// The display warp `r' = r^n` (angle kept) of disk positions, `n` finite
@@ -408,77 +244,9 @@ pub fn display_warp(uv: &[[f64; 2]], exponent: f64) -> Result<Vec<[f64; 2]>, Org
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ventricle::harmonic_disk::{HarmonicDisk, mobius};
     use crate::ventricle::landmarks::DEFAULT_SNAP_MM;
-    use proptest::prelude::*;
     use unfold_mesh::shapes::{Pose, VentricleParams, ventricle_cup};
-
-    proptest! {
-        /// The spline interpolates its centres and reproduces affine maps.
-        #[test]
-        fn tps_interpolates_and_reproduces_affine_maps(
-            pts in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 4..30),
-            m in prop::array::uniform4(-2.0..2.0f64),
-            t in prop::array::uniform2(-1.0..1.0f64),
-            q in prop::array::uniform2(-1.5..1.5f64),
-            targets in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 30),
-        ) {
-            let centres: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
-            // Skip nearly repeated centres (a singular system).
-            let min_gap = centres.iter().enumerate().flat_map(|(i, a)| {
-                centres[..i].iter().map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
-            }).fold(f64::INFINITY, f64::min);
-            prop_assume!(min_gap > 1e-3);
-            let tg: Vec<[f64; 2]> = targets[..centres.len()].iter().map(|&(x, y)| [x, y]).collect();
-            let f = ThinPlateSpline::fit(&centres, &tg).unwrap();
-            for (c, t) in centres.iter().zip(&tg) {
-                let y = f.eval(*c);
-                prop_assert!((y[0] - t[0]).abs() < 1e-7 && (y[1] - t[1]).abs() < 1e-7);
-            }
-            let affine = |p: [f64; 2]| [m[0] * p[0] + m[1] * p[1] + t[0], m[2] * p[0] + m[3] * p[1] + t[1]];
-            let tg: Vec<[f64; 2]> = centres.iter().map(|&c| affine(c)).collect();
-            let g = ThinPlateSpline::fit(&centres, &tg).unwrap();
-            let (y, e) = (g.eval(q), affine(q));
-            prop_assert!((y[0] - e[0]).abs() < 1e-7 && (y[1] - e[1]).abs() < 1e-7);
-        }
-    }
-
-    #[test]
-    fn tps_refuses_bad_input() {
-        let c = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
-        assert_eq!(
-            ThinPlateSpline::fit(&c[..2], &c[..2]).unwrap_err(),
-            VentricleError::SplineTooFewCentres {
-                centres: 2,
-                needed: 3
-            }
-        );
-        assert_eq!(
-            ThinPlateSpline::fit(&c, &c[..2]).unwrap_err(),
-            VentricleError::SplineLengths {
-                centres: 3,
-                targets: 2
-            }
-        );
-        let collinear = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
-        let e = ThinPlateSpline::fit(&collinear, &collinear).unwrap_err();
-        assert_eq!(e, VentricleError::SplineSingular { centres: 3 });
-        assert!(e.to_string().contains("singular"), "{e}");
-        let nan = [[0.0, 0.0], [1.0, 0.0], [f64::NAN, 1.0]];
-        assert_eq!(
-            ThinPlateSpline::fit(&nan, &c).unwrap_err(),
-            VentricleError::SplineNotFinite {
-                what: "centre",
-                index: 2
-            }
-        );
-        assert_eq!(
-            ThinPlateSpline::fit(&c, &nan).unwrap_err(),
-            VentricleError::SplineNotFinite {
-                what: "target",
-                index: 2
-            }
-        );
-    }
 
     fn disk_of(p: &VentricleParams) -> (unfold_mesh::shapes::VentricleShape, Landmarks, DiskMap) {
         let cup = ventricle_cup(p).unwrap();
@@ -490,7 +258,7 @@ mod tests {
             DEFAULT_SNAP_MM,
         )
         .unwrap();
-        let d = lv_disk(&cup.surface, &l).unwrap();
+        let d = lv_disk(&cup.surface, &l, &HarmonicDisk).unwrap();
         (cup, l, d)
     }
 
@@ -560,7 +328,7 @@ mod tests {
         }
         let l =
             Landmarks::resolve(&s, &cup.anterior, &cup.inferior, None, DEFAULT_SNAP_MM).unwrap();
-        let d = lv_disk(&s, &l).unwrap();
+        let d = lv_disk(&s, &l, &HarmonicDisk).unwrap();
         let (_, _, d0) = disk_of(&VentricleParams::default());
         assert_ne!(d.mirrored, d0.mirrored);
         for (a, b) in d.uv.iter().zip(&d0.uv) {
@@ -590,7 +358,7 @@ mod tests {
             DEFAULT_SNAP_MM,
         )
         .unwrap();
-        let d = lv_disk(s, &l).unwrap();
+        let d = lv_disk(s, &l, &HarmonicDisk).unwrap();
         assert_eq!(d.apex_warp, "mobius");
         assert_eq!(d.flipped_triangles, 0);
         assert_eq!(d.uv[l.apex as usize], [0.0, 0.0]);
@@ -616,7 +384,7 @@ mod tests {
         let cup = ventricle_cup(&VentricleParams::default()).unwrap();
         let s = &cup.surface;
         let l = Landmarks::resolve(s, &cup.anterior, &cup.inferior, None, DEFAULT_SNAP_MM).unwrap();
-        let d = rv_half_disk(s, &l).unwrap();
+        let d = rv_half_disk(s, &l, &HarmonicDisk).unwrap();
         assert_eq!(d.flipped_triangles, 0);
         let at = |v: u32| d.uv[v as usize];
         assert_eq!(at(l.rim[l.anterior]), [1.25, 1.0]);

@@ -101,37 +101,6 @@ pub enum VentricleError {
     },
 
     // ---- the disk map (ALGORITHMS 3.2) ----
-    /// A thin-plate spline was given different numbers of centres and
-    /// targets.
-    #[error("thin-plate spline: {centres} centres but {targets} targets")]
-    SplineLengths {
-        /// Number of centres.
-        centres: usize,
-        /// Number of targets.
-        targets: usize,
-    },
-    /// A thin-plate spline was given too few centres.
-    #[error("thin-plate spline: needs at least {needed} centres, got {centres}")]
-    SplineTooFewCentres {
-        /// Number of centres.
-        centres: usize,
-        /// The fewest accepted.
-        needed: usize,
-    },
-    /// A thin-plate spline centre or target is not finite.
-    #[error("thin-plate spline: a centre or target is not finite")]
-    SplineNotFinite {
-        /// Which (`centre` or `target`).
-        what: &'static str,
-        /// Its index.
-        index: usize,
-    },
-    /// The thin-plate spline's system is singular.
-    #[error("thin-plate spline: singular system (repeated or collinear centres)")]
-    SplineSingular {
-        /// Number of centres.
-        centres: usize,
-    },
     /// An arc of the RV rim between its two corners has no length.
     #[error("the RV rim has an arc of zero length between its two corners")]
     ZeroRimArc {

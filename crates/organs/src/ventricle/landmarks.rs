@@ -325,8 +325,18 @@ mod tests {
         ] {
             let e = l.check(s).unwrap_err();
             assert!(e.to_string().starts_with("landmarks: "), "{e}");
-            assert!(crate::ventricle::disk::lv_disk(s, &l).is_err());
-            assert!(crate::ventricle::disk::rv_half_disk(s, &l).is_err());
+            assert!(
+                crate::ventricle::disk::lv_disk(s, &l, &super::super::harmonic_disk::HarmonicDisk)
+                    .is_err()
+            );
+            assert!(
+                crate::ventricle::disk::rv_half_disk(
+                    s,
+                    &l,
+                    &super::super::harmonic_disk::HarmonicDisk
+                )
+                .is_err()
+            );
         }
     }
 }

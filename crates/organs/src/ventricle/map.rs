@@ -16,6 +16,7 @@ use super::base::{ExtendedSurface, close_base};
 use super::disk::{DiskMap, lv_disk, rv_half_disk};
 use super::error::{PointFailure, VentricleError};
 use super::field::{FieldConfig, LaplaceField};
+use super::harmonic_disk::HarmonicDisk;
 use super::landmarks::Landmarks;
 use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceTarget, Tracer};
 use crate::OrganError;
@@ -26,6 +27,7 @@ use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::repair::{RepairReport, repair_tri_mesh};
 use unfold_mesh::spatial::{ClosestPointQuery, PlanarTriLocator};
+use unfold_param::Initializer;
 
 /// Which chamber S encloses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -144,6 +146,23 @@ impl Chart {
         apex: Option<&Point3<f64>>,
         config: &ChartConfig,
     ) -> Result<Chart, OrganError> {
+        Self::build(surface, anterior, inferior, apex, config, &HarmonicDisk)
+    }
+
+    /// [`Chart::new`] with the disk map `disk` in place of [`HarmonicDisk`]
+    /// (see [`super::harmonic_disk`] for what a disk initializer is
+    /// handed).
+    ///
+    /// # Errors
+    /// As [`Chart::new`], and the initializer's own errors.
+    pub fn build(
+        surface: &TriMesh,
+        anterior: &Point3<f64>,
+        inferior: &Point3<f64>,
+        apex: Option<&Point3<f64>>,
+        config: &ChartConfig,
+        disk: &dyn Initializer,
+    ) -> Result<Chart, OrganError> {
         OrganError::check_positive(&[
             ("trace tolerance (mm)", config.trace_tolerance_mm),
             ("on-surface distance (mm)", config.on_surface_mm),
@@ -158,8 +177,8 @@ impl Chart {
             original_vertices,
         } = close_base(&surface, &landmarks)?;
         let disk = match config.chamber {
-            Chamber::Lv => lv_disk(&surface, &landmarks)?,
-            Chamber::Rv => rv_half_disk(&surface, &landmarks)?,
+            Chamber::Lv => lv_disk(&surface, &landmarks, disk)?,
+            Chamber::Rv => rv_half_disk(&surface, &landmarks, disk)?,
         };
         if disk.flipped_triangles > 0 {
             return Err(VentricleError::DiskFlips {

@@ -19,7 +19,9 @@
 //!   exactly on S and H.
 //! - [`map`]: a [`Chart`] of one heart: `psi`, `psi^-1`, transfer.
 //! - [`aha`]: the AHA 17-segment label of an LV disk position.
-//! - [`pipeline`]: [`run`], the whole pipeline with its outputs and report.
+//! - [`harmonic_disk`]: [`HarmonicDisk`], the default disk initializer.
+//! - [`pipeline`]: [`Pipeline`], the whole pipeline with its outputs and
+//!   report, built from its disk map.
 //! - [`error`]: [`VentricleError`] and [`PointFailure`], what can go wrong.
 
 pub mod aha;
@@ -27,11 +29,13 @@ pub mod base;
 pub mod disk;
 pub mod error;
 pub mod field;
+pub mod harmonic_disk;
 pub mod landmarks;
 pub mod map;
 pub mod pipeline;
 pub mod trace;
 
 pub use error::{PointFailure, VentricleError};
+pub use harmonic_disk::HarmonicDisk;
 pub use map::{Chamber, Chart, ChartConfig, CylinderPoint, ForwardPoint};
-pub use pipeline::{Config, LandmarkPoints, Outcome, Report, run};
+pub use pipeline::{Config, LandmarkPoints, Outcome, Pipeline, Report};

@@ -5,6 +5,7 @@
 use super::aha::aha_segment;
 use super::disk::display_warp;
 use super::error::VentricleError;
+use super::harmonic_disk::HarmonicDisk;
 use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
 use crate::OrganError;
 use serde::Serialize;
@@ -12,6 +13,7 @@ use std::time::Instant;
 use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::repair::RepairReport;
 use unfold_mesh::{CellMesh, Field, TriMesh};
+use unfold_param::Initializer;
 
 /// Default display exponent `n` of `r' = r^n` (ALGORITHMS 3.2).
 pub const DEFAULT_DISPLAY_EXPONENT: f64 = 1.0 / 3.0;
@@ -132,6 +134,8 @@ pub struct Report {
     pub hemisphere_mm: f64,
     /// The display exponent.
     pub display_exponent: f64,
+    /// The disk initializer (`harmonic-disk`, or a method developer's).
+    pub disk_map: &'static str,
     /// The disk embedding's weights (`cotangent` or `mean-value`).
     pub disk_weights: &'static str,
     /// The apex warp (`thin-plate spline` or `mobius`).
@@ -187,31 +191,105 @@ pub fn displayed(
     }
 }
 
-/// Runs the pipeline: the chart of `surface`, `psi` of every point of
-/// `anatomy` (its connectivity kept), the round trip, AHA labels and depth.
+/// The ventricle pipeline: its disk map and settings. [`Pipeline::new`] is
+/// the published method (ALGORITHMS 3): the harmonic disk map with the apex
+/// warp ([`HarmonicDisk`]); [`Pipeline::disk`] plugs in another disk
+/// [`Initializer`] (see [`super::harmonic_disk`] for what it is handed).
 ///
-/// # Errors
-/// `Ventricle` for an anatomy without points, a surface that is not a
-/// disk, landmarks off the rim, anatomy points outside S or inside H
-/// ([`VentricleError::Unmapped`]: how many, and the first), `Config` for
-/// bad settings.
-pub fn run(
+/// ```text
+/// Pipeline::new()
+///     .disk(MyDiskMap)
+///     .config(Config { display_exponent: 1.0, ..Config::default() })
+///     .run(&anatomy, &surface, &landmarks)?
+/// ```
+#[derive(Debug)]
+pub struct Pipeline {
+    disk: Box<dyn Initializer>,
+    config: Config,
+}
+
+impl Default for Pipeline {
+    fn default() -> Self {
+        Pipeline {
+            disk: Box::new(HarmonicDisk),
+            config: Config::default(),
+        }
+    }
+}
+
+impl Pipeline {
+    /// The published pipeline.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The disk map of S.
+    pub fn disk(mut self, disk: impl Initializer + 'static) -> Self {
+        self.disk = Box::new(disk);
+        self
+    }
+
+    /// The settings.
+    pub fn config(mut self, config: Config) -> Self {
+        self.config = config;
+        self
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &Config {
+        &self.config
+    }
+
+    /// The chart of one heart with this pipeline's disk map and settings
+    /// ([`Chart::build`]), for transfers.
+    ///
+    /// # Errors
+    /// As [`Chart::build`].
+    pub fn chart(
+        &self,
+        surface: &TriMesh,
+        landmarks: &LandmarkPoints,
+    ) -> Result<Chart, OrganError> {
+        Chart::build(
+            surface,
+            &landmarks.anterior,
+            &landmarks.inferior,
+            landmarks.apex.as_ref(),
+            &self.config.chart,
+            self.disk.as_ref(),
+        )
+    }
+
+    /// Runs the pipeline: the chart of `surface`, `psi` of every point of
+    /// `anatomy` (its connectivity kept), the round trip, AHA labels and
+    /// depth.
+    ///
+    /// # Errors
+    /// `Ventricle` for a surface that is not a disk, landmarks off the rim,
+    /// anatomy points outside S or inside H (how many, and the first);
+    /// `Config` for bad settings; the disk initializer's own errors.
+    pub fn run(
+        &self,
+        anatomy: &CellMesh,
+        surface: &TriMesh,
+        landmarks: &LandmarkPoints,
+    ) -> Result<Outcome, OrganError> {
+        let chart = self.chart(surface, landmarks)?;
+        outcome(anatomy, chart, &self.config, self.disk.name())
+    }
+}
+
+/// The pipeline's outputs for `anatomy` through `chart`.
+fn outcome(
     anatomy: &CellMesh,
-    surface: &TriMesh,
-    landmarks: &LandmarkPoints,
+    chart: Chart,
     config: &Config,
+    disk_map: &'static str,
 ) -> Result<Outcome, OrganError> {
     OrganError::check_positive(&[("display exponent", config.display_exponent)])?;
     if anatomy.positions.is_empty() {
         return Err(VentricleError::NoAnatomyPoints.into());
     }
-    let chart = Chart::new(
-        surface,
-        &landmarks.anterior,
-        &landmarks.inferior,
-        landmarks.apex.as_ref(),
-        &config.chart,
-    )?;
     let t0 = Instant::now();
     let forward = chart.forward_all(&anatomy.positions)?;
     let coords: Vec<CylinderPoint> = forward.iter().map(|f| f.coords).collect();
@@ -294,6 +372,7 @@ pub fn run(
         grid_mm: chart.field().grid_mm(),
         hemisphere_mm: chart.field().hemisphere_radius(),
         display_exponent: config.display_exponent,
+        disk_map,
         disk_weights: chart.disk().weights,
         apex_warp: chart.disk().apex_warp,
         surface_repair: *chart.repair(),
