@@ -38,6 +38,14 @@ pub struct ThetaBlock {
     pub g: Vec<f64>,
 }
 
+/// The smallest `det J` an accepted step may leave an element with
+/// ([`Objective::max_step`]): `det(Ds) >= MIN_DET_J det(Dm)`. Relative
+/// rounding errors of a determinant are about `1e-16` times its terms, so
+/// with this margin the sign of every accepted element is certain; a
+/// barrier energy never comes near it, a non-barrier one (ARAP) is kept
+/// from stepping ever closer to flat.
+pub const MIN_DET_J: f64 = 1e-8;
+
 /// Slot marking "not stored" in the element slot maps.
 const NONE: u32 = u32::MAX;
 
@@ -62,6 +70,9 @@ pub struct Objective<'a> {
     local2: Vec<[f64; TRI_SLOTS]>,
     /// Per template vertex (weight > 0), `dim^2` slots.
     vertex_slots: Vec<(u32, Vec<u32>)>,
+    /// Per element, the smallest `det(Ds)` a step may leave:
+    /// `MIN_DET_J det(Dm)`.
+    floors: Vec<f64>,
 }
 
 /// The Hessian's assembly plan: the analysed sparsity pattern
@@ -172,6 +183,7 @@ impl<'a> Objective<'a> {
             layout: None,
             local2: Vec::new(),
             vertex_slots: Vec::new(),
+            floors: element_floors(mesh),
         })
     }
 
@@ -771,12 +783,30 @@ impl<'a> Objective<'a> {
         }
     }
 
-    /// The largest step along `dir` before an element flips.
+    /// The largest step along `dir` before an element's `det J` falls to
+    /// [`MIN_DET_J`] (or to half its current value when it is already
+    /// below): the solvers' flip bound (ALGORITHMS 1.3) with a margin that
+    /// keeps every accepted iterate's orientation above rounding noise.
     pub fn max_step(&self, x: &[f64], dir: &[f64]) -> f64 {
+        use crate::linesearch::{max_step_tets_above, max_step_tris_above};
         match &self.mesh.elements {
-            RestElements::Tets { tets, .. } => crate::linesearch::max_step_tets(tets, x, dir),
-            RestElements::Tris { tris, .. } => crate::linesearch::max_step_tris(tris, x, dir),
+            RestElements::Tets { tets, .. } => max_step_tets_above(tets, x, dir, &self.floors),
+            RestElements::Tris { tris, .. } => max_step_tris_above(tris, x, dir, &self.floors),
         }
+    }
+}
+
+/// `MIN_DET_J det(Dm)` per element: `det(Dm) = 1 / det(Dm^-1)`.
+fn element_floors(mesh: &ParamMesh) -> Vec<f64> {
+    match &mesh.elements {
+        RestElements::Tets { dm_inv, .. } => dm_inv
+            .iter()
+            .map(|m| MIN_DET_J / m.determinant().abs())
+            .collect(),
+        RestElements::Tris { dm_inv, .. } => dm_inv
+            .iter()
+            .map(|m| MIN_DET_J / m.determinant().abs())
+            .collect(),
     }
 }
 

@@ -99,11 +99,25 @@ fn dot(u: [f64; 3], v: [f64; 3]) -> f64 {
     u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
+/// The polynomial `det(Ds + a Dd) - f` of the step, `f = min(floor, det
+/// Ds / 2)`: its first root is where the element's measure falls to `f`
+/// (the floor, or half its current measure when it is already below the
+/// floor), so no accepted step takes an element closer to flat than that.
+/// A flat or inverted element (`det Ds <= 0`) is left as it is (it gets
+/// step 0).
+#[inline]
+fn lifted<const N: usize>(mut c: [f64; N], floor: f64) -> [f64; N] {
+    if c[0] > 0.0 && floor > 0.0 {
+        c[0] -= floor.min(0.5 * c[0]);
+    }
+    c
+}
+
 /// The first positive step at which the tet with edge matrices `Ds`
 /// (`a`, columns) and `Dd` (`b`) flips, if it is at most `bound`
 /// (`f64::INFINITY` otherwise).
 #[inline]
-fn tet_flip_step(a: [[f64; 3]; 3], b: [[f64; 3]; 3], bound: f64) -> f64 {
+fn tet_flip_step(a: [[f64; 3]; 3], b: [[f64; 3]; 3], bound: f64, floor: f64) -> f64 {
     // The rows of adj(Ds) and adj(Dd) are cross products of columns.
     let adj_a = [cross(a[1], a[2]), cross(a[2], a[0]), cross(a[0], a[1])];
     let adj_b = [cross(b[1], b[2]), cross(b[2], b[0]), cross(b[0], b[1])];
@@ -113,19 +127,21 @@ fn tet_flip_step(a: [[f64; 3]; 3], b: [[f64; 3]; 3], bound: f64) -> f64 {
         dot(a[0], adj_b[0]) + dot(a[1], adj_b[1]) + dot(a[2], adj_b[2]),
         dot(b[0], adj_b[0]),
     ];
+    let c = lifted(c, floor);
     element_step(&c, bound, || cubic_root_below(c, bound))
 }
 
 /// The first positive step at which the triangle with edge matrices `Ds`
 /// (`a`, columns) and `Dd` (`b`) flips, if it is at most `bound`.
 #[inline]
-fn tri_flip_step(a: [[f64; 2]; 2], b: [[f64; 2]; 2], bound: f64) -> f64 {
+fn tri_flip_step(a: [[f64; 2]; 2], b: [[f64; 2]; 2], bound: f64, floor: f64) -> f64 {
     let det2 = |u: [f64; 2], v: [f64; 2]| u[0] * v[1] - u[1] * v[0];
     let c = [
         det2(a[0], a[1]),
         det2(b[0], a[1]) + det2(a[0], b[1]),
         det2(b[0], b[1]),
     ];
+    let c = lifted(c, floor);
     element_step(&c, bound, || {
         smallest_positive_root_quadratic(c[2], c[1], c[0]).filter(|&r| r <= bound)
     })
@@ -153,12 +169,31 @@ fn tri_flip_step(a: [[f64; 2]; 2], b: [[f64; 2]; 2], bound: f64) -> f64 {
 /// # Panics
 /// If `x` and `d` differ in length or an index is out of range.
 pub fn max_step_tets(tets: &[[u32; 4]], x: &[f64], d: &[f64]) -> f64 {
+    max_step_tets_above(tets, x, d, &[])
+}
+
+/// [`max_step_tets`] keeping every tet's `det(Ds)` (six times its signed
+/// volume) at least `floor[k]`: the step at which `det(Ds + a Dd)` falls to
+/// `min(floor[k], det(Ds) / 2)` (see the module docs). An empty `floor`
+/// is [`max_step_tets`]. A floor keeps "flip-free" meaningful in floating
+/// point: without one, a non-barrier energy can step an element ever
+/// closer to flat until its sign is rounding noise.
+///
+/// # Panics
+/// As [`max_step_tets`], and if `floor` is neither empty nor one per tet.
+pub fn max_step_tets_above(tets: &[[u32; 4]], x: &[f64], d: &[f64], floor: &[f64]) -> f64 {
     assert_eq!(x.len(), d.len(), "positions and direction differ in length");
+    assert!(
+        floor.is_empty() || floor.len() == tets.len(),
+        "one floor per tet"
+    );
+    let floor_of = |k: usize| floor.get(k).copied().unwrap_or(0.0);
     tets.par_iter()
+        .enumerate()
         .with_min_len(PAR_MIN_LEN)
         .fold(
             || f64::INFINITY,
-            |best, t| best.min(tet_flip_step(edges3(t, x), edges3(t, d), best)),
+            |best, (k, t)| best.min(tet_flip_step(edges3(t, x), edges3(t, d), best, floor_of(k))),
         )
         .reduce(|| f64::INFINITY, f64::min)
 }
@@ -182,12 +217,28 @@ pub fn max_step_tets(tets: &[[u32; 4]], x: &[f64], d: &[f64]) -> f64 {
 /// # Panics
 /// If `x` and `d` differ in length or an index is out of range.
 pub fn max_step_tris(tris: &[[u32; 3]], x: &[f64], d: &[f64]) -> f64 {
+    max_step_tris_above(tris, x, d, &[])
+}
+
+/// [`max_step_tris`] keeping every triangle's `det(Ds)` (twice its signed
+/// area) at least `floor[k]` (as [`max_step_tets_above`]).
+///
+/// # Panics
+/// As [`max_step_tris`], and if `floor` is neither empty nor one per
+/// triangle.
+pub fn max_step_tris_above(tris: &[[u32; 3]], x: &[f64], d: &[f64], floor: &[f64]) -> f64 {
     assert_eq!(x.len(), d.len(), "positions and direction differ in length");
+    assert!(
+        floor.is_empty() || floor.len() == tris.len(),
+        "one floor per triangle"
+    );
+    let floor_of = |k: usize| floor.get(k).copied().unwrap_or(0.0);
     tris.par_iter()
+        .enumerate()
         .with_min_len(PAR_MIN_LEN)
         .fold(
             || f64::INFINITY,
-            |best, t| best.min(tri_flip_step(edges2(t, x), edges2(t, d), best)),
+            |best, (k, t)| best.min(tri_flip_step(edges2(t, x), edges2(t, d), best, floor_of(k))),
         )
         .reduce(|| f64::INFINITY, f64::min)
 }
@@ -198,6 +249,28 @@ mod tests {
     use crate::linesearch::roots::tests::{det3, log_uniform, rel};
     use proptest::prelude::*;
     use unfold_mesh::shapes::{grid_disk, kuhn_grid};
+
+    /// With a floor, the bound is where the measure falls to the floor (or
+    /// to half of it when it starts below), never to 0.
+    #[test]
+    fn a_floor_keeps_elements_away_from_flat() {
+        // One unit tet, its apex moving straight down: det(Ds) = 1 - a.
+        let tets = [[0u32, 1, 2, 3]];
+        let x = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let mut d = [0.0; 12];
+        d[11] = -1.0;
+        assert!((max_step_tets(&tets, &x, &d) - 1.0).abs() < 1e-15);
+        let a = max_step_tets_above(&tets, &x, &d, &[1e-3]);
+        assert!((a - (1.0 - 1e-3)).abs() < 1e-12, "{a}");
+        let b = max_step_tets_above(&tets, &x, &d, &[10.0]);
+        assert!((b - 0.5).abs() < 1e-12, "{b}");
+        // A triangle: det(Ds) = 1 - a as well.
+        let tris = [[0u32, 1, 2]];
+        let y = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        let e = [0.0, 0.0, 0.0, 0.0, 0.0, -1.0];
+        let c = max_step_tris_above(&tris, &y, &e, &[0.25]);
+        assert!((c - 0.75).abs() < 1e-12, "{c}");
+    }
 
     // ----- max step: meshes -----
 
@@ -507,7 +580,7 @@ mod tests {
         let serial = mesh
             .tets
             .iter()
-            .map(|t| tet_flip_step(edges3(t, &x), edges3(t, &d), f64::INFINITY))
+            .map(|t| tet_flip_step(edges3(t, &x), edges3(t, &d), f64::INFINITY, 0.0))
             .fold(f64::INFINITY, f64::min);
         let parallel = max_step_tets(&mesh.tets, &x, &d);
         assert!(mesh.tets.len() > PAR_MIN_LEN);

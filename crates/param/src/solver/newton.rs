@@ -238,7 +238,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `d = -A^-1 g`: `S = C - B^T A^-1 B`, `dt = S^-1 (-g_t - B^T d)`,
 /// `dx = d - A^-1 B dt`. Returns `dt` and updates `d` in place. `S` is
 /// dense `p x p` (any number `p` of parameters), factored by Cholesky with
-/// a growing diagonal shift when it is not positive definite.
+/// a growing diagonal shift (up to the largest diagonal entry of `S` or
+/// `C`) when it is not positive definite.
 fn eliminate_theta(
     factor: &SpdFactor,
     tb: &ThetaBlock,
@@ -258,8 +259,12 @@ fn eliminate_theta(
             s[(i, j)] = tb.c[i * p + j] - dot(bi, &y[j * n..(j + 1) * n]);
         }
     }
+    // The shift is measured against `C` as well as `S`: where the objective
+    // is flat along a joint direction of `x` and `theta` (a scale-invariant
+    // energy with a template that scales with its parameters, at its
+    // minimum) `S` vanishes to roundoff, and a damped step is the answer.
     let scale = (0..p)
-        .map(|i| s[(i, i)].abs())
+        .map(|i| s[(i, i)].abs().max(tb.c[i * p + i].abs()))
         .fold(0.0, f64::max)
         .max(f64::MIN_POSITIVE);
     let mut shift = 0.0;
