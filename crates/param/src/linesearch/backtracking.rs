@@ -108,12 +108,7 @@ impl LineSearch for Backtracking {
         a_max: f64,
         a_init: f64,
     ) -> LineSearchResult {
-        let fail = |evaluations| LineSearchResult {
-            step: 0.0,
-            value: f0,
-            evaluations,
-            success: false,
-        };
+        let fail = |evaluations| LineSearchResult::rejected(f0, evaluations);
         if !f0.is_finite() || a_max.is_nan() || a_max <= 0.0 || a_init.is_nan() || a_init <= 0.0 {
             return fail(0);
         }
@@ -133,12 +128,7 @@ impl LineSearch for Backtracking {
                     && value < f0
                     && self.armijo.is_none_or(|c| value - f0 <= c * a * slope);
                 if accepted {
-                    return LineSearchResult {
-                        step: a,
-                        value,
-                        evaluations,
-                        success: true,
-                    };
+                    return LineSearchResult::accepted(a, value, evaluations);
                 }
             } else if a.is_nan() || a <= 0.0 {
                 break;

@@ -36,6 +36,28 @@ pub struct LineSearchResult {
     pub success: bool,
 }
 
+impl LineSearchResult {
+    /// An accepted step `a` with `value = phi(a)`.
+    pub fn accepted(step: f64, value: f64, evaluations: usize) -> Self {
+        LineSearchResult {
+            step,
+            value,
+            evaluations,
+            success: true,
+        }
+    }
+
+    /// No acceptable step: `step = 0`, `value = f0`, `success = false`.
+    pub fn rejected(f0: f64, evaluations: usize) -> Self {
+        LineSearchResult {
+            step: 0.0,
+            value: f0,
+            evaluations,
+            success: false,
+        }
+    }
+}
+
 /// Picks a step along a search direction.
 ///
 /// `phi(a)` evaluates the objective at `x + a d` (`f64::INFINITY` where it is
