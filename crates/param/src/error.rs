@@ -245,3 +245,17 @@ pub enum ParamError {
         what: &'static str,
     },
 }
+
+impl ParamError {
+    /// A piece's own error (`piece` its name) as [`ParamError::Piece`]; the
+    /// caller gets it back with [`PieceError::downcast_ref`].
+    pub fn piece(
+        piece: &'static str,
+        error: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        ParamError::Piece {
+            piece,
+            error: PieceError::new(error),
+        }
+    }
+}

@@ -51,6 +51,22 @@ pub struct ParamMesh {
 }
 
 impl ParamMesh {
+    /// The triangles of a triangle mesh, for a `piece` that needs them.
+    ///
+    /// # Errors
+    /// [`ParamError::WrongElements`] naming `piece` for a tet mesh.
+    pub fn triangles(&self, piece: &'static str) -> Result<&[[u32; 3]], ParamError> {
+        match &self.elements {
+            RestElements::Tris { tris, .. } => Ok(tris),
+            RestElements::Tets { .. } => Err(ParamError::WrongElements {
+                piece,
+                needs: crate::error::Elements::Triangles,
+                found: crate::error::Elements::Tets,
+                hint: "",
+            }),
+        }
+    }
+
     /// Rest data of a tet mesh mapped into 3D. Every tet must be positively
     /// oriented (see `TetMesh::orient`) and non-degenerate.
     pub fn from_tets(mesh: &TetMesh) -> Result<Self, ParamError> {

@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
 
-use unfold_mesh::{CellMesh, CellType};
+use unfold_mesh::{CellMesh, CellType, MeshError};
 use unfold_organs::ventricle::disk::RV_CENTRE;
 use unfold_organs::ventricle::{Chamber, Outcome};
 use unfold_render::nalgebra::{Point3, Vector3};
@@ -65,8 +65,8 @@ fn cell_faces(t: CellType, vs: &[u32]) -> Vec<Vec<u32>> {
 /// fan-triangulated, the faces of volume cells that belong to one cell
 /// only (the boundary), line cells as segments, and the points in none of
 /// those as points. Deterministic: everything in cell order.
-fn drawable(mesh: &CellMesh) -> Result<Drawable, String> {
-    mesh.check().map_err(|e| e.to_string())?;
+fn drawable(mesh: &CellMesh) -> Result<Drawable, MeshError> {
+    mesh.check()?;
     let mut d = Drawable::default();
     let mut used = vec![false; mesh.positions.len()];
     let fan = |poly: &[u32], out: &mut Vec<[u32; 3]>| {

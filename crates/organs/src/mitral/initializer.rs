@@ -18,9 +18,7 @@ use super::layout::{longitude_layout, longitudes, tutte_layout};
 use super::{ANTERIOR, InitMode, LayoutError, Leaflet, POSTERIOR};
 use crate::OrganError;
 use unfold_mesh::TriMesh;
-use unfold_param::{
-    Constraints, Elements, InitialMap, Initializer, ParamError, ParamMesh, PieceError, RestElements,
-};
+use unfold_param::{Constraints, InitialMap, Initializer, ParamError, ParamMesh};
 
 /// The leaflet layout of ALGORITHMS 4.2 as an [`Initializer`]: longitudes
 /// or Tutte below the pinned annulus, by `mode`. Details:
@@ -33,10 +31,7 @@ pub struct LeafletLayout {
 
 /// An organ error as a [`ParamError::Piece`] of `piece`.
 fn piece(piece: &'static str, e: impl Into<OrganError>) -> ParamError {
-    ParamError::Piece {
-        piece,
-        error: PieceError::new(e.into()),
-    }
+    ParamError::piece(piece, e.into())
 }
 
 impl Initializer for LeafletLayout {
@@ -54,14 +49,7 @@ impl Initializer for LeafletLayout {
         mesh: &ParamMesh,
         constraints: &Constraints<'_>,
     ) -> Result<InitialMap, ParamError> {
-        let RestElements::Tris { tris, .. } = &mesh.elements else {
-            return Err(ParamError::WrongElements {
-                piece: self.name(),
-                needs: Elements::Triangles,
-                found: Elements::Tets,
-                hint: "",
-            });
-        };
+        let tris = mesh.triangles(self.name())?;
         if constraints.pins.is_empty() {
             return Err(piece(self.name(), LayoutError::NoAnnulusPins));
         }
@@ -75,8 +63,9 @@ impl Initializer for LeafletLayout {
             .iter()
             .map(|p| [p.position[0], p.position[1]])
             .collect();
-        let leaflet = Leaflet::from_annulus(TriMesh::new(mesh.rest.clone(), tris.clone()), annulus)
-            .map_err(|e| piece(self.name(), e))?;
+        let leaflet =
+            Leaflet::from_annulus(TriMesh::new(mesh.rest.clone(), tris.to_vec()), annulus)
+                .map_err(|e| piece(self.name(), e))?;
         let chains = match self.mode {
             InitMode::Tutte => None,
             InitMode::Auto | InitMode::Longitudes => longitudes(&leaflet),

@@ -14,7 +14,7 @@ use crate::OrganError;
 use serde::Serialize;
 use unfold_mesh::nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3};
 use unfold_param::initializer::{Constraints, InitialMap, Initializer, PcaTransform};
-use unfold_param::{Elements, ParamError, ParamMesh, PieceError, RestElements};
+use unfold_param::{Elements, ParamError, ParamMesh, RestElements};
 
 /// A rigid transform from the input (scanner) frame to the template frame,
 ///
@@ -191,12 +191,8 @@ impl Initializer for PcaAlignment {
             }
         }
         let (alignment, half_turn) =
-            align_with_turn(&mesh.rest, constraints.labels, constraints.weights).map_err(|e| {
-                ParamError::Piece {
-                    piece: "pca-alignment",
-                    error: PieceError::new(e),
-                }
-            })?;
+            align_with_turn(&mesh.rest, constraints.labels, constraints.weights)
+                .map_err(|e| ParamError::piece("pca-alignment", e))?;
         let x = mesh
             .rest
             .iter()

@@ -23,10 +23,7 @@ use unfold_linalg::tps::ThinPlateSpline2;
 use unfold_mesh::TriMesh;
 use unfold_mesh::topology::disk_boundary_loop;
 use unfold_param::initializer::{DiskBoundary, TutteDisk, TutteWeights};
-use unfold_param::{
-    Constraints, Elements, InitialMap, Initializer, ParamError, ParamMesh, PieceError, Pin,
-    RestElements,
-};
+use unfold_param::{Constraints, InitialMap, Initializer, ParamError, ParamMesh, Pin};
 
 /// The label of the first rim landmark (the anterior RV insertion point of
 /// an LV, the first septal corner of an RV).
@@ -59,10 +56,7 @@ pub const APEX: u8 = 3;
 pub struct HarmonicDisk;
 
 fn piece(e: impl Into<OrganError>) -> ParamError {
-    ParamError::Piece {
-        piece: "harmonic-disk",
-        error: PieceError::new(e.into()),
-    }
+    ParamError::piece("harmonic-disk", e.into())
 }
 
 impl Initializer for HarmonicDisk {
@@ -80,15 +74,8 @@ impl Initializer for HarmonicDisk {
         mesh: &ParamMesh,
         constraints: &Constraints<'_>,
     ) -> Result<InitialMap, ParamError> {
-        let RestElements::Tris { tris, .. } = &mesh.elements else {
-            return Err(ParamError::WrongElements {
-                piece: self.name(),
-                needs: Elements::Triangles,
-                found: Elements::Tets,
-                hint: "",
-            });
-        };
-        let surface = TriMesh::new(mesh.rest.clone(), tris.clone());
+        let tris = mesh.triangles(self.name())?;
+        let surface = TriMesh::new(mesh.rest.clone(), tris.to_vec());
         let mut on_boundary = vec![false; surface.num_vertices()];
         for v in disk_boundary_loop(&surface)? {
             on_boundary[v as usize] = true;

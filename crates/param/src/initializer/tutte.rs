@@ -2,9 +2,8 @@
 //! (ALGORITHMS 3.2, 4.2).
 
 use super::{Constraints, InitialMap, Initializer};
-use crate::error::Elements;
 use crate::flips::check_no_flips;
-use crate::{ParamError, ParamMesh, RestElements};
+use crate::{ParamError, ParamMesh};
 use nalgebra::Point3;
 use unfold_linalg::{
     cotan_laplacian, mean_value_weights, solve_dirichlet, solve_dirichlet_weights,
@@ -217,15 +216,8 @@ impl Initializer for TutteDisk {
         mesh: &ParamMesh,
         constraints: &Constraints<'_>,
     ) -> Result<InitialMap, ParamError> {
-        let RestElements::Tris { tris, .. } = &mesh.elements else {
-            return Err(ParamError::WrongElements {
-                piece: "Tutte disk initializer",
-                needs: Elements::Triangles,
-                found: Elements::Tets,
-                hint: "",
-            });
-        };
-        let tri_mesh = TriMesh::new(mesh.rest.clone(), tris.clone());
+        let tris = mesh.triangles("Tutte disk initializer")?;
+        let tri_mesh = TriMesh::new(mesh.rest.clone(), tris.to_vec());
         let embedding = if constraints.pins.is_empty() {
             self.layout(&tri_mesh)?
         } else {
@@ -260,9 +252,7 @@ mod tests {
 
     /// Every mapped triangle has positive signed area.
     fn assert_flip_free(mesh: &ParamMesh, x: &[f64]) -> Result<(), TestCaseError> {
-        let RestElements::Tris { tris, .. } = &mesh.elements else {
-            unreachable!()
-        };
+        let tris = mesh.triangles("test").unwrap();
         for t in tris {
             let q = t.map(|v| Point3::new(x[2 * v as usize], x[2 * v as usize + 1], 0.0));
             prop_assert!(orient2(&q[0], &q[1], &q[2]) > 0.0);
