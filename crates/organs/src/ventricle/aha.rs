@@ -1,7 +1,8 @@
 //! AHA 17-segment labels from LV disk positions (ALGORITHMS 3.6).
 
-/// The AHA segment (1..=17) of an LV disk position `uv` (before any display
-/// warp), with `r = |uv|` and `a` its angle from +x (the septum),
+/// The AHA segment (1..=17) of an LV disk position `uv` as displayed (the
+/// pipeline labels the disk after its display warp `r' = r^n`, so that
+/// labels and bull's-eye agree), with `r = |uv|` and `a` its angle from +x (the septum),
 /// counter-clockwise with the anterior landmark on +y, in degrees `[0, 360)`:
 ///
 /// ```text

@@ -17,8 +17,9 @@
 //!   gradient `dpsi/dF`, exact or projected Hessian `d2psi/dF2`) and the
 //!   value-only [`density2`] / [`density3`] for line searches.
 //!
-//! The Hessian uses the analytic eigensystem of Smith, Goldstein and Sifakis
-//! (2019), valid for every isotropic `psi(s)` (separable or not). With
+//! The Hessian uses the analytic eigensystem of Smith, De Goes and Kim
+//! ("Analytic Eigensystems for Isotropic Distortion Energies", ACM TOG
+//! 38(1), 2019; ALGORITHMS 1.2), valid for every isotropic `psi(s)` (separable or not). With
 //! `g = dpsi/ds`, `h = d2psi/ds2` and `u_i`, `v_i` the columns of `U`, `V`,
 //! the `d^2` eigenpairs of `d2psi/dF2` are
 //!
