@@ -109,33 +109,39 @@ impl MaskArgs {
     ) -> Result<MaskMesh, CliError> {
         let opts = self.options(keep_all_components)?;
         let out = mesh_mask(mask, &opts).map_err(|e| at(path, e))?;
-        if !out.dropped_components.is_empty() {
-            let sizes: Vec<String> = out
-                .dropped_components
-                .iter()
-                .map(|n| n.to_string())
-                .collect();
-            eprintln!(
-                "warning: {}: the segmentation has {} connected components; kept the largest \
-                 ({} tets), dropped {} of {} tets{}",
-                path.display(),
-                out.components,
-                out.mesh.num_tets(),
-                if sizes.len() == 1 {
-                    "one"
-                } else {
-                    "the others"
-                },
-                sizes.join(", "),
-                if keep_all_components {
-                    ""
-                } else {
-                    " (--keep-all-components keeps them)"
-                }
-            );
-        }
+        warn_dropped(path, &out, keep_all_components);
         Ok(out)
     }
+}
+
+/// Warns on stderr when the mesher left components out.
+pub(crate) fn warn_dropped(path: &Path, out: &MaskMesh, keep_all_components: bool) {
+    if out.dropped_components.is_empty() {
+        return;
+    }
+    let sizes: Vec<String> = out
+        .dropped_components
+        .iter()
+        .map(|n| n.to_string())
+        .collect();
+    eprintln!(
+        "warning: {}: the segmentation has {} connected components; kept the largest \
+         ({} tets), dropped {} of {} tets{}",
+        path.display(),
+        out.components,
+        out.mesh.num_tets(),
+        if sizes.len() == 1 {
+            "one"
+        } else {
+            "the others"
+        },
+        sizes.join(", "),
+        if keep_all_components {
+            ""
+        } else {
+            " (--keep-all-components keeps them)"
+        }
+    );
 }
 
 /// Arguments of `unfold mesh`.

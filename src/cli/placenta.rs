@@ -32,7 +32,7 @@
 //! names, and no output path equal to an input. Tets with a negative
 //! orientation are reoriented (a repair that is reported, not an error).
 
-use super::mesh::{MaskArgs, describe};
+use super::mesh::{MaskArgs, describe, warn_dropped};
 use super::{CliError, at, positive};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -46,11 +46,11 @@ use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::{
     NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
 };
-use unfold::mesh::mask::{dilate_box, inside_distance_quantile};
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
 use unfold::organs::placenta::images::check_images;
 use unfold::organs::placenta::parcellation::ParcellationConfig;
+use unfold::organs::placenta::segmentation::from_segmentation;
 use unfold::organs::placenta::{
     Config, Image, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report, SolverKind,
     TemplateKind, prepare_mesh,
@@ -703,17 +703,13 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         Some(seg) => {
             let mask = m.read_mask(seg)?;
             let spacing = mask.spacing();
-            let out = m.mesh(seg, &mask, false)?;
+            let segmented =
+                from_segmentation(&mask, &m.options(false)?).map_err(|e| organ(&label, e))?;
+            drop(mask);
+            let (out, h) = (segmented.meshed, segmented.half_thickness_mm);
+            warn_dropped(seg, &out, false);
             let quality = MeshQuality::of(&out.mesh)?;
             println!("{}: {}", seg.display(), describe(&out, &quality));
-            let thick = if m.dilate > 0 {
-                dilate_box(&mask)?
-            } else {
-                mask
-            };
-            let h = inside_distance_quantile(&thick, 0.95)?
-                .filter(|h| *h > 0.0)
-                .ok_or_else(|| at(seg, "the mask has no inside voxel"))?;
             super::ensure_dir(dir)?;
             let mesh_path = dir.join(SEG_MESH);
             write_mesh(

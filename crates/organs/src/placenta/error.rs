@@ -42,6 +42,9 @@ pub enum PlacentaError {
     /// width (the radius `ry`) is 0.
     #[error("the boundary has no two connected vertices")]
     NoBoundaryWidth,
+    /// A segmentation has no voxel inside.
+    #[error("the segmentation has no voxel inside")]
+    EmptyMask,
     /// The optimizer ran no stage (an internal error).
     #[error("no optimization stage ran")]
     NoStage,

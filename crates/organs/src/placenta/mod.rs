@@ -36,6 +36,7 @@ mod pipeline;
 pub mod prepare;
 pub mod pullback;
 pub mod report;
+pub mod segmentation;
 pub mod templates;
 
 pub use align::{Alignment, PcaAlignment, TransformReport};
