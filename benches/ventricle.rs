@@ -9,7 +9,7 @@
 //!
 //! Target: the whole run under 10 s on this machine.
 //!
-//! Run with `cargo bench --bench ventricle` (needs `../shared/data`).
+//! Run with `cargo bench --bench ventricle` (reads `tests/data/cobiveco-geo2`).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -23,8 +23,8 @@ use unfold::param::initializer::disk_boundary_loop;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn ventricle(c: &mut Criterion) {
-    let s = read_tri_mesh("../shared/data/cobiveco-geo2/heart_epi.ply").expect("S");
-    let anatomy = read_mesh("../shared/data/cobiveco-geo2/heart_endo_lv.ply").expect("anatomy");
+    let s = read_tri_mesh("tests/data/cobiveco-geo2/heart_epi.ply").expect("S");
+    let anatomy = read_mesh("tests/data/cobiveco-geo2/heart_endo_lv.ply").expect("anatomy");
     assert_eq!(anatomy.positions.len(), 6_309);
     // two rim points a third of the loop apart stand in for the RV
     // insertion points (the data set does not mark them)

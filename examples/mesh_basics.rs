@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --example mesh_basics                                   # the synthetic ventricle cup
-//! cargo run --example mesh_basics -- ../shared/data/cobiveco-geo2/heart_endo_lv.ply
+//! cargo run --example mesh_basics -- tests/data/cobiveco-geo2/heart_endo_lv.ply
 //! ```
 
 use unfold::io::{WriteOptions, read_tri_mesh, write_mesh};

@@ -6,8 +6,10 @@ use std::path::{Path, PathBuf};
 mod common;
 use common::*;
 
-const HEART_VTU: &str = "../shared/data/ldrb-ellipsoid/heart.vtu";
-const COBIVECO: &str = "../shared/data/cobiveco-geo2";
+/// A tet mesh written by another tool (meshio, zlib-compressed binary VTU;
+/// `tests/data/ellipsoid-heart/make.py`).
+const HEART_VTU: &str = "tests/data/ellipsoid-heart/heart.vtu";
+const COBIVECO: &str = "tests/data/cobiveco-geo2";
 
 fn info_json(path: &str) -> serde_json::Value {
     let o = unfold(&["info", path, "--json"]);
@@ -16,12 +18,12 @@ fn info_json(path: &str) -> serde_json::Value {
 }
 
 #[test]
-fn info_reads_the_ldrb_heart_vtu() {
+fn info_reads_a_meshio_written_heart_vtu() {
     let j = info_json(HEART_VTU);
-    assert_eq!(j["points"], 4237);
-    assert_eq!(j["cells"], 16592);
+    assert_eq!(j["points"], 3844);
+    assert_eq!(j["cells"], 16848);
     assert_eq!(j["mesh_type"], "tetrahedral");
-    assert_eq!(j["cell_types"]["Tetra"], 16592);
+    assert_eq!(j["cell_types"]["Tetra"], 16848);
     assert!(
         j["cell_arrays"]
             .as_array()
@@ -30,8 +32,8 @@ fn info_reads_the_ldrb_heart_vtu() {
             .any(|a| a["name"] == "Material")
     );
     let text = stdout(&unfold(&["info", HEART_VTU]));
-    assert!(text.contains("points: 4237"), "{text}");
-    assert!(text.contains("cells: 16592"), "{text}");
+    assert!(text.contains("points: 3844"), "{text}");
+    assert!(text.contains("cells: 16848"), "{text}");
 }
 
 #[test]
@@ -65,8 +67,8 @@ fn convert_keeps_the_heart_through_every_volume_format() {
         let o = unfold(&["convert", &prev, &out]);
         assert!(o.status.success(), "{prev} -> {out}: {}", stderr(&o));
         let j = info_json(&out);
-        assert_eq!(j["points"], 4237, "{name}");
-        assert_eq!(j["cells"], 16592, "{name}");
+        assert_eq!(j["points"], 3844, "{name}");
+        assert_eq!(j["cells"], 16848, "{name}");
         prev = out;
     }
     // Arrays survive VTU -> VTK -> VTU (Medit keeps only its refs).

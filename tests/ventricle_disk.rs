@@ -1,10 +1,11 @@
 //! The LV disk map on the real enclosing surfaces (issue 6, in progress):
-//! Cobiveco geo2's and the LDRB ellipsoid's epicardia (`../shared/data/`,
-//! licences in its README) flatten without a flipped triangle, the rim on
+//! Cobiveco geo2's epicardium (`tests/data/cobiveco-geo2`, Apache-2.0) and a
+//! synthetic ellipsoid's (`tests/data/ellipsoid-heart`) flatten without a flipped triangle, the rim on
 //! the unit circle and the apex at the centre.
 
 use unfold::io::read_tri_mesh;
-use unfold::mesh::TriMesh;
+use unfold::mesh::validate::{ValidationOptions, check_tri_mesh};
+use unfold::mesh::{MeshError, TriMesh};
 use unfold::organs::ventricle::disk::lv_disk;
 use unfold::organs::ventricle::harmonic_disk::HarmonicDisk;
 use unfold::organs::ventricle::landmarks::{DEFAULT_SNAP_MM, Landmarks};
@@ -43,18 +44,27 @@ fn flattens_flip_free(name: &str, s: &TriMesh) {
 
 #[test]
 fn cobiveco_epicardium_flattens_flip_free() {
-    let s = read_tri_mesh("../shared/data/cobiveco-geo2/heart_epi.ply").unwrap();
+    let s = read_tri_mesh("tests/data/cobiveco-geo2/heart_epi.ply").unwrap();
     flattens_flip_free("cobiveco geo2", &s);
 }
 
-/// The LDRB ellipsoid's epicardium (`../shared/data/ldrb-ellipsoid`) comes
-/// with half its triangles the other way round: after the mesh repair it is
+/// The synthetic ellipsoid's epicardium comes with every second triangle
+/// the other way round: after the mesh repair it is
 /// a disk, and it flattens without a flipped triangle.
 #[test]
-fn ldrb_epicardium_flattens_flip_free_after_repair() {
-    let raw = read_tri_mesh("../shared/data/ldrb-ellipsoid/epi.obj").unwrap();
-    assert!(disk_boundary_loop(&raw).is_err(), "inconsistent as read");
+fn ellipsoid_epicardium_flattens_flip_free_after_repair() {
+    let raw = read_tri_mesh("tests/data/ellipsoid-heart/epi.obj").unwrap();
+    let problems = check_tri_mesh(&raw, &ValidationOptions::default());
+    let inconsistent = problems
+        .iter()
+        .find(|p| matches!(p.error, MeshError::InconsistentOrientation { .. }))
+        .expect("inconsistent as read");
+    // Every second triangle reversed: most interior edges disagree.
+    assert!(
+        inconsistent.count > raw.triangles.len() / 2,
+        "{inconsistent}"
+    );
     let (s, report) = unfold::mesh::repair::repair_tri_mesh(&raw).unwrap();
     assert!(report.flipped > 0 && report.non_orientable_components == 0);
-    flattens_flip_free("ldrb ellipsoid (repaired)", &s);
+    flattens_flip_free("ellipsoid (repaired)", &s);
 }

@@ -1,7 +1,9 @@
 //! The ventricle map `psi` and its inverse (ALGORITHMS 3.3-3.7, issue 6):
 //! analytic checks on a hemisphere and on the half-ellipsoid cup, the round
-//! trip and AHA labels on the real hearts in `../shared/data/` (licences in
-//! its README), and the transfer geo2 -> LDRB ellipsoid -> geo2.
+//! trip and AHA labels on a real heart (`tests/data/cobiveco-geo2`,
+//! Apache-2.0) and on a synthetic ellipsoid written by meshio
+//! (`tests/data/ellipsoid-heart`), and the transfer geo2 -> ellipsoid ->
+//! geo2.
 //!
 //! The data sets do not mark the RV insertion points: two rim points a third
 //! of the loop apart stand in for them.
@@ -64,18 +66,18 @@ fn geo2() -> &'static Heart {
     static H: OnceLock<Heart> = OnceLock::new();
     H.get_or_init(|| {
         heart(
-            "../shared/data/cobiveco-geo2/heart_epi.ply",
-            "../shared/data/cobiveco-geo2/heart_endo_lv.ply",
+            "tests/data/cobiveco-geo2/heart_epi.ply",
+            "tests/data/cobiveco-geo2/heart_endo_lv.ply",
         )
     })
 }
 
-fn ldrb() -> &'static Heart {
+fn ellipsoid() -> &'static Heart {
     static H: OnceLock<Heart> = OnceLock::new();
     H.get_or_init(|| {
         heart(
-            "../shared/data/ldrb-ellipsoid/epi.obj",
-            "../shared/data/ldrb-ellipsoid/heart.vtu",
+            "tests/data/ellipsoid-heart/epi.obj",
+            "tests/data/ellipsoid-heart/heart.vtu",
         )
     })
 }
@@ -125,9 +127,9 @@ fn cobiveco_geo2_round_trip_and_aha() {
 }
 
 #[test]
-fn ldrb_ellipsoid_round_trip_and_aha() {
-    let h = ldrb();
-    check_real("ldrb ellipsoid", h);
+fn ellipsoid_round_trip_and_aha() {
+    let h = ellipsoid();
+    check_real("ellipsoid", h);
     // its rim is planar (no strip), and half of S's triangles were reversed
     assert_eq!(h.outcome.chart.strip_height_mm(), 0.0);
     assert!(h.outcome.report.surface_repair.flipped > 0);
@@ -136,10 +138,10 @@ fn ldrb_ellipsoid_round_trip_and_aha() {
     assert!(on_s > 100, "{on_s} points on S");
 }
 
-/// geo2 -> LDRB ellipsoid -> geo2 returns every anatomy point.
+/// geo2 -> ellipsoid -> geo2 returns every anatomy point.
 #[test]
-fn transfer_geo2_to_ldrb_and_back() {
-    let (g, l) = (geo2(), ldrb());
+fn transfer_geo2_to_the_ellipsoid_and_back() {
+    let (g, l) = (geo2(), ellipsoid());
     let there = l.outcome.chart.inverse_all(&g.outcome.coords).unwrap();
     let coords: Vec<CylinderPoint> = l
         .outcome
@@ -150,14 +152,14 @@ fn transfer_geo2_to_ldrb_and_back() {
         .map(|f| f.coords)
         .collect();
     let back = g.outcome.chart.inverse_all(&coords).unwrap();
-    let a = read_mesh("../shared/data/cobiveco-geo2/heart_endo_lv.ply").unwrap();
+    let a = read_mesh("tests/data/cobiveco-geo2/heart_endo_lv.ply").unwrap();
     let worst = a
         .positions
         .iter()
         .zip(&back)
         .map(|(p, q)| (p - q).norm())
         .fold(0.0, f64::max);
-    println!("transfer geo2 -> ldrb -> geo2: max {worst:.3e} mm");
+    println!("transfer geo2 -> ellipsoid -> geo2: max {worst:.3e} mm");
     assert!(worst < 1e-3, "max {worst} mm");
     // the transferred points are inside the other heart (depths kept)
     for (c, d) in g.outcome.coords.iter().zip(&coords) {

@@ -1110,7 +1110,7 @@ mod tests {
     use proptest::prelude::*;
     use unfold_mesh::CellType;
 
-    const DATA: &str = "../../../shared/data/cobiveco-geo2";
+    const DATA: &str = "../../tests/data/cobiveco-geo2";
 
     #[test]
     fn ply_reads_cobiveco_files() {

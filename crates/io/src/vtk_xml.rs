@@ -1481,15 +1481,17 @@ mod tests {
     }
 
     #[test]
-    fn heart_vtu_reads() {
-        let bytes = std::fs::read("../../../shared/data/ldrb-ellipsoid/heart.vtu").unwrap();
+    /// A file written by another tool: meshio's zlib-compressed binary VTU
+    /// (`tests/data/ellipsoid-heart/make.py`).
+    fn meshio_heart_vtu_reads() {
+        let bytes = std::fs::read("../../tests/data/ellipsoid-heart/heart.vtu").unwrap();
         let m = read(&bytes).unwrap();
-        assert_eq!(m.num_points(), 4237);
-        assert_eq!(m.num_cells(), 16592);
+        assert_eq!(m.num_points(), 3844);
+        assert_eq!(m.num_cells(), 16848);
         assert!(m.cell_types.iter().all(|&t| t == CellType::Tetra));
         let mat = m.cell_data.get("Material").unwrap();
         assert_eq!(mat.components(), 1);
-        assert_eq!(mat.tuples(), 16592);
+        assert_eq!(mat.tuples(), 16848);
         assert!(mat.values().to_f64().iter().all(|&v| v == 31.0));
         assert!(m.check().is_ok());
         assert!(m.to_tet_mesh().is_ok());
