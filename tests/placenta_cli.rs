@@ -6,7 +6,9 @@
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use unfold::io::{NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh};
+use unfold::io::{
+    Datatype, NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh,
+};
 use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
@@ -423,6 +425,113 @@ fn images_are_pulled_into_the_template() {
     }
     assert!(checked >= 20, "{checked}");
     assert!(stdout(&o).contains("t2_flat.nii.gz"));
+}
+
+/// A label map (INT16, labels 1..=5 in 7 mm bands of `x + y`) around `mesh`.
+fn labels_around(mesh: &TetMesh) -> NiftiImage {
+    let base = image_around(mesh, [2.0, 2.0, 2.0], 1, 0.0);
+    let affine = *base.volume.affine();
+    let dims = base.volume.dims();
+    let mut data = Vec::with_capacity(base.volume.frame_len());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                data.push((1 + ((p.x + p.y + 500.0) / 7.0).floor() as i64 % 5) as f32);
+            }
+        }
+    }
+    let vol = Volume::new(dims, affine, data).expect("volume");
+    NiftiImage::new(vol).with_datatype(Datatype::Int16)
+}
+
+#[test]
+fn label_maps_are_pulled_back_by_nearest_neighbour_and_stay_integer() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = slab();
+    let mesh_path = slab_file(dir.path());
+    let labels = dir.path().join("labels.nii.gz");
+    let input = labels_around(&mesh);
+    write_image(&labels, &input).unwrap();
+    let input = read_image(&labels).unwrap();
+    assert_eq!(input.datatype, Datatype::Int16);
+    let run = |interp: &str| {
+        let out = dir.path().join(interp);
+        let o = unfold(&[
+            "placenta",
+            &s(&mesh_path),
+            "-o",
+            &s(&out),
+            "--image",
+            &s(&labels),
+            "--interp",
+            interp,
+            "--no-figures",
+        ]);
+        assert_ok(&o);
+        let r = report(&out);
+        assert_eq!(r["images"][0]["interpolation"], interp);
+        (
+            out.clone(),
+            read_image(out.join("labels_flat.nii.gz")).unwrap(),
+        )
+    };
+
+    let (out, nearest) = run("nearest");
+    assert_eq!(nearest.datatype, Datatype::Int16, "kept integer");
+    let v = &nearest.volume;
+    let values: BTreeSet<i64> = v.data().iter().map(|&x| x as i64).collect();
+    assert!(values.iter().all(|x| (0..=5).contains(x)), "{values:?}");
+    assert!(
+        values.len() >= 4,
+        "several labels reach the template: {values:?}"
+    );
+    // Each voxel holds the label of the input voxel nearest to its source.
+    let original = read_mesh(out.join("original.vtu")).unwrap();
+    let flat = read_mesh(out.join("flattened.vtu")).unwrap();
+    let d = v.dims();
+    let inside: Vec<usize> = (0..v.frame_len()).filter(|&i| v.data()[i] != 0.0).collect();
+    assert!(inside.len() > 100, "{}", inside.len());
+    let mut checked = 0;
+    for &idx in inside.iter().step_by((inside.len() / 40).max(1)) {
+        let (i, j, k) = (idx % d[0], (idx / d[0]) % d[1], idx / (d[0] * d[1]));
+        let p = v.voxel_to_world(&Point3::new(i as f64, j as f64, k as f64));
+        let (tet, alpha) = locate(&flat, &p).expect("a labelled voxel lies in the mesh");
+        let (_, vs) = original.cell(tet);
+        let z = vs.iter().zip(alpha).fold(Vector3::zeros(), |acc, (&v, a)| {
+            acc + original.positions[v as usize].coords * a
+        });
+        let want = input
+            .volume
+            .sample_voxel_nearest(&input.volume.world_to_voxel(&Point3::from(z)), 0)
+            .expect("inside the label map");
+        assert_eq!(f64::from(v.data()[idx]), want, "voxel {idx}");
+        checked += 1;
+    }
+    assert!(checked >= 20, "{checked}");
+
+    // Trilinear blends labels at the band edges (hence the flag).
+    let (_, linear) = run("linear");
+    assert_eq!(linear.datatype, Datatype::Float32);
+    let blended = linear
+        .volume
+        .data()
+        .iter()
+        .filter(|x| (x.fract()).abs() > 1e-3)
+        .count();
+    assert!(blended > 0, "linear gives in-between values");
+
+    assert_one_line_error(
+        &unfold(&[
+            "placenta",
+            &s(&mesh_path),
+            "-o",
+            &s(&dir.path().join("x")),
+            "--interp",
+            "cubic",
+        ]),
+        "cubic",
+    );
 }
 
 #[test]

@@ -44,7 +44,8 @@ use std::time::Duration;
 use unfold::figures::FigureOptions;
 use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::{
-    NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image, write_mesh,
+    Datatype, NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image,
+    write_mesh,
 };
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
@@ -52,11 +53,30 @@ use unfold::organs::placenta::images::check_images;
 use unfold::organs::placenta::parcellation::ParcellationConfig;
 use unfold::organs::placenta::segmentation::from_segmentation;
 use unfold::organs::placenta::{
-    Config, Image, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report, SolverKind,
-    TemplateKind, prepare_mesh,
+    Config, Image, Interpolation, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report,
+    SolverKind, TemplateKind, prepare_mesh,
 };
 use unfold::organs::{OrganError, PipelineObserver};
 use unfold::param::Iteration;
+
+/// Image interpolation on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum InterpArg {
+    /// Trilinear (intensities); the default.
+    Linear,
+    /// The nearest voxel's value (label maps: no blended labels; an integer
+    /// image is written with its own integer type).
+    Nearest,
+}
+
+impl From<InterpArg> for Interpolation {
+    fn from(i: InterpArg) -> Self {
+        match i {
+            InterpArg::Linear => Interpolation::Linear,
+            InterpArg::Nearest => Interpolation::Nearest,
+        }
+    }
+}
 
 /// Templates on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -156,6 +176,10 @@ pub struct PlacentaArgs {
     /// input image's own voxel spacing].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     spacing_mm: Option<f64>,
+    /// How the images are sampled: linear (intensities) or nearest (label
+    /// maps).
+    #[arg(long, value_enum, default_value = "linear")]
+    interp: InterpArg,
     /// Stop when the gradient norm |grad phi|_F falls below this.
     #[arg(
         long,
@@ -215,6 +239,7 @@ impl PlacentaArgs {
             },
             half_thickness_mm,
             spacing_mm: self.spacing_mm,
+            interpolation: self.interp.into(),
         };
         config
             .validate()
@@ -229,6 +254,20 @@ impl PlacentaArgs {
             .template(TemplateKind::from(self.template).build())
             .solver(SolverKind::from(self.solver).build())
             .config(config)
+    }
+}
+
+/// The data type of an image pulled back by nearest neighbour: the input's
+/// own when it is an unscaled integer type (every output value is one of
+/// its values), FLOAT32 otherwise.
+fn nearest_datatype(input: &NiftiImage) -> Datatype {
+    let integer = !matches!(input.datatype, Datatype::Float32 | Datatype::Float64);
+    // scl_slope 0 means no scaling (NIfTI-1).
+    let unscaled = (input.scl_slope == 0.0 || input.scl_slope == 1.0) && input.scl_inter == 0.0;
+    if integer && unscaled {
+        input.datatype
+    } else {
+        Datatype::Float32
     }
 }
 
@@ -560,6 +599,9 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         out.time_step = img.image.time_step;
         out.xyzt_units = img.image.xyzt_units;
         out.description = "unfold placenta: pulled back into the template".into();
+        if entry.interpolation == Interpolation::Nearest.name() {
+            out = out.with_datatype(nearest_datatype(&img.image));
+        }
         let out_path = dir.join(flat_name(&img.name));
         write_image(&out_path, &out)?;
         entry.input = Some(img.path.display().to_string());

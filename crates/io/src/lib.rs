@@ -28,5 +28,5 @@ pub use format::{
     FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,
     write_image, write_mesh,
 };
-pub use nifti::NiftiImage;
+pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};

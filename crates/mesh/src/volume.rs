@@ -195,6 +195,27 @@ impl<T: Copy + Into<f64>> Volume<T> {
         Some(acc)
     }
 
+    /// The value of frame `t` at the voxel whose centre is nearest to the
+    /// continuous voxel coordinates `v` (`round(v_a)`, halves away from
+    /// zero, clamped to the grid): no value is blended, so labels stay
+    /// labels. The same domain as [`Volume::sample_voxel`]: up to half a
+    /// voxel beyond the outer voxel centres, `None` farther out.
+    pub fn sample_voxel_nearest(&self, v: &Point3<f64>, t: usize) -> Option<f64> {
+        if t >= self.dims[3] {
+            return None;
+        }
+        let mut idx = [0usize; 3];
+        for a in 0..3 {
+            let n = self.dims[a];
+            let x = v[a];
+            if !x.is_finite() || x < -0.5 || x > n as f64 - 0.5 {
+                return None;
+            }
+            idx[a] = (x.round().max(0.0) as usize).min(n - 1);
+        }
+        Some(self.data[self.index(idx[0], idx[1], idx[2], t)].into())
+    }
+
     /// Trilinear interpolation of frame `t` at world point `p`.
     pub fn sample_world(&self, p: &Point3<f64>, t: usize) -> Option<f64> {
         self.sample_voxel(&self.world_to_voxel(p), t)
@@ -241,6 +262,32 @@ mod tests {
     }
 
     proptest! {
+        /// Nearest-neighbour sampling returns a stored value, the one of the
+        /// voxel whose centre is nearest, and nothing off the grid: on a
+        /// label image every sample is a label.
+        #[test]
+        fn nearest_returns_the_nearest_stored_value(
+            labels in prop::collection::vec(0u8..6, 4 * 5 * 3),
+            x in -0.5..3.5f64, y in -0.5..4.5f64, z in -0.5..2.5f64,
+            off in 0.51..3.0f64,
+        ) {
+            let v = Volume::new([4, 5, 3, 1], affine(), labels.clone()).unwrap();
+            let got = v.sample_voxel_nearest(&Point3::new(x, y, z), 0).unwrap();
+            let (i, j, k) = (
+                x.round().clamp(0.0, 3.0) as usize,
+                y.round().clamp(0.0, 4.0) as usize,
+                z.round().clamp(0.0, 2.0) as usize,
+            );
+            prop_assert_eq!(got, f64::from(labels[i + 4 * (j + 5 * k)]));
+            // That centre is within half a voxel on every axis.
+            for (c, n) in [(x, i), (y, j), (z, k)] {
+                prop_assert!((c - n as f64).abs() <= 0.5 + 1e-12);
+            }
+            prop_assert!(v.sample_voxel_nearest(&Point3::new(-off, y, z), 0).is_none());
+            prop_assert!(v.sample_voxel_nearest(&Point3::new(x, 4.0 + off, z), 0).is_none());
+            prop_assert!(v.sample_voxel_nearest(&Point3::new(x, y, z), 1).is_none());
+        }
+
         /// Trilinear interpolation reproduces an affine function exactly.
         #[test]
         fn trilinear_is_exact_on_linear_functions(

@@ -2,6 +2,7 @@
 //! by name.
 
 use super::parcellation::ParcellationConfig;
+use super::pullback::Interpolation;
 use crate::{ConfigError, OrganError, Requirement};
 use serde::{Deserialize, Serialize};
 use unfold_param::{GradientDescent, ProjectedNewton, Solver, Stopping};
@@ -33,6 +34,9 @@ pub struct Config {
     /// Isotropic voxel size of the template-space images, mm (default
     /// `None`: each image's own voxel spacing).
     pub spacing_mm: Option<f64>,
+    /// How the images are sampled (default trilinear; nearest for label
+    /// maps).
+    pub interpolation: Interpolation,
 }
 
 impl Default for Config {
@@ -45,6 +49,7 @@ impl Default for Config {
             parcellation: ParcellationConfig::default(),
             half_thickness_mm: None,
             spacing_mm: None,
+            interpolation: Interpolation::Linear,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! by every image with that spacing.
 
 use super::error::{PlacentaError, PullbackError};
-use super::pullback::{PullbackTable, TemplateGrid, image_world_box};
+use super::pullback::{Interpolation, PullbackTable, TemplateGrid, image_world_box};
 use super::report::ImageReport;
 use crate::{OrganError, PipelineObserver};
 use unfold_mesh::geometry::bounding_box;
@@ -80,7 +80,7 @@ fn row_major(m: &Matrix4<f64>) -> [[f64; 4]; 4] {
 
 /// Pulls every image back: the grid covers the flattened mesh at
 /// `spacing_mm` (isotropic) or at each image's own voxel spacing; one table
-/// per distinct spacing.
+/// per distinct spacing; every image sampled with `interpolation`.
 ///
 /// # Errors
 /// [`PlacentaError::ImagePullback`] naming the image, with the error of
@@ -91,6 +91,7 @@ pub fn pull_back(
     original: &[Point3<f64>],
     images: &[Image<'_>],
     spacing_mm: Option<f64>,
+    interpolation: Interpolation,
     observer: &mut dyn PipelineObserver,
 ) -> Result<Vec<FlatImage>, OrganError> {
     let mut tables: Vec<([f64; 3], PullbackTable)> = Vec::new();
@@ -118,7 +119,9 @@ pub fn pull_back(
         };
         let table = &tables[k].1;
         observer.stage(&format!("pulling back {}", image.name));
-        let (volume, stats) = table.apply(image.volume).map_err(failed)?;
+        let (volume, stats) = table
+            .apply_with(image.volume, interpolation)
+            .map_err(failed)?;
         let grid = *table.grid();
         out.push(FlatImage {
             name: image.name.to_string(),
@@ -126,6 +129,7 @@ pub fn pull_back(
                 name: image.name.to_string(),
                 input: None,
                 output: None,
+                interpolation: interpolation.name(),
                 spacing_mm: grid.spacing,
                 dims: grid.dims,
                 frames: volume.frames(),

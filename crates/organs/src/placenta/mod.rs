@@ -45,6 +45,7 @@ pub use error::{PlacentaError, PullbackError};
 pub use images::{FlatImage, Image};
 pub use pipeline::{Outcome, Pipeline};
 pub use prepare::{PreparedMesh, boundary_weights, prepare_mesh};
+pub use pullback::Interpolation;
 pub use report::{ImageReport, Pieces, Report};
 pub use templates::{Ellipsoid, ParallelPlanes, PlacentaTemplate, SinglePlane, TemplateKind};
 pub use unfold_mesh::shapes::side;

@@ -315,6 +315,7 @@ impl Pipeline {
             &original.positions,
             images,
             config.spacing_mm,
+            config.interpolation,
             observer,
         )?;
         timings.images = t.elapsed().as_secs_f64();

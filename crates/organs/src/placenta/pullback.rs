@@ -345,6 +345,21 @@ impl PullbackTable {
         &self,
         image: &Volume<f32>,
     ) -> Result<(Volume<f32>, PullbackStats), PullbackError> {
+        self.apply_with(image, Interpolation::Linear)
+    }
+
+    /// [`PullbackTable::apply`] with the given interpolation: trilinear, or
+    /// the value of the voxel nearest to the source point
+    /// ([`Volume::sample_voxel_nearest`]; the same domain, so the same
+    /// voxels are sampled).
+    ///
+    /// # Errors
+    /// As [`PullbackTable::apply`].
+    pub fn apply_with(
+        &self,
+        image: &Volume<f32>,
+        interpolation: Interpolation,
+    ) -> Result<(Volume<f32>, PullbackStats), PullbackError> {
         if image.frame_len() == 0 || image.frames() == 0 {
             return Err(PullbackError::EmptyImage {
                 frame_voxels: image.frame_len(),
@@ -368,7 +383,10 @@ impl PullbackTable {
         for (t, out) in data.chunks_mut(n).enumerate() {
             let values: Vec<Option<f64>> = coords
                 .par_iter()
-                .map(|v| image.sample_voxel(v, t))
+                .map(|v| match interpolation {
+                    Interpolation::Linear => image.sample_voxel(v, t),
+                    Interpolation::Nearest => image.sample_voxel_nearest(v, t),
+                })
                 .collect();
             if t == 0 {
                 sampled = values.iter().filter(|v| v.is_some()).count();
@@ -399,6 +417,27 @@ impl PullbackTable {
             outside_image: self.voxels.len() - sampled,
         };
         Ok((volume, stats))
+    }
+}
+
+/// How an image is sampled at a source point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Trilinear (the default; intensities).
+    #[default]
+    Linear,
+    /// The nearest voxel's value (label maps: no blended labels).
+    Nearest,
+}
+
+impl Interpolation {
+    /// The name used in reports and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interpolation::Linear => "linear",
+            Interpolation::Nearest => "nearest",
+        }
     }
 }
 

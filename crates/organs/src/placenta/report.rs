@@ -144,6 +144,8 @@ pub struct ImageReport {
     /// writes files says so.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
+    /// How the image was sampled: "linear" or "nearest".
+    pub interpolation: &'static str,
     /// Voxel size of the template grid, mm.
     pub spacing_mm: [f64; 3],
     /// Voxels along x, y, z of the template grid.
