@@ -83,6 +83,59 @@ fn convert_keeps_the_heart_through_every_volume_format() {
 }
 
 #[test]
+fn convert_converts_nifti_images_keeping_type_and_header() {
+    use unfold::io::{Datatype, NiftiImage, read_image, write_image};
+    use unfold::mesh::Volume;
+    use unfold::mesh::nalgebra::Matrix4;
+    let dir = tempfile::tempdir().unwrap();
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    let mut affine = Matrix4::identity();
+    affine[(0, 0)] = 1.5;
+    affine[(2, 2)] = -2.0;
+    affine[(0, 3)] = -30.0;
+    let data: Vec<f32> = (0..4 * 5 * 6 * 2).map(|i| (i % 7) as f32 - 3.0).collect();
+    let mut image = NiftiImage::new(Volume::new([4, 5, 6, 2], affine, data).unwrap())
+        .with_datatype(Datatype::Int16);
+    image.description = "labels".into();
+    write_image(d("a.nii"), &image).unwrap();
+
+    let o = unfold(&["convert", &d("a.nii"), &d("b.nii.gz")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("4 x 5 x 6 voxels, 2 frames, INT16"),
+        "{}",
+        stdout(&o)
+    );
+    let bytes = std::fs::read(d("b.nii.gz")).unwrap();
+    assert_eq!(&bytes[..2], &[0x1f, 0x8b], "gzip");
+    let (a, b) = (
+        read_image(d("a.nii")).unwrap(),
+        read_image(d("b.nii.gz")).unwrap(),
+    );
+    assert_eq!(b.datatype, Datatype::Int16);
+    assert_eq!(b.volume, a.volume);
+    assert_eq!(b.description, "labels");
+    // And back: the same file.
+    let o = unfold(&["convert", &d("b.nii.gz"), &d("c.nii")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(d("c.nii")).unwrap(),
+        std::fs::read(d("a.nii")).unwrap()
+    );
+
+    // Between a mesh and an image: refused, nothing written.
+    assert_one_line_error(
+        &unfold(&["convert", &d("a.nii"), &d("x.vtu")]),
+        "between meshes or between images",
+    );
+    assert_one_line_error(
+        &unfold(&["convert", HEART_VTU, &d("x.nii")]),
+        "between meshes or between images",
+    );
+    assert!(!dir.path().join("x.vtu").exists() && !dir.path().join("x.nii").exists());
+}
+
+#[test]
 fn convert_refuses_to_overwrite_its_input() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("x.vtu");

@@ -1,9 +1,13 @@
-//! `unfold convert IN OUT`: between mesh formats, keeping point and cell data.
+//! `unfold convert IN OUT`: between mesh formats, keeping point and cell
+//! data; between NIfTI files (`.nii` <-> `.nii.gz`), keeping the header.
 
 use super::CliError;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
-use unfold::io::{FileKind, LegacyVersion, WriteOptions, XmlEncoding, read_mesh, write_mesh};
+use unfold::io::{
+    Datatype, FileKind, LegacyVersion, NiftiImage, WriteOptions, XmlEncoding, read_image,
+    read_mesh, write_image, write_mesh,
+};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum Encoding {
@@ -24,9 +28,11 @@ enum VtkVersion {
 /// Arguments of `unfold convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Input mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh).
+    /// Input mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image
+    /// (.nii .nii.gz).
     input: PathBuf,
-    /// Output mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh).
+    /// Output mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh) or image (.nii
+    /// .nii.gz; from an image only).
     output: PathBuf,
     /// Write text instead of binary where the format has both.
     #[arg(long)]
@@ -52,6 +58,20 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
             "{}: refusing to overwrite the input; choose another output path",
             a.output.display()
         )));
+    }
+    let image_in = matches!(FileKind::from_path(&a.input)?, FileKind::Nifti { .. });
+    let image_out = matches!(FileKind::from_path(&a.output)?, FileKind::Nifti { .. });
+    match (image_in, image_out) {
+        (true, true) => return convert_image(a),
+        (true, false) | (false, true) => {
+            return Err(CliError::Usage(format!(
+                "{} -> {}: convert goes between meshes or between images, not from one to \
+                 the other",
+                a.input.display(),
+                a.output.display()
+            )));
+        }
+        (false, false) => {}
     }
     let mesh = read_mesh(&a.input)?;
     let opts = WriteOptions {
@@ -96,6 +116,40 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
         mesh.num_cells(),
         mesh.point_data.len(),
         mesh.cell_data.len()
+    );
+    Ok(())
+}
+
+/// The data type an image is re-written with: the stored one when the
+/// values are unscaled (`scl_slope` 0 or 1, `scl_inter` 0), so that
+/// `.nii` <-> `.nii.gz` changes nothing; FLOAT32 for scaled integers (the
+/// values are written scaled, slope 1).
+fn kept_datatype(image: &NiftiImage) -> Datatype {
+    let unscaled = (image.scl_slope == 0.0 || image.scl_slope == 1.0) && image.scl_inter == 0.0;
+    if unscaled {
+        image.datatype
+    } else {
+        Datatype::Float32
+    }
+}
+
+/// `unfold convert` between NIfTI files: the header (affine, codes, units,
+/// intent, description) and the values kept.
+fn convert_image(a: &ConvertArgs) -> Result<(), CliError> {
+    let image = read_image(&a.input)?;
+    let datatype = kept_datatype(&image);
+    let dims = image.volume.dims();
+    write_image(&a.output, &image.clone().with_datatype(datatype))?;
+    println!(
+        "{} -> {}: {} x {} x {} voxels, {} frame{}, {}",
+        a.input.display(),
+        a.output.display(),
+        dims[0],
+        dims[1],
+        dims[2],
+        dims[3],
+        if dims[3] == 1 { "" } else { "s" },
+        datatype.name()
     );
     Ok(())
 }
