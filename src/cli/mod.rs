@@ -7,6 +7,7 @@ mod info;
 mod mesh;
 mod mitral;
 mod placenta;
+mod repair;
 mod ventricle;
 
 use clap::{Parser, Subcommand};
@@ -77,6 +78,9 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
     Deform(deform::DeformArgs),
+    /// Repair a mesh exported by another tool: weld coincident vertices, drop repeated and
+    /// degenerate elements, orient consistently, drop unused vertices.
+    Repair(repair::RepairArgs),
     /// Mesh a segmentation (a NIfTI mask) into tets: smoothing, then isosurface stuffing
     /// with bounded dihedral angles.
     Mesh(mesh::MeshArgs),
@@ -100,6 +104,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Demo(a) => demo::run(&a),
         Command::Deform(a) => deform::run(&a),
         Command::Mesh(a) => mesh::run(&a),
+        Command::Repair(a) => repair::run(&a),
         Command::Placenta(a) => placenta::run(&a),
         Command::Ventricle(a) => ventricle::run(&a),
         Command::Mitral(a) => mitral::run(&a),

@@ -170,6 +170,12 @@ pub enum MeshError {
         /// The number of vertices found.
         found: usize,
     },
+    /// A weld tolerance that is negative, NaN or infinite.
+    #[error("the weld tolerance must be a finite distance >= 0, got {tolerance}")]
+    WeldTolerance {
+        /// The tolerance given, mm.
+        tolerance: f64,
+    },
     /// A volume's data length or dimensions are inconsistent.
     #[error("image: {0}")]
     Image(String),
@@ -200,6 +206,7 @@ impl MeshError {
             MeshError::FieldComponents { .. } => "field_components",
             MeshError::WrongCellType { .. } => "wrong_cell_type",
             MeshError::CellSize { .. } => "cell_size",
+            MeshError::WeldTolerance { .. } => "weld_tolerance",
             MeshError::Image(_) => "image",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }

@@ -36,6 +36,7 @@ pub mod topology;
 pub mod trimesh;
 pub mod validate;
 pub mod volume;
+pub mod weld;
 
 pub use cells::{CellMesh, CellType};
 pub use error::MeshError;

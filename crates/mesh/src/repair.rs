@@ -103,9 +103,30 @@ fn largest<const K: usize>(elements: &[[u32; K]], n: usize) -> Vec<usize> {
         .collect()
 }
 
+/// How a repair welds coincident vertices ([`crate::weld`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Weld {
+    /// No welding ([`repair_tri_mesh`] and [`repair_tet_mesh`]).
+    #[default]
+    Off,
+    /// Within [`crate::weld::RELATIVE_TOLERANCE`] times the mean edge length.
+    Relative,
+    /// Within this distance, mm (0: exactly equal positions only).
+    Within(f64),
+}
+
+/// Settings of [`repair_tri_mesh_with`] and [`repair_tet_mesh_with`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RepairOptions {
+    /// Welding of coincident vertices, before anything else.
+    pub weld: Weld,
+}
+
 /// What [`repair_tri_mesh`] / [`repair_tet_mesh`] changed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct RepairReport {
+    /// Vertices merged into a coincident one (welding).
+    pub welded_vertices: usize,
     /// Elements removed because an earlier element has the same vertex set.
     pub duplicate_elements: usize,
     /// Elements removed because they use a vertex more than once.
@@ -124,7 +145,8 @@ pub struct RepairReport {
 impl RepairReport {
     /// True when the repair changed nothing.
     pub fn is_clean(&self) -> bool {
-        self.duplicate_elements == 0
+        self.welded_vertices == 0
+            && self.duplicate_elements == 0
             && self.repeated_vertex_elements == 0
             && self.unused_vertices == 0
             && self.flipped == 0
@@ -139,6 +161,16 @@ impl fmt::Display for RepairReport {
             format!("{count} {}", if count == 1 { one } else { many })
         }
         let mut removed = Vec::new();
+        if self.welded_vertices > 0 {
+            removed.push(format!(
+                "{} (welded)",
+                n(
+                    self.welded_vertices,
+                    "coincident vertex",
+                    "coincident vertices"
+                )
+            ));
+        }
         if self.duplicate_elements > 0 {
             removed.push(n(
                 self.duplicate_elements,
@@ -236,15 +268,78 @@ fn keep_rows<const K: usize>(elements: &[[u32; K]]) -> (Vec<usize>, usize, usize
 /// [`MeshError::IndexOutOfRange`], [`MeshError::NonFiniteCoordinate`], and
 /// [`MeshError::FieldLength`] when a field does not match its mesh.
 pub fn repair_tri_mesh(mesh: &TriMesh) -> Result<(TriMesh, RepairReport), MeshError> {
+    repair_tri_mesh_with(mesh, &RepairOptions::default())
+}
+
+/// A mesh's vertices after welding, with its elements renumbered.
+struct WeldedMesh<const K: usize> {
+    positions: Vec<Point3<f64>>,
+    point_data: Fields,
+    elements: Vec<[u32; K]>,
+    /// Vertices merged away.
+    merged: usize,
+}
+
+/// The vertices of `positions` welded as `weld` says: each welded vertex
+/// takes the position and point data of the lowest of its copies.
+fn welded<const K: usize>(
+    positions: &[Point3<f64>],
+    point_data: &Fields,
+    elements: &[[u32; K]],
+    weld: Weld,
+) -> Result<WeldedMesh<K>, MeshError> {
+    let tolerance = match weld {
+        Weld::Off => {
+            return Ok(WeldedMesh {
+                positions: positions.to_vec(),
+                point_data: point_data.clone(),
+                elements: elements.to_vec(),
+                merged: 0,
+            });
+        }
+        Weld::Relative => crate::weld::default_tolerance(positions, elements),
+        Weld::Within(t) => t,
+    };
+    let w = crate::weld::weld(positions, tolerance)?;
+    Ok(WeldedMesh {
+        positions: w.kept.iter().map(|&v| positions[v]).collect(),
+        point_data: point_data.select(&w.kept),
+        elements: w.remap(elements),
+        merged: w.merged(),
+    })
+}
+
+/// [`repair_tri_mesh`] with settings: with [`Weld::Relative`] or
+/// [`Weld::Within`], coincident vertices are welded first (a triangle soup
+/// becomes a connected surface; triangles that collapse onto a repeated
+/// vertex are then dropped as such).
+///
+/// # Errors
+/// As [`repair_tri_mesh`]; [`MeshError::WeldTolerance`] for a bad distance.
+pub fn repair_tri_mesh_with(
+    mesh: &TriMesh,
+    options: &RepairOptions,
+) -> Result<(TriMesh, RepairReport), MeshError> {
     check_input(
         &mesh.positions,
         &mesh.triangles,
         &mesh.point_data,
         &mesh.cell_data,
     )?;
-    let (rows, repeated, dups) = keep_rows(&mesh.triangles);
-    let mut tris: Vec<[u32; 3]> = rows.iter().map(|&t| mesh.triangles[t]).collect();
-    let (flip, non_orientable) = orientation_flips(&mesh.positions, &tris);
+    let WeldedMesh {
+        positions,
+        point_data,
+        elements: triangles,
+        merged: welded_vertices,
+    } = welded(
+        &mesh.positions,
+        &mesh.point_data,
+        &mesh.triangles,
+        options.weld,
+    )?;
+    let (rows, repeated, dups) = keep_rows(&triangles);
+    let mut tris: Vec<[u32; 3]> = rows.iter().map(|&t| triangles[t]).collect();
+    let (flip, non_orientable) = orientation_flips(&positions, &tris);
     let mut flipped = 0;
     for (t, f) in tris.iter_mut().zip(&flip) {
         if *f {
@@ -252,12 +347,13 @@ pub fn repair_tri_mesh(mesh: &TriMesh) -> Result<(TriMesh, RepairReport), MeshEr
             flipped += 1;
         }
     }
-    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tris)?;
+    let k = compact_vertices(&positions, &point_data, &tris)?;
     let components = connected_components(k.positions.len(), &k.elements).count;
     let report = RepairReport {
+        welded_vertices,
         duplicate_elements: dups,
         repeated_vertex_elements: repeated,
-        unused_vertices: mesh.positions.len() - k.positions.len(),
+        unused_vertices: positions.len() - k.positions.len(),
         flipped,
         components,
         non_orientable_components: non_orientable,
@@ -375,15 +471,33 @@ fn orientation_flips(positions: &[Point3<f64>], tris: &[[u32; 3]]) -> (Vec<bool>
 /// [`MeshError::IndexOutOfRange`], [`MeshError::NonFiniteCoordinate`], and
 /// [`MeshError::FieldLength`] when a field does not match its mesh.
 pub fn repair_tet_mesh(mesh: &TetMesh) -> Result<(TetMesh, RepairReport), MeshError> {
+    repair_tet_mesh_with(mesh, &RepairOptions::default())
+}
+
+/// [`repair_tet_mesh`] with settings: coincident vertices welded first as
+/// `options.weld` says (see [`repair_tri_mesh_with`]).
+///
+/// # Errors
+/// As [`repair_tet_mesh`]; [`MeshError::WeldTolerance`] for a bad distance.
+pub fn repair_tet_mesh_with(
+    mesh: &TetMesh,
+    options: &RepairOptions,
+) -> Result<(TetMesh, RepairReport), MeshError> {
     check_input(
         &mesh.positions,
         &mesh.tets,
         &mesh.point_data,
         &mesh.cell_data,
     )?;
-    let (rows, repeated, dups) = keep_rows(&mesh.tets);
-    let tets: Vec<[u32; 4]> = rows.iter().map(|&t| mesh.tets[t]).collect();
-    let k = compact_vertices(&mesh.positions, &mesh.point_data, &tets)?;
+    let WeldedMesh {
+        positions,
+        point_data,
+        elements: all_tets,
+        merged: welded_vertices,
+    } = welded(&mesh.positions, &mesh.point_data, &mesh.tets, options.weld)?;
+    let (rows, repeated, dups) = keep_rows(&all_tets);
+    let tets: Vec<[u32; 4]> = rows.iter().map(|&t| all_tets[t]).collect();
+    let k = compact_vertices(&positions, &point_data, &tets)?;
     let mut out = TetMesh {
         positions: k.positions,
         tets: k.elements,
@@ -393,9 +507,10 @@ pub fn repair_tet_mesh(mesh: &TetMesh) -> Result<(TetMesh, RepairReport), MeshEr
     let flipped = out.orient()?;
     let components = connected_components(out.positions.len(), &out.tets).count;
     let report = RepairReport {
+        welded_vertices,
         duplicate_elements: dups,
         repeated_vertex_elements: repeated,
-        unused_vertices: mesh.positions.len() - out.positions.len(),
+        unused_vertices: positions.len() - out.positions.len(),
         flipped,
         components,
         non_orientable_components: 0,
@@ -513,6 +628,68 @@ mod tests {
         for v in 0..out.num_vertices() {
             let o = pv.get(v, 0).unwrap() as usize;
             assert_eq!(out.positions[v], clean.positions[o]);
+        }
+    }
+
+    /// A triangle soup of `m` (every triangle with its own three vertices,
+    /// as STL stores it), every `reverse`-th triangle reversed and every
+    /// `dup`-th triangle repeated, the copies moved by up to `jitter`.
+    fn soup(m: &TriMesh, reverse: usize, dup: usize, jitter: f64) -> TriMesh {
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for (t, tri) in m.triangles.iter().enumerate() {
+            let copies = if t % dup == 0 { 2 } else { 1 };
+            for c in 0..copies {
+                let base = positions.len() as u32;
+                for (k, &v) in tri.iter().enumerate() {
+                    let e = jitter * (((t * 3 + k + c) % 7) as f64 / 7.0 - 0.5);
+                    positions.push(m.positions[v as usize] + nalgebra::Vector3::new(e, -e, e));
+                }
+                let mut new = [base, base + 1, base + 2];
+                if t % reverse == 0 {
+                    new.swap(1, 2);
+                }
+                triangles.push(new);
+            }
+        }
+        TriMesh::new(positions, triangles)
+    }
+
+    proptest! {
+        /// A triangle soup with reversed and repeated triangles, its copies
+        /// a little apart, welds back into the clean surface: the same
+        /// vertices and triangles, consistently oriented, with its boundary.
+        #[test]
+        fn a_welded_soup_is_the_clean_mesh(
+            nx in 2usize..7, ny in 2usize..7, sphere in any::<bool>(),
+            reverse in 2usize..5, dup in 3usize..9,
+        ) {
+            let clean = if sphere {
+                crate::shapes::primitives::uv_sphere(nx + 1, ny + 2, 10.0)
+            } else {
+                crate::shapes::primitives::grid_disk(nx, ny)
+            };
+            let messy = soup(&clean, reverse, dup, 1e-9);
+            let options = RepairOptions { weld: Weld::Relative };
+            let (fixed, r) = repair_tri_mesh_with(&messy, &options).unwrap();
+            prop_assert_eq!(fixed.positions.len(), clean.positions.len());
+            prop_assert_eq!(fixed.triangles.len(), clean.triangles.len());
+            prop_assert_eq!(r.welded_vertices, messy.positions.len() - clean.positions.len());
+            prop_assert_eq!(r.duplicate_elements, messy.triangles.len() - clean.triangles.len());
+            prop_assert_eq!(r.components, 1);
+            prop_assert!(
+                check_tri_mesh(&fixed, &ValidationOptions::default()).is_empty(),
+                "{:?}", check_tri_mesh(&fixed, &ValidationOptions::default())
+            );
+            prop_assert_eq!(euler_characteristic(&fixed), euler_characteristic(&clean));
+            prop_assert_eq!(
+                boundary_loops(&fixed).unwrap().len(),
+                boundary_loops(&clean).unwrap().len()
+            );
+            // Without welding the soup stays apart.
+            let (apart, r0) = repair_tri_mesh(&messy).unwrap();
+            prop_assert_eq!(r0.welded_vertices, 0);
+            prop_assert!(apart.positions.len() > clean.positions.len());
         }
     }
 
@@ -777,6 +954,7 @@ mod tests {
     #[test]
     fn report_display_is_one_line() {
         let r = RepairReport {
+            welded_vertices: 0,
             duplicate_elements: 2,
             repeated_vertex_elements: 1,
             unused_vertices: 1,
@@ -794,6 +972,15 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(clean.to_string(), "nothing to repair; 2 components");
+        let welded = RepairReport {
+            welded_vertices: 5,
+            components: 1,
+            ..Default::default()
+        };
+        assert_eq!(
+            welded.to_string(),
+            "removed 5 coincident vertices (welded); 1 component"
+        );
         assert!(!r.to_string().contains('\n'));
     }
 
