@@ -168,6 +168,18 @@ fn several_components_keep_the_largest_with_a_warning() {
     assert!(both > one, "{both} vs {one}");
 }
 
+/// The help offers as outputs only formats unfold can write (no Gmsh).
+#[test]
+fn help_offers_only_writable_output_formats() {
+    let o = unfold(&["mesh", "--help"]);
+    let help = stdout(&o);
+    let line = help
+        .lines()
+        .find(|l| l.trim_start().starts_with("-o, --output"))
+        .expect("an --output line");
+    assert!(line.contains(".vtu") && !line.contains(".msh"), "{line}");
+}
+
 #[test]
 fn bad_masks_and_flags_are_one_line_errors() {
     let dir = tempfile::tempdir().unwrap();

@@ -154,7 +154,7 @@ pub struct MeshArgs {
     /// The segmentation: a 3D NIfTI image (.nii, .nii.gz), 0 outside and 1
     /// inside (or any values with --threshold).
     mask: PathBuf,
-    /// Output tet mesh (.vtu .vtk .mesh .msh).
+    /// Output tet mesh (.vtu .vtk .mesh; formats unfold can write).
     #[arg(short, long, value_name = "MESH")]
     output: PathBuf,
     #[command(flatten)]
