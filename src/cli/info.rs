@@ -144,7 +144,12 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
         valid: true,
         problems: Vec::new(),
     };
-    let opts = ValidationOptions::default();
+    // Several components are information (`components`), not a defect: a
+    // valve's two leaflets or a heart's chambers are one valid file.
+    let opts = ValidationOptions {
+        require_single_component: false,
+        ..ValidationOptions::default()
+    };
     let problems = match mesh_type {
         "tetrahedral" => match mesh.to_tet_mesh() {
             Ok(t) => {
