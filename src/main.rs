@@ -38,7 +38,8 @@ fn main() -> ExitCode {
             | ErrorKind::DisplayVersion
             | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
             _ => {
-                eprintln!("unfold: error: {}", one_line_usage_error(&e));
+                let msg = one_line_usage_error(&e);
+                eprintln!("unfold: error: {}", cli::printable(&msg));
                 return ExitCode::from(2);
             }
         },
@@ -47,8 +48,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line on stderr, so scripts and users see exactly what failed.
-            let msg = e.to_string().replace('\n', " ");
-            eprintln!("unfold: error: {msg}");
+            let msg = e.to_string();
+            eprintln!("unfold: error: {}", cli::printable(&msg));
             ExitCode::FAILURE
         }
     }

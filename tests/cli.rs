@@ -135,6 +135,44 @@ fn convert_converts_nifti_images_keeping_type_and_header() {
     assert!(!dir.path().join("x.vtu").exists() && !dir.path().join("x.nii").exists());
 }
 
+/// Control bytes in a file's array names and in file names never reach
+/// the terminal raw: a file cannot retitle, recolour or ring it.
+#[test]
+fn control_bytes_from_files_are_escaped_on_the_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    let evil = "bad\x1b]0;pwned\x07\x1b[31mname\u{9b}2J";
+    let text = format!(
+        "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n\
+         0 0 0\n1 0 0\n0 1 0\nPOLYGONS 1 4\n3 0 1 2\nPOINT_DATA 3\n\
+         SCALARS {evil} double 1\nLOOKUP_TABLE default\n1 2 3\n"
+    );
+    let p = dir.path().join("evil.vtk");
+    std::fs::write(&p, text).unwrap();
+    let raw = |b: &[u8]| {
+        b.iter().any(|&c| c == 0x1b || c == 0x07) || String::from_utf8_lossy(b).contains('\u{9b}')
+    };
+    let o = unfold(&["info", &s(&p)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!raw(&o.stdout), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("bad\\u{1b}]0;pwned\\u{7}"),
+        "{}",
+        stdout(&o)
+    );
+    // JSON escapes them, and the name reads back intact.
+    let o = unfold(&["info", &s(&p), "--json"]);
+    assert!(!raw(&o.stdout), "{}", stdout(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["point_arrays"][0]["name"], evil);
+    // An error naming a hostile file name.
+    let q = dir.path().join("x\x1b[2Jy\x07.xyz");
+    std::fs::write(&q, "1 2 3").unwrap();
+    let o = unfold(&["info", &s(&q)]);
+    assert!(!o.status.success());
+    assert!(!raw(&o.stderr), "{}", stderr(&o));
+    assert_one_line_error(&o, "x\\u{1b}[2Jy\\u{7}.xyz");
+}
+
 #[test]
 fn convert_refuses_to_overwrite_its_input() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,7 +1,7 @@
 //! `unfold info FILE [--json]`: what a mesh or image contains, and whether
 //! it is valid.
 
-use super::CliError;
+use super::{CliError, printable};
 use clap::Args;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -210,7 +210,7 @@ pub fn image_info(path: &Path, img: &NiftiImage) -> ImageInfo {
 }
 
 fn print_mesh(i: &MeshInfo) {
-    println!("{}: {} mesh", i.file, i.mesh_type);
+    println!("{}: {} mesh", printable(&i.file), i.mesh_type);
     println!("  points: {}", i.points);
     let types: Vec<String> = i
         .cell_types
@@ -240,7 +240,9 @@ fn print_mesh(i: &MeshInfo) {
             };
             println!(
                 "  {what} array '{}': {} x {}{range}",
-                a.name, a.components, a.value_type
+                printable(&a.name),
+                a.components,
+                a.value_type
             );
         }
     }
@@ -267,13 +269,18 @@ fn print_mesh(i: &MeshInfo) {
     } else {
         println!("  valid: no");
         for p in &i.problems {
-            println!("  problem {} (x{}): {}", p.kind, p.count, p.first);
+            println!(
+                "  problem {} (x{}): {}",
+                p.kind,
+                p.count,
+                printable(&p.first)
+            );
         }
     }
 }
 
 fn print_image(i: &ImageInfo) {
-    println!("{}: image", i.file);
+    println!("{}: image", printable(&i.file));
     println!("  dims: {:?}", i.dims);
     println!(
         "  spacing: {:.6} x {:.6} x {:.6} mm",
@@ -294,7 +301,23 @@ fn print_image(i: &ImageInfo) {
 
 fn to_json<T: Serialize>(v: &T) -> String {
     // Serializing plain structs of numbers and strings cannot fail.
-    serde_json::to_string_pretty(v).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    let text =
+        serde_json::to_string_pretty(v).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    // serde_json escapes C0 controls; DEL and C1 (U+007F..U+009F, e.g. the
+    // 8-bit CSI) can only occur inside strings, where `\u00XX` is the same
+    // character: escape them too, so the output is safe on a terminal.
+    if !text.chars().any(|c| ('\u{7f}'..='\u{9f}').contains(&c)) {
+        return text;
+    }
+    text.chars()
+        .map(|c| {
+            if ('\u{7f}'..='\u{9f}').contains(&c) {
+                format!("\\u{:04x}", c as u32)
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// The report of `path` as JSON (used by `demo` as well).

@@ -111,6 +111,25 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     }
 }
 
+/// `text` safe to print on a terminal: control characters (C0, DEL, C1:
+/// ESC, BEL, OSC, ... as found in hostile files' names and tokens) shown as
+/// `\u{1b}` escapes, so a file cannot retitle, recolour or ring the
+/// terminal; newlines become spaces (messages are one line).
+pub(crate) fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        match c {
+            '\n' | '\r' => out.push(' '),
+            c if c.is_control() => out.push_str(&c.escape_unicode().to_string()),
+            c => out.push(c),
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// Creates `dir` (and parents) if needed.
 pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
     std::fs::create_dir_all(dir).map_err(|source| CliError::Fs {
