@@ -158,6 +158,42 @@ pub trait DistortionEnergy: Send + Sync + Debug {
     fn is_barrier(&self) -> bool;
 }
 
+/// A boxed energy is an energy (every method forwarded, so an energy's own
+/// closed forms are kept): pipelines take `Box<dyn DistortionEnergy>`
+/// chosen at run time, e.g. from [`energy_by_name`].
+impl<E: DistortionEnergy + ?Sized> DistortionEnergy for Box<E> {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn value(&self, s: &[f64]) -> f64 {
+        (**self).value(s)
+    }
+    fn gradient(&self, s: &[f64], out: &mut [f64]) {
+        (**self).gradient(s, out)
+    }
+    fn hessian(&self, s: &[f64], out: &mut [f64]) {
+        (**self).hessian(s, out)
+    }
+    fn flip_eigenvalue(&self, s: &[f64], i: usize, j: usize) -> f64 {
+        (**self).flip_eigenvalue(s, i, j)
+    }
+    fn twist_eigenvalue(&self, s: &[f64], i: usize, j: usize) -> f64 {
+        (**self).twist_eigenvalue(s, i, j)
+    }
+    fn pair_eigenvalues(&self, s: &[f64], twist: &mut [f64], flip: &mut [f64]) {
+        (**self).pair_eigenvalues(s, twist, flip)
+    }
+    fn closed_form2(&self, f: &Matrix2<f64>, grad: Option<&mut Matrix2<f64>>) -> Option<f64> {
+        (**self).closed_form2(f, grad)
+    }
+    fn minimum(&self, dim: usize) -> f64 {
+        (**self).minimum(dim)
+    }
+    fn is_barrier(&self) -> bool {
+        (**self).is_barrier()
+    }
+}
+
 /// `s_i + s_j`, floored at `max(1e-12 (|s_i| + |s_j|), f64::MIN_POSITIVE)`
 /// (see [`DistortionEnergy::twist_eigenvalue`]).
 #[inline]
@@ -188,6 +224,39 @@ mod tests {
     use super::test_support::*;
     use super::*;
     use nalgebra::Matrix3;
+
+    /// A boxed energy answers every method exactly as the energy itself,
+    /// its closed forms included.
+    #[test]
+    fn a_boxed_energy_forwards_every_method() {
+        let f = nalgebra::Matrix2::new(1.3, 0.2, -0.1, 0.8);
+        for name in ENERGY_NAMES {
+            let e = energy_by_name(name).unwrap();
+            let boxed: Box<Box<dyn DistortionEnergy>> = Box::new(energy_by_name(name).unwrap());
+            let s = [1.7, 0.6];
+            assert_eq!(boxed.name(), e.name());
+            assert_eq!(boxed.value(&s), e.value(&s));
+            let (mut a, mut b) = ([0.0; 4], [0.0; 4]);
+            boxed.gradient(&s, &mut a[..2]);
+            e.gradient(&s, &mut b[..2]);
+            assert_eq!(a, b);
+            boxed.hessian(&s, &mut a);
+            e.hessian(&s, &mut b);
+            assert_eq!(a, b);
+            let (mut t1, mut f1, mut t2, mut f2) = ([0.0], [0.0], [0.0], [0.0]);
+            boxed.pair_eigenvalues(&s, &mut t1, &mut f1);
+            e.pair_eigenvalues(&s, &mut t2, &mut f2);
+            assert_eq!((t1, f1), (t2, f2));
+            assert_eq!(boxed.flip_eigenvalue(&s, 0, 1), e.flip_eigenvalue(&s, 0, 1));
+            assert_eq!(
+                boxed.twist_eigenvalue(&s, 0, 1),
+                e.twist_eigenvalue(&s, 0, 1)
+            );
+            assert_eq!(boxed.closed_form2(&f, None), e.closed_form2(&f, None));
+            assert_eq!(boxed.minimum(3), e.minimum(3));
+            assert_eq!(boxed.is_barrier(), e.is_barrier());
+        }
+    }
 
     #[test]
     fn energy_pair_eigenvalues_match_their_definitions() {
