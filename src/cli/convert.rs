@@ -139,7 +139,7 @@ fn convert_image(a: &ConvertArgs) -> Result<(), CliError> {
     let image = read_image(&a.input)?;
     let datatype = kept_datatype(&image);
     let dims = image.volume.dims();
-    write_image(&a.output, &image.clone().with_datatype(datatype))?;
+    write_image(&a.output, &image.with_datatype(datatype))?;
     println!(
         "{} -> {}: {} x {} x {} voxels, {} frame{}, {}",
         a.input.display(),

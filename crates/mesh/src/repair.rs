@@ -12,6 +12,7 @@ use crate::{
 };
 use nalgebra::Point3;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::collections::{HashSet, VecDeque};
 use std::fmt;
 
@@ -272,28 +273,29 @@ pub fn repair_tri_mesh(mesh: &TriMesh) -> Result<(TriMesh, RepairReport), MeshEr
 }
 
 /// A mesh's vertices after welding, with its elements renumbered.
-struct WeldedMesh<const K: usize> {
-    positions: Vec<Point3<f64>>,
-    point_data: Fields,
-    elements: Vec<[u32; K]>,
+struct WeldedMesh<'a, const K: usize> {
+    positions: Cow<'a, [Point3<f64>]>,
+    point_data: Cow<'a, Fields>,
+    elements: Cow<'a, [[u32; K]]>,
     /// Vertices merged away.
     merged: usize,
 }
 
 /// The vertices of `positions` welded as `weld` says: each welded vertex
-/// takes the position and point data of the lowest of its copies.
-fn welded<const K: usize>(
-    positions: &[Point3<f64>],
-    point_data: &Fields,
-    elements: &[[u32; K]],
+/// takes the position and point data of the lowest of its copies. Without
+/// welding the input is borrowed, not copied.
+fn welded<'a, const K: usize>(
+    positions: &'a [Point3<f64>],
+    point_data: &'a Fields,
+    elements: &'a [[u32; K]],
     weld: Weld,
-) -> Result<WeldedMesh<K>, MeshError> {
+) -> Result<WeldedMesh<'a, K>, MeshError> {
     let tolerance = match weld {
         Weld::Off => {
             return Ok(WeldedMesh {
-                positions: positions.to_vec(),
-                point_data: point_data.clone(),
-                elements: elements.to_vec(),
+                positions: Cow::Borrowed(positions),
+                point_data: Cow::Borrowed(point_data),
+                elements: Cow::Borrowed(elements),
                 merged: 0,
             });
         }
@@ -302,9 +304,9 @@ fn welded<const K: usize>(
     };
     let w = crate::weld::weld(positions, tolerance)?;
     Ok(WeldedMesh {
-        positions: w.kept.iter().map(|&v| positions[v]).collect(),
-        point_data: point_data.select(&w.kept),
-        elements: w.remap(elements),
+        positions: Cow::Owned(w.kept.iter().map(|&v| positions[v]).collect()),
+        point_data: Cow::Owned(point_data.select(&w.kept)),
+        elements: Cow::Owned(w.remap(elements)),
         merged: w.merged(),
     })
 }
