@@ -164,6 +164,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         progress: true,
         segmentation: None,
         figures: true,
+        displacement: None,
     })?;
     println!("{summary}");
 

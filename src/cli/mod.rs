@@ -7,6 +7,7 @@ mod info;
 mod mesh;
 mod mitral;
 mod placenta;
+mod pushback;
 mod repair;
 mod ventricle;
 
@@ -87,6 +88,9 @@ enum Command {
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
     /// single plane), pulling images into the template frame.
     Placenta(placenta::PlacentaArgs),
+    /// Carry a template-space image (atlas, labels) back onto a subject's scanner grid
+    /// through the inverse of an `unfold placenta` run's map.
+    Pushback(pushback::PushbackArgs),
     /// Carry the anatomy inside a heart chamber into the canonical cylinder: the enclosing
     /// surface flattened to a disk (LV) or half disk (RV), depth along Laplace streamlines,
     /// AHA 17 segments, exact inverse map and transfer to another heart.
@@ -106,6 +110,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Mesh(a) => mesh::run(&a),
         Command::Repair(a) => repair::run(&a),
         Command::Placenta(a) => placenta::run(&a),
+        Command::Pushback(a) => pushback::run(&a),
         Command::Ventricle(a) => ventricle::run(&a),
         Command::Mitral(a) => mitral::run(&a),
     }

@@ -43,12 +43,14 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 use unfold::figures::FigureOptions;
 use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
+use unfold::io::nifti::INTENT_VECTOR;
 use unfold::io::{
     Datatype, NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image,
     write_mesh,
 };
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
+use unfold::organs::placenta::displacement::{VectorFrame, displacement_field};
 use unfold::organs::placenta::images::check_images;
 use unfold::organs::placenta::parcellation::ParcellationConfig;
 use unfold::organs::placenta::segmentation::from_segmentation;
@@ -61,7 +63,7 @@ use unfold::param::Iteration;
 
 /// Image interpolation on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum InterpArg {
+pub(crate) enum InterpArg {
     /// Trilinear (intensities); the default.
     Linear,
     /// The nearest voxel's value (label maps: no blended labels; an integer
@@ -180,6 +182,13 @@ pub struct PlacentaArgs {
     /// maps).
     #[arg(long, value_enum, default_value = "linear")]
     interp: InterpArg,
+    /// Also write the map as a displacement field (.nii or .nii.gz) that
+    /// ITK, ANTs and SimpleITK read: on the template grid (the spacing of
+    /// --spacing-mm, else of the first --image, else --voxel-mm), vectors
+    /// d(p) = z(p) - p in LPS (ITK's frame) so that a template voxel p comes
+    /// from the scanner point p + d(p); 0 outside the placenta.
+    #[arg(long, value_name = "FILE")]
+    displacement: Option<PathBuf>,
     /// Stop when the gradient norm |grad phi|_F falls below this.
     #[arg(
         long,
@@ -260,7 +269,7 @@ impl PlacentaArgs {
 /// The data type of an image pulled back by nearest neighbour: the input's
 /// own when it is an unscaled integer type (every output value is one of
 /// its values), FLOAT32 otherwise.
-fn nearest_datatype(input: &NiftiImage) -> Datatype {
+pub(crate) fn nearest_datatype(input: &NiftiImage) -> Datatype {
     let integer = !matches!(input.datatype, Datatype::Float32 | Datatype::Float64);
     // scl_slope 0 means no scaling (NIfTI-1).
     let unscaled = (input.scl_slope == 0.0 || input.scl_slope == 1.0) && input.scl_inter == 0.0;
@@ -323,6 +332,23 @@ pub(crate) struct PipelineInput<'a> {
     pub segmentation: Option<&'a SegReport>,
     /// Write the figures into `dir/figures/`.
     pub figures: bool,
+    /// Write the map as an ITK displacement field here.
+    pub displacement: Option<&'a Path>,
+}
+
+/// `displacement` in `report.json`: the map as an ITK displacement field.
+#[derive(Debug, Clone, Serialize)]
+struct DisplacementReport {
+    /// The file written.
+    path: String,
+    /// How to read it.
+    convention: &'static str,
+    /// Voxel size of the template grid, mm.
+    spacing_mm: [f64; 3],
+    /// Voxels of the template grid.
+    dims: [usize; 3],
+    /// Voxels inside the flattened mesh (the others are 0).
+    inside_mesh: usize,
 }
 
 /// `segmentation` in `report.json`: how the mesh was made from a mask.
@@ -361,6 +387,8 @@ struct FullReport<'a> {
     mesh: &'a str,
     #[serde(skip_serializing_if = "Option::is_none")]
     segmentation: Option<&'a SegReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    displacement: Option<DisplacementReport>,
     #[serde(flatten)]
     report: &'a Report,
 }
@@ -609,6 +637,39 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         written.push(out_path);
     }
 
+    let displacement = match input.displacement {
+        Some(path) => {
+            progress.set("displacement field");
+            let settings = input.pipeline.settings();
+            let spacing = match (settings.spacing_mm, input.images.first()) {
+                (Some(s), _) => [s; 3],
+                (None, Some(img)) => img.image.volume.spacing(),
+                (None, None) => [settings.parcellation.voxel_mm; 3],
+            };
+            let table = outcome
+                .pullback_table(spacing)
+                .map_err(|e| at(path, format!("cannot build the displacement field: {e}")))?;
+            let field = displacement_field(&table, VectorFrame::Lps)
+                .map_err(|e| at(path, format!("cannot build the displacement field: {e}")))?;
+            let mut img = NiftiImage::new(field);
+            img.intent_code = INTENT_VECTOR;
+            img.intent_name = "ITK displacement".into();
+            img.description = "unfold placenta: template -> scanner, d = z - p (LPS)".into();
+            write_image(path, &img)?;
+            written.push(path.to_path_buf());
+            Some(DisplacementReport {
+                path: path.display().to_string(),
+                convention: "ITK/ANTs displacement field on the template grid: the template \
+                             voxel at p (RAS affine) comes from the scanner point p + d(p); \
+                             components in LPS",
+                spacing_mm: table.grid().spacing,
+                dims: table.grid().dims,
+                inside_mesh: table.len(),
+            })
+        }
+        None => None,
+    };
+
     if input.figures {
         progress.set("figures");
         let images: Vec<FlatImage<'_>> = outcome
@@ -628,6 +689,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     let full = FullReport {
         mesh: label,
         segmentation: input.segmentation,
+        displacement,
         report: &outcome.report,
     };
     let json = serde_json::to_string_pretty(&full)
@@ -715,6 +777,18 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             ));
         }
     };
+    if let Some(d) = &a.displacement {
+        let lower = d
+            .file_name()
+            .map(|n| n.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        if !(lower.ends_with(".nii") || lower.ends_with(".nii.gz")) {
+            return Err(at(
+                d,
+                "--displacement writes a NIfTI image: give a .nii or .nii.gz path",
+            ));
+        }
+    }
     // Never overwrite an input.
     let out_dir = super::canonical(dir);
     let mut outputs: Vec<String> = [ORIGINAL, FLATTENED, REPORT, SEG_MESH]
@@ -722,8 +796,28 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         .map(|s| s.to_string())
         .collect();
     outputs.extend(names.iter().map(|n| flat_name(n)));
+    if let Some(d) = &a.displacement {
+        let c = super::canonical(d);
+        if let Some(o) = outputs.iter().find(|o| out_dir.join(o) == c) {
+            return Err(at(
+                d,
+                format!(
+                    "--displacement would overwrite the output {}",
+                    dir.join(o).display()
+                ),
+            ));
+        }
+    }
     for input in std::iter::once(input).chain(&a.images) {
         let c = super::canonical(input);
+        if let Some(d) = &a.displacement
+            && super::canonical(d) == c
+        {
+            return Err(at(
+                input,
+                "is an input and would be overwritten by --displacement; choose another path",
+            ));
+        }
         if let Some(o) = outputs.iter().find(|o| out_dir.join(o) == c) {
             return Err(at(
                 input,
@@ -798,6 +892,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         progress: true,
         segmentation: seg.as_ref(),
         figures: !a.no_figures,
+        displacement: a.displacement.as_deref(),
     })?;
     println!("{summary}");
     Ok(())

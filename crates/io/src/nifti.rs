@@ -33,7 +33,9 @@
 //!
 //! The data type comes from `datatype` (`bitpix` is not checked). `dim[0]`
 //! must be 1 to 7 and `dim[1..=dim[0]]` at least 1; missing spatial
-//! dimensions are 1, and `dim[5..]` must be 1. Extensions between byte 352
+//! dimensions are 1, and `dim[5..]` must be 1, except for vector images
+//! (intent [`INTENT_VECTOR`] or [`INTENT_DISPVECT`], `dim[4] = 1`): their
+//! components along `dim[5]` become the volume's frames. Extensions between byte 352
 //! and `vox_offset` are skipped; bytes after the data are ignored (`.nii`) or
 //! limited as above (`.nii.gz`). A `vox_offset` of 0 is taken as 352.
 //!
@@ -49,7 +51,9 @@
 //! and no quaternion for sheared affines); `pixdim[0] = qfac = ±1` (the sign
 //! of the affine's determinant), `pixdim[1..=3]` are the affine's column
 //! norms, `dim[0]` is 3, or 4 with `pixdim[4]` = [`NiftiImage::time_step`]
-//! when there are several frames, and `xyzt_units` is millimetres (plus
+//! when there are several frames (5 with `dim[4] = 1` and the frames as
+//! `dim[5]` components for vector intents, as ITK writes displacement
+//! fields), and `xyzt_units` is millimetres (plus
 //! seconds, or the temporal unit read, for 4D).
 
 use crate::{IoError, Location};
@@ -68,6 +72,19 @@ const WRITE_VOX_OFFSET: usize = 352;
 pub const MAX_GZ_TRAILING: u64 = 1 << 16;
 /// Largest expansion of a deflate stream (the format's limit is about 1032:1).
 const GZ_MAX_RATIO: u64 = 1100;
+
+/// `intent_code` of a vector-valued image (NIFTI_INTENT_VECTOR): the
+/// components are stored along `dim[5]`. ITK reads and writes displacement
+/// fields with this intent.
+pub const INTENT_VECTOR: i16 = 1007;
+/// `intent_code` of a displacement vector field (NIFTI_INTENT_DISPVECT);
+/// stored like [`INTENT_VECTOR`].
+pub const INTENT_DISPVECT: i16 = 1006;
+
+/// Whether `intent_code` stores vector components along `dim[5]`.
+pub fn is_vector_intent(intent_code: i16) -> bool {
+    intent_code == INTENT_VECTOR || intent_code == INTENT_DISPVECT
+}
 
 /// Spatial unit code for millimetres (`xyzt_units & 0x07`).
 pub const UNITS_MM: u8 = 2;
@@ -465,15 +482,18 @@ fn parse_header(h: &[u8]) -> Result<Header, IoError> {
             ));
         }
     }
+    let dn = |i: usize| if i <= ndim { dim[i] as usize } else { 1 };
+    // Vector images keep their components along dim[5] (dim[4] = 1).
+    let vector = is_vector_intent(f.i16(68)) && ndim >= 5 && dn(4) == 1;
     for (i, &d) in dim.iter().enumerate().take(ndim + 1).skip(5) {
-        if d != 1 {
+        if d != 1 && !(vector && i == 5) {
             return Err(IoError::unsupported(format!(
-                "images of more than 4 dimensions are not supported (dim[{i}] = {d})"
+                "images of more than 4 dimensions are not supported (dim[{i}] = {d}); \
+                 5D images are read only as vector images (intent_code 1006 or 1007, dim[4] = 1)"
             )));
         }
     }
-    let dn = |i: usize| if i <= ndim { dim[i] as usize } else { 1 };
-    let dims = [dn(1), dn(2), dn(3), dn(4)];
+    let dims = [dn(1), dn(2), dn(3), if vector { dn(5) } else { dn(4) }];
 
     // Data type.
     let code = f.i16(70);
@@ -801,18 +821,25 @@ fn header_bytes(img: &NiftiImage) -> Result<Vec<u8>, IoError> {
     let mut o = Out(vec![0u8; WRITE_VOX_OFFSET]);
     o.i32(0, HEADER_LEN as i32);
     o.0[38] = b'r'; // regular
-    let ndim: i16 = if dims[3] > 1 { 4 } else { 3 };
+    // Vector images: components along dim[5], dim[4] = 1.
+    let vector = is_vector_intent(img.intent_code) && dims[3] > 1;
+    let ndim: i16 = match (vector, dims[3] > 1) {
+        (true, _) => 5,
+        (false, true) => 4,
+        (false, false) => 3,
+    };
     o.i16(40, ndim);
+    for i in 4..8 {
+        o.i16(40 + 2 * i, 1);
+    }
     for (i, &d) in dims.iter().enumerate() {
         let d = i16::try_from(d).map_err(|_| {
             IoError::unsupported(format!(
                 "dimension {d} does not fit NIfTI-1 (at most 32767 voxels per axis)"
             ))
         })?;
-        o.i16(42 + 2 * i, d);
-    }
-    for i in 5..8 {
-        o.i16(40 + 2 * i, 1);
+        let slot = if vector && i == 3 { 4 } else { i };
+        o.i16(42 + 2 * slot, d);
     }
     for (i, &p) in img.intent_params.iter().enumerate() {
         o.f32(56 + 4 * i, p);
@@ -1392,6 +1419,28 @@ mod tests {
         let b3 = write(&test_image([2, 2, 2, 1], a), false).unwrap();
         assert_eq!(b3[123], UNITS_MM);
         assert_eq!(i16::from_le_bytes([b3[40], b3[41]]), 3);
+    }
+
+    #[test]
+    fn vector_images_keep_their_components_on_dim5() {
+        let a = Matrix4::new_scaling(2.0);
+        let mut img = test_image([2, 3, 4, 3], a);
+        img.intent_code = INTENT_VECTOR;
+        let b = write(&img, false).unwrap();
+        let dim = |i: usize| i16::from_le_bytes([b[40 + 2 * i], b[41 + 2 * i]]);
+        assert_eq!(
+            (0..8).map(dim).collect::<Vec<_>>(),
+            [5, 2, 3, 4, 1, 3, 1, 1]
+        );
+        assert_eq!(b[123], UNITS_MM);
+        let back = read(&b).unwrap();
+        assert_eq!(back.intent_code, INTENT_VECTOR);
+        assert_eq!(back.volume, img.volume);
+        // A 5D image of another intent is refused, saying which are read.
+        let mut other = b.clone();
+        other[68..70].copy_from_slice(&0i16.to_le_bytes());
+        let e = read(&other).unwrap_err().to_string();
+        assert!(e.contains("dim[5] = 3") && e.contains("1007"), "{e}");
     }
 
     #[test]

@@ -234,6 +234,20 @@ pub enum PullbackError {
         /// The largest grid accepted, voxels.
         limit: usize,
     },
+    /// The reference (scanner) grid of the way back has no voxel or too many.
+    #[error(
+        "the reference image grid must have between 1 and {limit} voxels, got dims {dims:?}; \
+         resample the reference image coarser"
+    )]
+    ReferenceGridSize {
+        /// Voxels along i, j and k.
+        dims: [usize; 3],
+        /// The largest grid accepted, voxels.
+        limit: usize,
+    },
+    /// The reference (scanner) grid's affine has a non-finite entry.
+    #[error("the reference image's voxel-to-world affine is not finite")]
+    ReferenceAffine,
     /// A point is not finite.
     #[error("{what} {index} is not finite: ({}, {}, {})", .point[0], .point[1], .point[2])]
     NotFinite {

@@ -22,10 +22,12 @@
 //! 4. [`optimize::optimize`]: one stage per template (the single plane
 //!    starts from the planes result);
 //! 5. [`evaluate::evaluate`]: the figures of ALGORITHMS 2.6;
-//! 6. [`images`]: images into the template grid ([`pullback`]).
+//! 6. [`images`]: images into the template grid ([`pullback`]); and back:
+//!    [`pushback`] carries template-space images onto a scanner grid.
 
 pub mod align;
 pub mod config;
+pub mod displacement;
 pub mod error;
 pub mod estimate;
 pub mod evaluate;
@@ -35,6 +37,7 @@ pub mod parcellation;
 mod pipeline;
 pub mod prepare;
 pub mod pullback;
+pub mod pushback;
 pub mod report;
 pub mod segmentation;
 pub mod templates;

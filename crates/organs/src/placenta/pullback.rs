@@ -181,13 +181,60 @@ impl TemplateGrid {
     }
 }
 
-/// The voxel -> source-point table: for every voxel of a [`TemplateGrid`]
-/// whose centre lies inside the flattened mesh, its linear index (x fastest)
-/// and the source point in the original (scanner) frame. Built once, applied
-/// to every image and every frame.
+/// A grid of voxel centres that a [`PullbackTable`] samples: the
+/// axis-aligned [`TemplateGrid`] for a pull-back into the template, a
+/// scanner image's own grid ([`super::pushback::ScannerGrid`]) for the way
+/// back. Linear indices run x fastest, `i + nx (j + ny k)`.
+pub trait VoxelGrid: Copy + Send + Sync {
+    /// Number of voxels along each axis.
+    fn dims(&self) -> [usize; 3];
+    /// World coordinates (mm) of the centre of voxel `(i, j, k)`.
+    fn centre(&self, i: usize, j: usize, k: usize) -> Point3<f64>;
+    /// The voxel-to-world affine of the output volume.
+    fn affine(&self) -> Matrix4<f64>;
+    /// Checks the grid (finite, no zero dimension, at most [`MAX_VOXELS`]).
+    ///
+    /// # Errors
+    /// The [`PullbackError`] of the first check that fails.
+    fn validate(&self) -> Result<(), PullbackError>;
+    /// Number of voxels, `nx ny nz` (saturating).
+    fn num_voxels(&self) -> usize {
+        self.dims()
+            .iter()
+            .fold(1usize, |acc, &d| acc.saturating_mul(d))
+    }
+}
+
+impl VoxelGrid for TemplateGrid {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    fn centre(&self, i: usize, j: usize, k: usize) -> Point3<f64> {
+        TemplateGrid::centre(self, i, j, k)
+    }
+
+    fn affine(&self) -> Matrix4<f64> {
+        TemplateGrid::affine(self)
+    }
+
+    fn validate(&self) -> Result<(), PullbackError> {
+        TemplateGrid::validate(self)
+    }
+}
+
+/// The voxel -> source-point table: for every voxel of a grid (by default a
+/// [`TemplateGrid`]) whose centre lies inside the flattened mesh, its linear
+/// index (x fastest) and the source point in the original (scanner) frame.
+/// Built once, applied to every image and every frame.
+///
+/// The roles of the two meshes are symmetric: built on a scanner grid with
+/// the original mesh as `mapped` and the flattened positions as `source`,
+/// the same table carries template-space images back to the scanner
+/// ([`super::pushback`]).
 #[derive(Debug, Clone)]
-pub struct PullbackTable {
-    grid: TemplateGrid,
+pub struct PullbackTable<G: VoxelGrid = TemplateGrid> {
+    grid: G,
     /// Linear voxel indices, strictly increasing.
     voxels: Vec<u32>,
     /// Source points (scanner frame), one per entry of `voxels`.
@@ -196,7 +243,7 @@ pub struct PullbackTable {
     source_box: ([f64; 3], [f64; 3]),
 }
 
-impl PullbackTable {
+impl<G: VoxelGrid> PullbackTable<G> {
     /// Builds the table.
     ///
     /// `mapped` are the flattened positions `X` (template frame), `tets` the
@@ -222,7 +269,7 @@ impl PullbackTable {
     /// [`PullbackError::NotFinite`], [`PullbackError::VertexOutOfRange`] or
     /// [`PullbackError::AllTetsFlat`] for a mesh that cannot be used.
     pub fn new(
-        grid: TemplateGrid,
+        grid: G,
         mapped: &[Point3<f64>],
         tets: &[[u32; 4]],
         source: &[Point3<f64>],
@@ -259,7 +306,7 @@ impl PullbackTable {
             return Err(PullbackError::AllTetsFlat { tets: tets.len() });
         }
 
-        let [nx, ny, nz] = grid.dims;
+        let [nx, ny, nz] = grid.dims();
         let rows: Vec<(Vec<u32>, Vec<Point3<f64>>)> = (0..ny * nz)
             .into_par_iter()
             .map(|row| {
@@ -296,8 +343,8 @@ impl PullbackTable {
         })
     }
 
-    /// The template grid the table was built on.
-    pub fn grid(&self) -> &TemplateGrid {
+    /// The grid the table was built on.
+    pub fn grid(&self) -> &G {
         &self.grid
     }
 
@@ -408,7 +455,7 @@ impl PullbackTable {
                 }
             }
         }
-        let [nx, ny, nz] = self.grid.dims;
+        let [nx, ny, nz] = self.grid.dims();
         let volume = Volume::new([nx, ny, nz, frames], self.grid.affine(), data)
             .map_err(PullbackError::Output)?;
         let stats = PullbackStats {
