@@ -562,7 +562,15 @@ impl<'a> Doc<'a> {
 
     /// The data of an array stored raw at the start of `b` (`at`: its file
     /// offset, for messages).
-    fn raw_block<'b>(&self, b: &'b [u8], at: usize) -> Result<Cow<'b, [u8]>, IoError> {
+    /// `limit`: the most bytes the array can hold (its values times the
+    /// type size); compressed data announcing more is refused before it is
+    /// inflated.
+    fn raw_block<'b>(
+        &self,
+        b: &'b [u8],
+        at: usize,
+        limit: usize,
+    ) -> Result<Cow<'b, [u8]>, IoError> {
         let bad = |m: &str| IoError::malformed(Location::Byte(at as u64), m.to_string());
         let hs = self.hs();
         if !self.zlib()? {
@@ -583,15 +591,15 @@ impl<'a> Doc<'a> {
             let payload = total
                 .and_then(|t| b.get(h..)?.get(..t))
                 .ok_or_else(|| bad("the data ends inside a compressed array"))?;
-            inflate(payload, &sizes, bs, last)
+            inflate(payload, &sizes, bs, last, limit)
                 .map(Cow::Owned)
                 .map_err(|m| bad(&m))
         }
     }
 
     /// The data of an array stored as base64 at the start of `text` (no
-    /// white space inside).
-    fn b64_block(&self, text: &[u8], at: usize) -> Result<Vec<u8>, IoError> {
+    /// white space inside); `limit` as in [`Doc::raw_block`].
+    fn b64_block(&self, text: &[u8], at: usize, limit: usize) -> Result<Vec<u8>, IoError> {
         let bad = |m: &str| IoError::malformed(Location::Byte(at as u64), m.to_string());
         let short = || bad("the base64 data ends early");
         let decode = |t: &[u8]| {
@@ -650,12 +658,14 @@ impl<'a> Doc<'a> {
                 all
             };
             let payload = payload.get(..total).ok_or_else(short)?;
-            inflate(payload, &sizes, bs, last).map_err(|m| bad(&m))
+            inflate(payload, &sizes, bs, last, limit).map_err(|m| bad(&m))
         }
     }
 
-    /// The values of an array.
-    fn values(&self, a: &ArrayDesc<'_>) -> Result<FieldValues, IoError> {
+    /// The values of an array that holds at most `max_values` values (the
+    /// bound that keeps a compressed array from inflating beyond what the
+    /// mesh can use).
+    fn values(&self, a: &ArrayDesc<'_>, max_values: usize) -> Result<FieldValues, IoError> {
         let ty = Scalar::from_xml(&a.ty).ok_or_else(|| {
             IoError::unsupported(format!(
                 "line {}: {} has type '{}', which is not supported (expected Int8..Int64, \
@@ -665,6 +675,7 @@ impl<'a> Doc<'a> {
                 a.ty
             ))
         })?;
+        let limit = max_values.saturating_mul(ty.size());
         let (bytes, at) = match a.format {
             Format::Ascii => {
                 let mut out = empty_values(ty, a.text.len() / 2 + 1);
@@ -686,7 +697,7 @@ impl<'a> Doc<'a> {
                 return Ok(out);
             }
             Format::Binary => (
-                Cow::Owned(self.b64_block(&compact(&a.text), a.text_pos)?),
+                Cow::Owned(self.b64_block(&compact(&a.text), a.text_pos, limit)?),
                 a.text_pos,
             ),
             Format::Appended(off) => {
@@ -707,9 +718,9 @@ impl<'a> Doc<'a> {
                     )
                 })?;
                 if raw {
-                    (self.raw_block(rest, at)?, at)
+                    (self.raw_block(rest, at, limit)?, at)
                 } else {
-                    (Cow::Owned(self.b64_block(rest, at)?), at)
+                    (Cow::Owned(self.b64_block(rest, at, limit)?), at)
                 }
             }
         };
@@ -720,8 +731,9 @@ impl<'a> Doc<'a> {
 
     /// The values of an array that must hold `tuples` tuples.
     fn tuples(&self, a: &ArrayDesc<'_>, tuples: usize) -> Result<FieldValues, IoError> {
-        let v = self.values(a)?;
-        if Some(v.len()) != tuples.checked_mul(a.ncomp) {
+        let expected = tuples.checked_mul(a.ncomp);
+        let v = self.values(a, expected.unwrap_or(usize::MAX))?;
+        if Some(v.len()) != expected {
             return Err(IoError::malformed(
                 Location::Line(line_of(self.head, a.pos)),
                 format!(
@@ -783,11 +795,13 @@ impl<'a> Doc<'a> {
                 ));
             }
         };
-        let cpos = conn.pos;
-        let conn = into_indices(self.values(conn)?)
-            .map_err(|m| self.err(cpos, format!("connectivity: {m}")))?;
-        let ends = into_i64(self.values(offs)?)
+        // The offsets first: their last value bounds the connectivity.
+        let ends = into_i64(self.values(offs, n.saturating_add(1))?)
             .ok_or_else(|| self.err(offs.pos, "offsets must be integers".into()))?;
+        let most = ends.last().map_or(0, |&e| usize::try_from(e).unwrap_or(0));
+        let cpos = conn.pos;
+        let conn = into_indices(self.values(conn, most)?)
+            .map_err(|m| self.err(cpos, format!("connectivity: {m}")))?;
         let offsets = if ends.len() == n {
             checked_offsets(std::iter::once(0).chain(ends), conn.len())
         } else if Some(ends.len()) == n.checked_add(1) && ends.first() == Some(&0) {
@@ -819,8 +833,17 @@ impl<'a> Doc<'a> {
 }
 
 /// Inflates zlib blocks of `sizes` compressed bytes each (`bs` bytes each
-/// uncompressed; the last `last` bytes, or `bs` when 0).
-fn inflate(payload: &[u8], sizes: &[usize], bs: usize, last: usize) -> Result<Vec<u8>, String> {
+/// uncompressed; the last `last` bytes, or `bs` when 0). The uncompressed
+/// total the header announces must be at most `limit` bytes (what the
+/// array can hold): checked before anything is inflated, so a small file
+/// cannot announce gigabytes (a compression bomb).
+fn inflate(
+    payload: &[u8],
+    sizes: &[usize],
+    bs: usize,
+    last: usize,
+    limit: usize,
+) -> Result<Vec<u8>, String> {
     let nb = sizes.len();
     let mut expected = Vec::with_capacity(nb);
     for (i, &c) in sizes.iter().enumerate() {
@@ -833,9 +856,15 @@ fn inflate(payload: &[u8], sizes: &[usize], bs: usize, last: usize) -> Result<Ve
         }
         expected.push(e);
     }
+    let total = expected.iter().fold(0usize, |s, &e| s.saturating_add(e));
+    if total > limit {
+        return Err(format!(
+            "the compressed array announces {total} bytes, more than the {limit} bytes its \
+             values can take"
+        ));
+    }
     // Grown block by block, so a corrupt block fails before the memory its
     // successors announce is allocated.
-    let total = expected.iter().fold(0usize, |s, &e| s.saturating_add(e));
     let mut out = Vec::with_capacity(total.min(payload.len().saturating_mul(4) + 4096));
     let mut d = Decompress::new(true);
     let (mut i_in, mut i_out) = (0usize, 0usize);
@@ -1756,6 +1785,39 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A compression bomb: 27 points whose zlib header announces 16 blocks
+    /// of 256 MiB (each compressed block large enough for deflate's ratio)
+    /// is refused before anything is inflated or allocated.
+    #[test]
+    fn compressed_arrays_cannot_announce_more_than_they_hold() {
+        let (blocks, bs, c) = (16u64, 256u64 << 20, 270_000u64);
+        let mut header = Vec::new();
+        for w in [blocks, bs, 0]
+            .into_iter()
+            .chain(std::iter::repeat_n(c, 16))
+        {
+            header.extend_from_slice(&w.to_le_bytes());
+        }
+        let mut b = format!(
+            r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="27" NumberOfCells="0">
+<Points><DataArray type="Float32" NumberOfComponents="3" format="appended" offset="0"/></Points>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+ _"#
+        )
+        .into_bytes();
+        b.extend_from_slice(&header);
+        b.resize(b.len() + (blocks * c) as usize, 0x78);
+        b.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
+        let e = read(&b).unwrap_err().to_string();
+        assert!(
+            e.contains("announces 4294967296 bytes, more than the 324 bytes"),
+            "{e}"
+        );
     }
 
     #[test]
