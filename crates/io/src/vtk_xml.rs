@@ -1800,16 +1800,15 @@ mod tests {
         {
             header.extend_from_slice(&w.to_le_bytes());
         }
-        let mut b = format!(
-            r#"<?xml version="1.0"?>
+        let mut b = r#"<?xml version="1.0"?>
 <VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
 <UnstructuredGrid><Piece NumberOfPoints="27" NumberOfCells="0">
 <Points><DataArray type="Float32" NumberOfComponents="3" format="appended" offset="0"/></Points>
 </Piece></UnstructuredGrid>
 <AppendedData encoding="raw">
  _"#
-        )
-        .into_bytes();
+            .as_bytes()
+            .to_vec();
         b.extend_from_slice(&header);
         b.resize(b.len() + (blocks * c) as usize, 0x78);
         b.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
