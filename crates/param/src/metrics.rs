@@ -395,6 +395,30 @@ pub fn inverted_count(mesh: &ParamMesh, x: &[f64]) -> usize {
     det_j(mesh, x).iter().filter(|&&d| d <= 0.0).count()
 }
 
+/// Folded interior faces (tets) or edges (triangles in the plane) of the
+/// map `x`: the two elements sharing the face or edge lie on the same side
+/// of it ([`unfold_mesh::geometry::folded_faces`],
+/// [`unfold_mesh::geometry::folded_edges`]). With [`inverted_count`] 0 as
+/// well, the map is locally injective; a map can fold with every element
+/// positive only if its boundary overlaps.
+pub fn folded_count(mesh: &ParamMesh, x: &[f64]) -> usize {
+    check_x(mesh, x);
+    match &mesh.elements {
+        RestElements::Tets { tets, .. } => {
+            let mapped = x
+                .chunks_exact(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect();
+            unfold_mesh::geometry::folded_faces(&unfold_mesh::TetMesh::new(mapped, tets.clone()))
+                .len()
+        }
+        RestElements::Tris { tris, .. } => {
+            let uv: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+            unfold_mesh::geometry::folded_edges(&uv, tris).len()
+        }
+    }
+}
+
 /// `min_k det J_k` (ALGORITHMS 2.6); positive for a valid map.
 pub fn min_det_j(mesh: &ParamMesh, x: &[f64]) -> f64 {
     det_j(mesh, x).into_iter().fold(f64::INFINITY, f64::min)

@@ -12,9 +12,12 @@
 //!   [`orient2d_exact`];
 //! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
-//! - `aabb`: [`Aabb`], [`bounding_box`].
+//! - `aabb`: [`Aabb`], [`bounding_box`];
+//! - `folds`: [`folded_faces`], [`folded_edges`] (local overlaps that
+//!   orientation does not show).
 
 mod aabb;
+mod folds;
 mod hull;
 mod measures;
 mod pca;
@@ -24,6 +27,7 @@ mod strategies;
 mod validation;
 
 pub use aabb::{Aabb, bounding_box};
+pub use folds::{FoldedEdge, FoldedFace, folded_edges, folded_faces};
 pub use hull::convex_hull_vertices;
 pub use measures::{
     area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,

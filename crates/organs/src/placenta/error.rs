@@ -25,6 +25,25 @@ pub enum PlacentaError {
          volume mesh"
     )]
     NoTetrahedra,
+    /// The mesh overlaps itself: interior faces whose two tets lie on the
+    /// same side (a folded or tangled mesh). Re-orienting its tets would not
+    /// make it a valid domain, so it is refused rather than mapped.
+    #[error(
+        "the mesh is tangled: {folded} interior face(s) are folded (both tets of the face lie on \
+         the same side of it), the first between tets {} and {} at ({:.2}, {:.2}, {:.2}) mm \
+         (vertices {:?}); untangle or remesh it",
+        .tets[0], .tets[1], .position[0], .position[1], .position[2], .face
+    )]
+    Tangled {
+        /// Folded interior faces.
+        folded: usize,
+        /// The first folded face's vertices.
+        face: [u32; 3],
+        /// The two tets of that face.
+        tets: [usize; 2],
+        /// Its centroid, mm.
+        position: [f64; 3],
+    },
     /// The mesh encloses no volume (flat, or empty).
     #[error("the mesh has no volume")]
     NoVolume {

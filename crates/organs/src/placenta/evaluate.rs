@@ -3,8 +3,8 @@
 use super::parcellation::Parcellation;
 use unfold_mesh::nalgebra::Point3;
 use unfold_param::metrics::{
-    dirichlet_excess_percent, inverted_count, log2_area_ratio, log2_det_j, log2_edge_ratio,
-    min_det_j, symmetric_dirichlet, template_matching_error,
+    dirichlet_excess_percent, folded_count, inverted_count, log2_area_ratio, log2_det_j,
+    log2_edge_ratio, min_det_j, symmetric_dirichlet, template_matching_error,
 };
 use unfold_param::{ParamMesh, Template};
 
@@ -19,6 +19,9 @@ pub struct Evaluation {
     pub min_det_j: f64,
     /// Tets with `det J <= 0`.
     pub inverted_tets: usize,
+    /// Interior faces whose two tets lie on the same side of the face in
+    /// the map (an overlap that orientation alone does not show).
+    pub folded_faces: usize,
     /// Per tet `log2 det J`.
     pub log2_det_j: Vec<f64>,
     /// Per tet `D(J)` (symmetric Dirichlet).
@@ -61,6 +64,7 @@ pub fn evaluate(
         dirichlet_excess_percent: dirichlet_excess_percent(mesh, x),
         min_det_j: min_det_j(mesh, x),
         inverted_tets: inverted_count(mesh, x),
+        folded_faces: folded_count(mesh, x),
         log2_det_j: log2_det_j(mesh, x),
         sym_dirichlet: symmetric_dirichlet(mesh, x),
         log2_edge_ratio: log2_edge_ratio(mesh, x),

@@ -345,6 +345,7 @@ impl Pipeline {
             dirichlet_excess_percent: eval.dirichlet_excess_percent,
             min_det_j: eval.min_det_j,
             inverted_tets: eval.inverted_tets,
+            folded_faces: eval.folded_faces,
             theta: named(&names, &opt.theta),
             theta_initial: named(&names, &opt.theta_initial),
             estimates,

@@ -17,17 +17,32 @@ pub struct PreparedMesh {
 
 /// Checks that `mesh` is a usable placenta mesh and orients its tets
 /// positively (a repair that is reported, not an error): it must have tets,
-/// finite coordinates, no degenerate tets, one connected component, a
+/// finite coordinates, no folded interior face
+/// ([`unfold_mesh::geometry::folded_faces`]: a tangled mesh is refused, a
+/// mirrored one is not), no degenerate tets, one connected component, a
 /// manifold boundary and no unused vertices.
 ///
 /// # Errors
 /// [`PlacentaError::NoTetrahedra`] for a mesh without tets (a surface
-/// mesh); `Mesh` with the first validation problem otherwise.
+/// mesh); [`PlacentaError::Tangled`] for folded faces; `Mesh` with the
+/// first validation problem otherwise.
 pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
     if mesh.tets.is_empty() {
         return Err(PlacentaError::NoTetrahedra.into());
     }
     unfold_mesh::geometry::check_finite(&mesh.positions)?;
+    // Folds do not depend on orientation: a mirrored file has none, a
+    // tangled one has some whatever its tets' vertex order.
+    let folds = unfold_mesh::geometry::folded_faces(mesh);
+    if let Some(first) = folds.first() {
+        return Err(PlacentaError::Tangled {
+            folded: folds.len(),
+            face: first.face,
+            tets: first.tets,
+            position: first.position.coords.into(),
+        }
+        .into());
+    }
     let mut m = mesh.clone();
     let reoriented_tets = m.orient()?;
     m.validate()?;

@@ -88,6 +88,9 @@ pub struct Report {
     pub min_det_j: f64,
     /// Tets with `det J <= 0` (0 by construction).
     pub inverted_tets: usize,
+    /// Interior faces folded in the map (the two tets on the same side of
+    /// the face; 0 for an injective map).
+    pub folded_faces: usize,
     /// Final template parameters, mm (`h`, or `rx`, `ry`, `rz`).
     pub theta: BTreeMap<&'static str, f64>,
     /// Initial template parameters (ALGORITHMS 2.4), mm.

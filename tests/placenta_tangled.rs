@@ -1,0 +1,95 @@
+//! Injectivity, not just orientation, through the binary: a tangled
+//! placenta mesh (a vertex dragged past its neighbour; a strong jitter) is
+//! refused with the first folded face named, a mirrored one (every tet
+//! negative, nothing overlapping) is mapped, and the report counts the
+//! output's folded faces as well as its inverted tets.
+
+use unfold::io::{WriteOptions, write_mesh};
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
+use unfold::mesh::{CellMesh, TetMesh};
+
+mod common;
+use common::*;
+
+fn slab() -> TetMesh {
+    placenta_slab(&PlacentaParams {
+        cells_radial: 6,
+        cells_through: 2,
+        ..PlacentaParams::default()
+    })
+    .expect("valid slab parameters")
+    .mesh
+}
+
+/// An interior vertex of `mesh` (not on the boundary) and a neighbour.
+fn interior_vertex_and_neighbour(mesh: &TetMesh) -> (usize, usize) {
+    let boundary = unfold::mesh::topology::tet_boundary(mesh).unwrap();
+    let on_boundary: std::collections::HashSet<u32> = boundary.to_volume.iter().copied().collect();
+    for t in &mesh.tets {
+        for &a in t {
+            if !on_boundary.contains(&a) {
+                let b = t.iter().copied().find(|&b| b != a).unwrap();
+                return (a as usize, b as usize);
+            }
+        }
+    }
+    panic!("the slab has interior vertices");
+}
+
+fn run(dir: &std::path::Path, name: &str, mesh: &TetMesh) -> std::process::Output {
+    let path = dir.join(format!("{name}.vtu"));
+    write_mesh(&path, &CellMesh::from(mesh), &WriteOptions::default()).unwrap();
+    unfold(&[
+        "placenta",
+        &s(&path),
+        "-o",
+        &s(&dir.join(name)),
+        "--no-figures",
+    ])
+}
+
+#[test]
+fn tangled_meshes_are_refused_and_mirrored_ones_mapped() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = slab();
+    let (a, b) = interior_vertex_and_neighbour(&clean);
+
+    // A vertex dragged past its neighbour.
+    let mut dragged = clean.clone();
+    let (pa, pb) = (clean.positions[a], clean.positions[b]);
+    dragged.positions[a] = pa + (pb - pa) * 1.7;
+    let o = run(dir.path(), "dragged", &dragged);
+    assert_one_line_error(&o, "the mesh is tangled");
+    assert!(stderr(&o).contains("untangle or remesh"), "{}", stderr(&o));
+    assert!(!dir.path().join("dragged").exists(), "nothing written");
+
+    // A jitter of the order of the cell size tangles many faces.
+    let mut jittered = clean.clone();
+    let h = 3.0;
+    for (k, p) in jittered.positions.iter_mut().enumerate() {
+        let f = k as f64;
+        *p += unfold::mesh::nalgebra::Vector3::new(
+            h * (1.3 * f).sin(),
+            h * (2.1 * f).cos(),
+            0.5 * h * (0.7 * f).sin(),
+        );
+    }
+    let o = run(dir.path(), "jittered", &jittered);
+    assert_one_line_error(&o, "the mesh is tangled");
+
+    // Mirrored: every tet negative, nothing folded: mapped, reoriented.
+    let mut mirrored = clean.clone();
+    for p in &mut mirrored.positions {
+        *p = Point3::new(-p.x, p.y, p.z);
+    }
+    let o = run(dir.path(), "mirrored", &mirrored);
+    assert_ok(&o);
+    let r: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("mirrored/report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(r["input"]["reoriented_tets"], clean.tets.len());
+    assert_eq!(r["folded_faces"], 0);
+    assert_eq!(r["inverted_tets"], 0);
+}
