@@ -235,7 +235,8 @@ fn affine(h: &Header, spatial: &[usize; 3]) -> (Matrix4<f64>, AffineSource) {
     };
     for (r, f) in flip.iter().enumerate() {
         for c in 0..4 {
-            m[(r, c)] *= f;
+            // `+ 0.0` turns the -0 of a flipped 0 into 0.
+            m[(r, c)] = m[(r, c)] * f + 0.0;
         }
     }
     (m, source)
