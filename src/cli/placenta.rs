@@ -279,12 +279,10 @@ fn nearest_datatype(input: &NiftiImage) -> Datatype {
 fn image_name(path: &Path) -> Option<String> {
     let name = path.file_name()?.to_str()?;
     let lower = name.to_ascii_lowercase();
-    [".nii.gz", ".nii", ".seg.nrrd", ".nrrd", ".nhdr"]
+    let ext = [".nii.gz", ".nii", ".seg.nrrd", ".nrrd", ".nhdr"]
         .iter()
-        .find_map(|ext| {
-            (lower.ends_with(ext) && name.len() > ext.len())
-                .then(|| name[..name.len() - ext.len()].to_string())
-        })
+        .find(|ext| lower.ends_with(*ext))?;
+    (name.len() > ext.len()).then(|| name[..name.len() - ext.len()].to_string())
 }
 
 /// The output file of an image called `name`.
