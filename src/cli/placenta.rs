@@ -704,7 +704,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         let name = image_name(p).ok_or_else(|| {
             at(
                 p,
-                "not an image name (expected .nii, .nii.gz, .nrrd, .seg.nrrd or .nhdr)",
+                "not a NIfTI or NRRD image name (expected .nii, .nii.gz, .nrrd, .seg.nrrd or .nhdr)",
             )
         })?;
         names.push(name);
