@@ -77,6 +77,33 @@ bi = info(back)
 assert np.allclose(np.array(bi["affine"]), img.affine, atol=1e-4)
 print(f"unfold read a nibabel-written NIfTI: affine ok")
 
+# NRRD: pynrrd reads what `unfold convert` writes from the demo NIfTI with the
+# same values, and (after the LPS -> RAS flip) the affine nibabel reads.
+import nrrd  # noqa: E402 (pynrrd)
+
+nrrd_path = demo / "placenta_mri.nrrd"
+unfold("convert", str(img_path), str(nrrd_path))
+nd, nh = nrrd.read(str(nrrd_path))
+assert nh["space"] == "left-posterior-superior", nh["space"]
+assert nd.dtype == np.float32 and nd.shape == img.shape, (nd.dtype, nd.shape, img.shape)
+assert np.array_equal(nd, np.asarray(img.dataobj)), "pynrrd and nibabel values differ"
+lps = np.eye(4)
+lps[:3, :3] = np.asarray(nh["space directions"], dtype=np.float64).T
+lps[:3, 3] = np.asarray(nh["space origin"], dtype=np.float64)
+ras = np.diag([-1.0, -1.0, 1.0, 1.0]) @ lps
+assert np.array_equal(ras, img.affine), (ras, img.affine)
+print(f"pynrrd read {nrrd_path.name}: shape {nd.shape}, values and affine equal to nibabel's")
+# And back: a NRRD written by pynrrd (its own header layout) reads in unfold.
+from_pynrrd = demo / "from_pynrrd.nrrd"
+nrrd.write(str(from_pynrrd), nd, {k: nh[k] for k in ["space", "space directions", "space origin", "kinds"]})
+fi = info(from_pynrrd)
+assert np.allclose(np.array(fi["affine"]), img.affine, rtol=0, atol=1e-9), (fi["affine"], img.affine)
+assert fi["dims"][:3] == list(nd.shape) and fi["datatype"] == "float32", fi
+print("unfold read a pynrrd-written NRRD: affine ok")
+nrrd_path.unlink()
+from_pynrrd.unlink()
+checked += 1
+
 
 # The placenta pipeline's outputs (`unfold demo` runs it into placenta/): silent
 # when they are right, one clear line and a non-zero exit when not.

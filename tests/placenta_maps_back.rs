@@ -338,7 +338,7 @@ fn bad_inputs_of_the_way_back_are_one_line_errors() {
     // Not a NIfTI output.
     assert_one_line_error(
         &pushback(&out, &image_path, &dir.path().join("t.vtu")),
-        "must be a NIfTI image",
+        "must be an image (.nii, .nii.gz or .nrrd)",
     );
     // A reference grid nowhere near the placenta.
     let far = dir.path().join("far.nii");

@@ -1,5 +1,7 @@
 //! `unfold convert IN OUT`: between mesh formats, keeping point and cell
-//! data; between NIfTI files (`.nii` <-> `.nii.gz`), keeping the header.
+//! data; between images (NIfTI `.nii` / `.nii.gz` and NRRD `.nrrd`, any
+//! direction), keeping the data type, the affine and the header fields both
+//! formats hold.
 
 use super::CliError;
 use clap::{Args, ValueEnum};
@@ -29,10 +31,10 @@ enum VtkVersion {
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
     /// Input mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image
-    /// (.nii .nii.gz).
+    /// (.nii .nii.gz .nrrd .seg.nrrd .nhdr).
     input: PathBuf,
     /// Output mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh) or image (.nii
-    /// .nii.gz; from an image only).
+    /// .nii.gz .nrrd; from an image only).
     output: PathBuf,
     /// Write text instead of binary where the format has both.
     #[arg(long)]
@@ -59,8 +61,8 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
             a.output.display()
         )));
     }
-    let image_in = matches!(FileKind::from_path(&a.input)?, FileKind::Nifti { .. });
-    let image_out = matches!(FileKind::from_path(&a.output)?, FileKind::Nifti { .. });
+    let image_in = FileKind::from_path(&a.input)?.is_image();
+    let image_out = FileKind::from_path(&a.output)?.is_image();
     match (image_in, image_out) {
         (true, true) => return convert_image(a),
         (true, false) | (false, true) => {
@@ -133,8 +135,9 @@ fn kept_datatype(image: &NiftiImage) -> Datatype {
     }
 }
 
-/// `unfold convert` between NIfTI files: the header (affine, codes, units,
-/// intent, description) and the values kept.
+/// `unfold convert` between images (NIfTI, NRRD): the values, data type and
+/// affine kept, and the header fields the output format holds (NIfTI: codes,
+/// units, intent, description; NRRD: description as `content`).
 fn convert_image(a: &ConvertArgs) -> Result<(), CliError> {
     let image = read_image(&a.input)?;
     let datatype = kept_datatype(&image);

@@ -17,7 +17,8 @@ use unfold::mesh::{CellMesh, Field};
 /// Arguments of `unfold info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// A mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image (.nii .nii.gz).
+    /// A mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image (.nii .nii.gz
+    /// .nrrd .seg.nrrd .nhdr).
     file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -323,7 +324,9 @@ fn to_json<T: Serialize>(v: &T) -> String {
 /// The report of `path` as JSON (used by `demo` as well).
 pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
     match FileKind::from_path(path)? {
-        FileKind::Nifti { .. } => Ok((to_json(&image_info(path, &read_image(path)?)), true)),
+        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
+            Ok((to_json(&image_info(path, &read_image(path)?)), true))
+        }
         FileKind::Mesh(_) => {
             let i = mesh_info(path, &read_mesh(path)?);
             Ok((to_json(&i), i.valid))
@@ -335,7 +338,7 @@ pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
 pub fn run(a: &InfoArgs) -> Result<(), CliError> {
     let path = a.file.as_path();
     match FileKind::from_path(path)? {
-        FileKind::Nifti { .. } => {
+        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
             let i = image_info(path, &read_image(path)?);
             if a.json {
                 println!("{}", to_json(&i));

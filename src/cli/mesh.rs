@@ -151,8 +151,8 @@ pub(crate) fn warn_dropped(path: &Path, out: &MaskMesh, keep_all_components: boo
 the mask's, dihedral angle range."
 )]
 pub struct MeshArgs {
-    /// The segmentation: a 3D NIfTI image (.nii, .nii.gz), 0 outside and 1
-    /// inside (or any values with --threshold).
+    /// The segmentation: a 3D image (.nii .nii.gz .nrrd .seg.nrrd .nhdr), 0
+    /// outside and 1 inside (or any values with --threshold).
     mask: PathBuf,
     /// Output tet mesh (.vtu .vtk .mesh; formats unfold can write).
     #[arg(short, long, value_name = "MESH")]

@@ -82,7 +82,7 @@ enum Command {
     /// Repair a mesh exported by another tool: weld coincident vertices, drop repeated and
     /// degenerate elements, orient consistently, drop unused vertices.
     Repair(repair::RepairArgs),
-    /// Mesh a segmentation (a NIfTI mask) into tets: smoothing, then isosurface stuffing
+    /// Mesh a segmentation (a NIfTI or NRRD mask) into tets: smoothing, then isosurface stuffing
     /// with bounded dihedral angles.
     Mesh(mesh::MeshArgs),
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or

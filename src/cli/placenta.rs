@@ -21,7 +21,8 @@
 //!   array `side` (0 interior, 1 fetal, 2 maternal, 3 margin);
 //! - `flattened.vtu`: the mapped mesh in the template frame, point array
 //!   `side`, cell arrays `log2_det_j` and `sym_dirichlet`;
-//! - `<name>_flat.nii.gz` for every image `<name>.nii[.gz]`;
+//! - `<name>_flat.nii.gz` for every image `<name>.nii[.gz]` (or `.nrrd`,
+//!   `.seg.nrrd`, `.nhdr`);
 //! - `report.json`: the library's report plus `mesh` (the input) and
 //!   `images` (one entry per image: input, output, spacing, dims, frames
 //!   and the voxel counts of the pull-back).
@@ -129,9 +130,10 @@ pub struct PlacentaArgs {
     /// Placenta tet mesh (.vtu .vtk .mesh .msh), millimetres, scanner frame.
     /// Boundary triangles and other lower-dimensional cells are ignored.
     mesh: Option<PathBuf>,
-    /// Start from a segmentation instead of a mesh: a 3D NIfTI mask of the
-    /// placenta, meshed as `unfold mesh` does (written as DIR/mesh.vtu);
-    /// its distance transform gives the initial half thickness.
+    /// Start from a segmentation instead of a mesh: a 3D mask of the
+    /// placenta (.nii .nii.gz .nrrd .seg.nrrd .nhdr), meshed as `unfold mesh`
+    /// does (written as DIR/mesh.vtu); its distance transform gives the
+    /// initial half thickness.
     #[arg(long, value_name = "MASK", conflicts_with = "mesh")]
     seg: Option<PathBuf>,
     #[command(flatten)]
@@ -170,8 +172,9 @@ pub struct PlacentaArgs {
     /// Optimizer.
     #[arg(long, value_enum, default_value = "newton")]
     solver: SolverArg,
-    /// A 3D or 4D NIfTI image (.nii, .nii.gz) in the mesh's scanner frame to
-    /// pull into the template; written as DIR/<name>_flat.nii.gz. Repeatable.
+    /// A 3D or 4D image (.nii .nii.gz .nrrd .seg.nrrd .nhdr) in the mesh's
+    /// scanner frame to pull into the template; written as
+    /// DIR/<name>_flat.nii.gz. Repeatable.
     #[arg(long = "image", value_name = "FILE")]
     images: Vec<PathBuf>,
     /// Isotropic voxel size of the template-space images, mm [default: each
@@ -280,14 +283,15 @@ pub(crate) fn nearest_datatype(input: &NiftiImage) -> Datatype {
     }
 }
 
-/// `<name>` of an image file `<name>.nii` or `<name>.nii.gz` (any case).
+/// `<name>` of an image file `<name>.nii`, `<name>.nii.gz`, `<name>.nrrd`,
+/// `<name>.seg.nrrd` or `<name>.nhdr` (any case).
 fn image_name(path: &Path) -> Option<String> {
     let name = path.file_name()?.to_str()?;
     let lower = name.to_ascii_lowercase();
-    [".nii.gz", ".nii"].iter().find_map(|ext| {
-        (lower.ends_with(ext) && name.len() > ext.len())
-            .then(|| name[..name.len() - ext.len()].to_string())
-    })
+    let ext = [".nii.gz", ".nii", ".seg.nrrd", ".nrrd", ".nhdr"]
+        .iter()
+        .find(|ext| lower.ends_with(*ext))?;
+    (name.len() > ext.len()).then(|| name[..name.len() - ext.len()].to_string())
 }
 
 /// The output file of an image called `name`.
@@ -759,8 +763,12 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     }
     let mut names = Vec::with_capacity(a.images.len());
     for p in &a.images {
-        let name = image_name(p)
-            .ok_or_else(|| at(p, "not a NIfTI image name (expected .nii or .nii.gz)"))?;
+        let name = image_name(p).ok_or_else(|| {
+            at(
+                p,
+                "not a NIfTI or NRRD image name (expected .nii, .nii.gz, .nrrd, .seg.nrrd or .nhdr)",
+            )
+        })?;
         names.push(name);
     }
     check_names(
@@ -911,6 +919,13 @@ mod tests {
         assert_eq!(image_name(Path::new("T2.NII")).as_deref(), Some("T2"));
         assert_eq!(image_name(Path::new("x.y.nii")).as_deref(), Some("x.y"));
         assert_eq!(image_name(Path::new(".nii")), None);
+        assert_eq!(
+            image_name(Path::new("a/brain.seg.nrrd")).as_deref(),
+            Some("brain")
+        );
+        assert_eq!(image_name(Path::new("T1.NRRD")).as_deref(), Some("T1"));
+        assert_eq!(image_name(Path::new("x.nhdr")).as_deref(), Some("x"));
+        assert_eq!(image_name(Path::new(".seg.nrrd")), None);
         assert_eq!(image_name(Path::new("img.vtu")), None);
     }
 }

@@ -16,7 +16,7 @@ use super::placenta::{InterpArg, nearest_datatype};
 use super::{CliError, at};
 use clap::Args;
 use std::path::PathBuf;
-use unfold::io::{NiftiImage, read_image, read_tet_mesh, write_image};
+use unfold::io::{FileKind, NiftiImage, read_image, read_tet_mesh, write_image};
 use unfold::organs::placenta::pushback::push_back;
 use unfold::organs::placenta::{Interpolation, PullbackError};
 
@@ -28,7 +28,7 @@ DIR/flattened.vtu. OUT has the grid of --reference; voxels outside the placenta 
 )]
 pub struct PushbackArgs {
     /// A template-space image (the frame of DIR/flattened.vtu and of the
-    /// `<name>_flat.nii.gz` images), 3D or 4D.
+    /// `<name>_flat.nii.gz` images), 3D or 4D, NIfTI or NRRD.
     image: PathBuf,
     /// Output directory of an `unfold placenta` run (holding original.vtu and
     /// flattened.vtu).
@@ -38,7 +38,7 @@ pub struct PushbackArgs {
     /// output's (its values are not used).
     #[arg(long, value_name = "SCAN")]
     reference: PathBuf,
-    /// Output image (.nii or .nii.gz).
+    /// Output image (.nii, .nii.gz or .nrrd).
     #[arg(short, long, value_name = "OUT")]
     output: PathBuf,
     /// How IMAGE is sampled: linear (intensities) or nearest (label maps).
@@ -49,14 +49,13 @@ pub struct PushbackArgs {
 /// Runs `unfold pushback`.
 pub fn run(a: &PushbackArgs) -> Result<(), CliError> {
     let out = &a.output;
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if !(name.ends_with(".nii") || name.ends_with(".nii.gz")) {
+    if !matches!(
+        FileKind::from_path(out),
+        Ok(FileKind::Nifti { .. } | FileKind::Nrrd { detached: false })
+    ) {
         return Err(at(
             out,
-            "the output must be a NIfTI image (.nii or .nii.gz)",
+            "the output must be an image (.nii, .nii.gz or .nrrd)",
         ));
     }
     let original_path = a.run.join("original.vtu");

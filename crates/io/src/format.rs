@@ -5,7 +5,8 @@ use std::io::Write;
 use std::path::Path;
 use unfold_mesh::{CellMesh, TetMesh, TriMesh};
 
-const KNOWN: &str = ".vtk .vtu .vtp .ply .obj .stl .off .mesh .msh .nii .nii.gz";
+const KNOWN: &str =
+    ".vtk .vtu .vtp .ply .obj .stl .off .mesh .msh .nii .nii.gz .nrrd .seg.nrrd .nhdr";
 
 /// The mesh formats unfold reads, and (all but Gmsh) writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -130,6 +131,11 @@ pub enum FileKind {
         /// Whether the file is gzip-compressed.
         gzip: bool,
     },
+    /// A NRRD image: `.nrrd` (also Slicer's `.seg.nrrd`) or `.nhdr`.
+    Nrrd {
+        /// Whether the header is detached (`.nhdr`, data in another file).
+        detached: bool,
+    },
 }
 
 impl FileKind {
@@ -143,8 +149,11 @@ impl FileKind {
             return Ok(FileKind::Nifti { gzip: true });
         }
         let ext = name.rsplit_once('.').map(|(_, e)| e).unwrap_or("");
-        if ext == "nii" {
-            return Ok(FileKind::Nifti { gzip: false });
+        match ext {
+            "nii" => return Ok(FileKind::Nifti { gzip: false }),
+            "nrrd" => return Ok(FileKind::Nrrd { detached: false }),
+            "nhdr" => return Ok(FileKind::Nrrd { detached: true }),
+            _ => {}
         }
         MeshFormat::ALL
             .into_iter()
@@ -154,6 +163,11 @@ impl FileKind {
                 path: crate::FilePath(path.to_path_buf()),
                 known: KNOWN,
             })
+    }
+
+    /// Whether this is an image (NIfTI or NRRD), read with [`read_image`].
+    pub fn is_image(self) -> bool {
+        !matches!(self, FileKind::Mesh(_))
     }
 }
 
@@ -167,9 +181,10 @@ fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
 fn mesh_format(path: &Path) -> Result<MeshFormat, IoError> {
     match FileKind::from_path(path)? {
         FileKind::Mesh(f) => Ok(f),
-        FileKind::Nifti { .. } => {
-            Err(IoError::unsupported("this is an image (NIfTI), not a mesh").with_path(path))
-        }
+        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => Err(IoError::unsupported(
+            "this is an image (NIfTI or NRRD), not a mesh",
+        )
+        .with_path(path)),
     }
 }
 
@@ -211,31 +226,45 @@ pub fn write_mesh(
     atomic_write(path, &bytes)
 }
 
-/// Reads a NIfTI-1 image (`.nii` or `.nii.gz`).
+/// Reads an image: NIfTI-1 (`.nii`, `.nii.gz`) or NRRD (`.nrrd`,
+/// `.seg.nrrd`, `.nhdr` with its data file beside it).
 pub fn read_image(path: impl AsRef<Path>) -> Result<NiftiImage, IoError> {
     let path = path.as_ref();
-    match FileKind::from_path(path)? {
-        FileKind::Nifti { .. } => {}
-        FileKind::Mesh(_) => {
-            return Err(IoError::unsupported("this is a mesh, not an image").with_path(path));
-        }
+    let kind = FileKind::from_path(path)?;
+    if let FileKind::Mesh(_) = kind {
+        return Err(IoError::unsupported("this is a mesh, not an image").with_path(path));
     }
     let bytes = read_file(path)?;
-    crate::nifti::read(&bytes).map_err(|e| e.with_path(path))
+    match kind {
+        FileKind::Nrrd { .. } => {
+            let dir = match path.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => Path::new("."),
+            };
+            crate::nrrd::read(&bytes, Some(dir))
+        }
+        _ => crate::nifti::read(&bytes),
+    }
+    .map_err(|e| e.with_path(path))
 }
 
-/// Writes a NIfTI-1 image atomically (gzip-compressed for `.nii.gz`).
+/// Writes an image atomically: NIfTI-1 (gzip-compressed for `.nii.gz`) or
+/// NRRD (`.nrrd`, gzip-encoded with an attached header). Writing `.nhdr` is
+/// refused (write `.nrrd`).
 pub fn write_image(path: impl AsRef<Path>, image: &NiftiImage) -> Result<(), IoError> {
     let path = path.as_ref();
-    let gzip = match FileKind::from_path(path)? {
-        FileKind::Nifti { gzip } => gzip,
-        FileKind::Mesh(_) => {
-            return Err(
-                IoError::unsupported("images are written as .nii or .nii.gz").with_path(path),
-            );
-        }
-    };
-    let bytes = crate::nifti::write(image, gzip).map_err(|e| e.with_path(path))?;
+    let bytes = match FileKind::from_path(path)? {
+        FileKind::Nifti { gzip } => crate::nifti::write(image, gzip),
+        FileKind::Nrrd { detached: false } => crate::nrrd::write(image),
+        FileKind::Nrrd { detached: true } => Err(IoError::unsupported(
+            "writing a detached NRRD header (.nhdr) is not supported; write .nrrd \
+             (one file, header attached)",
+        )),
+        FileKind::Mesh(_) => Err(IoError::unsupported(
+            "images are written as .nii, .nii.gz or .nrrd",
+        )),
+    }
+    .map_err(|e| e.with_path(path))?;
     atomic_write(path, &bytes)
 }
 
@@ -286,6 +315,16 @@ mod tests {
             FileKind::from_path(Path::new("x.nii.gz")).unwrap(),
             FileKind::Nifti { gzip: true }
         );
+        assert_eq!(
+            FileKind::from_path(Path::new("brain.seg.NRRD")).unwrap(),
+            FileKind::Nrrd { detached: false }
+        );
+        assert_eq!(
+            FileKind::from_path(Path::new("a.nhdr")).unwrap(),
+            FileKind::Nrrd { detached: true }
+        );
+        assert!(FileKind::from_path(Path::new("a.nhdr")).unwrap().is_image());
+        assert!(!FileKind::from_path(Path::new("a.vtk")).unwrap().is_image());
         let e = FileKind::from_path(Path::new("x.xyz")).unwrap_err();
         assert!(e.to_string().contains("x.xyz"), "{e}");
     }
@@ -304,6 +343,35 @@ mod tests {
             let mode = std::fs::metadata(&p).unwrap().permissions().mode();
             assert_eq!(mode & 0o777, 0o644);
         }
+    }
+
+    #[test]
+    fn nrrd_files_by_extension() {
+        let dir = tempfile::tempdir().unwrap();
+        let vol = unfold_mesh::Volume::new(
+            [2, 1, 1, 1],
+            nalgebra::Matrix4::identity(),
+            vec![1.0f32, 2.0],
+        )
+        .unwrap();
+        let img = NiftiImage::new(vol);
+        let p = dir.path().join("brain.seg.nrrd");
+        write_image(&p, &img).unwrap();
+        assert_eq!(read_image(&p).unwrap().volume, img.volume);
+        let e = write_image(dir.path().join("x.nhdr"), &img).unwrap_err();
+        assert!(e.to_string().contains("write .nrrd"), "{e}");
+        // A detached header finds its data file beside it.
+        std::fs::write(dir.path().join("d.raw"), [3u8, 4]).unwrap();
+        std::fs::write(
+            dir.path().join("d.nhdr"),
+            "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 1 1\nencoding: raw\n\
+             data file: d.raw\n",
+        )
+        .unwrap();
+        let d = read_image(dir.path().join("d.nhdr")).unwrap();
+        assert_eq!(d.volume.data(), &[3.0, 4.0]);
+        let e = read_mesh(&p).unwrap_err();
+        assert!(e.to_string().contains("not a mesh"), "{e}");
     }
 
     #[test]

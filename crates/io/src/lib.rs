@@ -3,7 +3,7 @@
 //! Meshes: VTK legacy `.vtk` (ASCII / binary, versions up to 4.2 and 5.1),
 //! VTK XML `.vtu` / `.vtp` (ASCII, inline base64, appended raw or base64,
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
-//! NIfTI-1 `.nii` / `.nii.gz`. The format is chosen by file extension.
+//! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`. The format is chosen by file extension.
 //!
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
@@ -15,6 +15,7 @@ mod format;
 pub mod gmsh;
 pub mod medit;
 pub mod nifti;
+pub mod nrrd;
 pub mod obj;
 pub mod off;
 mod options;

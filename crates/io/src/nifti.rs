@@ -71,7 +71,7 @@ const WRITE_VOX_OFFSET: usize = 352;
 /// (they are decompressed, to verify the stream's CRC, then discarded).
 pub const MAX_GZ_TRAILING: u64 = 1 << 16;
 /// Largest expansion of a deflate stream (the format's limit is about 1032:1).
-const GZ_MAX_RATIO: u64 = 1100;
+pub(crate) const GZ_MAX_RATIO: u64 = 1100;
 
 /// `intent_code` of a vector-valued image (NIFTI_INTENT_VECTOR): the
 /// components are stored along `dim[5]`. ITK reads and writes displacement
@@ -188,6 +188,11 @@ pub enum AffineSource {
     Qform,
     /// Neither code set: `diag(pixdim[1], pixdim[2], pixdim[3])`.
     Analyze,
+    /// A NRRD file's `space directions` and `space origin` (see
+    /// [`crate::nrrd`]).
+    SpaceDirections,
+    /// A NRRD file without orientation: `diag(spacings)`, origin 0.
+    Spacings,
 }
 
 /// A NIfTI-1 image: values (after `scl_slope` / `scl_inter`) on a grid with
@@ -623,7 +628,18 @@ fn parse_header(h: &[u8]) -> Result<Header, IoError> {
 
 /// Converts the raw data (exactly `header.data_len` bytes) to scaled `f32`.
 fn decode(header: &Header, raw: &[u8]) -> Vec<f32> {
-    let be = header.big_endian;
+    decode_values(raw, header.datatype, header.big_endian, header.scale)
+}
+
+/// Converts packed values of type `datatype` (in the given byte order) to
+/// `f32`, as `value = slope * stored + inter` (computed in `f64`) when `scale`
+/// is `Some((slope, inter))`. A trailing partial value is ignored.
+pub(crate) fn decode_values(
+    raw: &[u8],
+    datatype: Datatype,
+    be: bool,
+    scale: Option<(f64, f64)>,
+) -> Vec<f32> {
     macro_rules! values {
         ($t:ty) => {{
             const N: usize = std::mem::size_of::<$t>();
@@ -640,13 +656,13 @@ fn decode(header: &Header, raw: &[u8]) -> Vec<f32> {
     }
     macro_rules! convert {
         ($t:ty) => {{
-            match header.scale {
+            match scale {
                 Some((s, i)) => values!($t).map(|v| (v as f64 * s + i) as f32).collect(),
                 None => values!($t).map(|v| v as f32).collect(),
             }
         }};
     }
-    match header.datatype {
+    match datatype {
         Datatype::Uint8 => convert!(u8),
         Datatype::Int8 => convert!(i8),
         Datatype::Int16 => convert!(i16),
@@ -912,7 +928,7 @@ fn header_bytes(img: &NiftiImage) -> Result<Vec<u8>, IoError> {
 
 /// Appends the values as `dt`, little-endian. Integers: rounded half away
 /// from zero, clamped to the type's range, NaN as 0 (Rust's saturating `as`).
-fn encode(values: &[f32], dt: Datatype, out: &mut Vec<u8>) {
+pub(crate) fn encode(values: &[f32], dt: Datatype, out: &mut Vec<u8>) {
     macro_rules! put {
         ($t:ty, $conv:expr) => {{
             let conv = $conv;
