@@ -417,3 +417,32 @@ fn converting_tets_to_a_surface_format_is_a_clear_error() {
     let out = dir.path().join("heart.msh").display().to_string();
     assert_one_line_error(&unfold(&["convert", HEART_VTU, &out]), "Gmsh");
 }
+
+/// Outputs honour the process umask (patient data in shared directories):
+/// under `umask 077` a new file is 0600, and a replaced file keeps its mode.
+#[cfg(unix)]
+#[test]
+fn outputs_honour_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("heart.vtk");
+    let run = |mask: &str| {
+        std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!("umask {mask} && exec \"$0\" convert \"$1\" \"$2\""))
+            .arg(env!("CARGO_BIN_EXE_unfold"))
+            .arg(HEART_VTU)
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    assert_ok(&run("077"));
+    assert_eq!(mode(&out), 0o600);
+    std::fs::remove_file(&out).unwrap();
+    assert_ok(&run("027"));
+    assert_eq!(mode(&out), 0o640);
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o604)).unwrap();
+    assert_ok(&run("077"));
+    assert_eq!(mode(&out), 0o604, "a replaced file keeps its mode");
+}

@@ -269,7 +269,9 @@ pub fn write_image(path: impl AsRef<Path>, image: &NiftiImage) -> Result<(), IoE
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same
-/// directory is written, flushed to disk, then renamed over `path`.
+/// directory is written, flushed to disk, then renamed over `path`. A new
+/// file gets the permissions of any new file (`0666` less the umask); a
+/// replaced file keeps its own.
 pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError> {
     let path = path.as_ref();
     let err = |source: std::io::Error| IoError::Io {
@@ -280,21 +282,22 @@ pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError>
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".unfold-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(err)?;
-    tmp.write_all(bytes).map_err(err)?;
-    // Temporary files are private (0600); the result should have the
-    // permissions of the file it replaces, or the usual 0644.
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".unfold-").suffix(".tmp");
+    // Created like any new file, 0666 less the process umask (so a umask of
+    // 077 keeps patient data private), not tempfile's private 0600.
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        let perm = std::fs::metadata(path)
-            .map(|m| m.permissions())
-            .unwrap_or_else(|_| std::fs::Permissions::from_mode(0o644));
-        tmp.as_file().set_permissions(perm).map_err(err)?;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(err)?;
+    tmp.write_all(bytes).map_err(err)?;
+    // A file replaced keeps its permissions.
+    if let Ok(m) = std::fs::metadata(path) {
+        tmp.as_file()
+            .set_permissions(m.permissions())
+            .map_err(err)?;
     }
     tmp.as_file().sync_all().map_err(err)?;
     tmp.persist(path).map_err(|e| err(e.error))?;
@@ -340,8 +343,22 @@ mod tests {
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
+            // The process umask, from /proc (Linux); 022 where unknown.
+            let umask = std::fs::read_to_string("/proc/self/status")
+                .ok()
+                .and_then(|s| {
+                    s.lines()
+                        .find_map(|l| l.strip_prefix("Umask:"))
+                        .and_then(|v| u32::from_str_radix(v.trim(), 8).ok())
+                })
+                .unwrap_or(0o022);
             let mode = std::fs::metadata(&p).unwrap().permissions().mode();
-            assert_eq!(mode & 0o777, 0o644);
+            assert_eq!(mode & 0o777, 0o666 & !umask);
+            // A replaced file keeps its permissions.
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+            atomic_write(&p, b"three").unwrap();
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o640);
         }
     }
 
