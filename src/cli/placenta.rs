@@ -90,6 +90,21 @@ pub(crate) enum MeshFrameArg {
     Lps,
 }
 
+/// `--grid XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX`: six finite numbers, mm.
+fn parse_grid(text: &str) -> Result<[f64; 6], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{text}' is not six numbers XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX"))?;
+    <[f64; 6]>::try_from(values).map_err(|v| {
+        format!(
+            "'{text}' has {} numbers, expected XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
+            v.len()
+        )
+    })
+}
+
 /// The frame of a mesh file: the flag's, or for `auto` the file's Slicer
 /// marker (RAS without one).
 fn mesh_frame(arg: MeshFrameArg, path: &Path) -> Result<Frame, CliError> {
@@ -209,12 +224,11 @@ pub struct PlacentaArgs {
     #[arg(
         long,
         value_name = "BOX",
-        value_delimiter = ',',
-        num_args = 6,
-        allow_negative_numbers = true,
+        value_parser = parse_grid,
+        allow_hyphen_values = true,
         requires = "spacing_mm"
     )]
-    grid: Option<Vec<f64>>,
+    grid: Option<[f64; 6]>,
     /// The frame of the mesh's coordinates: ras (NIfTI's world), lps (ITK,
     /// DICOM, 3D Slicer's default) or auto (3D Slicer's SPACE= marker in
     /// the file, else ras). LPS meshes are converted to RAS on reading; every
