@@ -119,7 +119,7 @@ pub fn otsu_threshold(image: &Volume<f32>) -> Option<f64> {
         lo = lo.min(f64::from(v));
         hi = hi.max(f64::from(v));
     }
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     const BINS: usize = 256;
