@@ -400,3 +400,35 @@ fn bad_inputs_of_the_way_back_are_one_line_errors() {
     }
     assert!(!dir.path().join("o2").exists(), "nothing created");
 }
+
+#[test]
+fn the_displacement_field_follows_a_fixed_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = tilted_slab();
+    let mesh_path = dir.path().join("slab.vtu");
+    write_mesh(&mesh_path, &CellMesh::from(&mesh), &WriteOptions::default()).unwrap();
+    let image_path = dir.path().join("mri.nii.gz");
+    write_image(&image_path, &image_around(&mesh, intensity)).unwrap();
+    let out = dir.path().join("run");
+    let disp = dir.path().join("warp.nii");
+    assert_ok(&unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "--image",
+        &s(&image_path),
+        "-o",
+        &s(&out),
+        "--grid=-150,150,-150,150,-40,40",
+        "--spacing-mm",
+        "5",
+        "--displacement",
+        &s(&disp),
+        "--no-figures",
+    ]));
+    let flat = read_image(out.join("mri_flat.nii.gz")).unwrap();
+    let field = read_image(&disp).unwrap();
+    let d = flat.volume.dims();
+    assert_eq!(d, [61, 61, 17, 1]);
+    assert_eq!(field.volume.dims(), [61, 61, 17, 3]);
+    assert_eq!(field.volume.affine(), flat.volume.affine());
+}

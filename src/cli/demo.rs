@@ -13,8 +13,9 @@ use unfold::io::{NiftiImage, WriteOptions, atomic_write, write_image, write_mesh
 use unfold::mesh::geometry::bounding_box;
 use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
 use unfold::mesh::shapes::{
-    PlacentaParams, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
+    PlacentaParams, Pose, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
 };
+use unfold::mesh::spatial::TetLocator;
 use unfold::mesh::{CellMesh, CellType, Volume};
 use unfold::organs::placenta::{Pipeline, prepare_mesh};
 
@@ -55,7 +56,10 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         Ok(())
     };
 
-    let placenta = placenta_slab(&PlacentaParams::default())?;
+    let placenta = placenta_slab(&PlacentaParams {
+        pose: SCANNER_POSE,
+        ..PlacentaParams::default()
+    })?;
     put(
         "placenta.vtu",
         CellMesh::from(&placenta.mesh),
@@ -105,6 +109,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
     // tets, so the demo stays quick in debug builds); the MRI covers both.
     let small = placenta_slab(&PlacentaParams {
         cells_radial: PIPELINE_CELLS_RADIAL,
+        pose: SCANNER_POSE,
         ..PlacentaParams::default()
     })?;
     let covered: Vec<Point3<f64>> = placenta
@@ -114,7 +119,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         .chain(&small.mesh.positions)
         .copied()
         .collect();
-    let img = synthetic_mri(&covered)?;
+    let img = synthetic_mri(&covered, &TetLocator::new(&placenta.mesh))?;
     let img_path = dir.join("placenta_mri.nii.gz");
     write_image(&img_path, &img)?;
     written.push((
@@ -165,6 +170,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         segmentation: None,
         figures: true,
         displacement: None,
+        frame: unfold::io::Frame::Ras,
     })?;
     println!("{summary}");
 
@@ -226,6 +232,14 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
 /// 0.5 mm, so that the demo stays quick).
 const VENTRICLE_GRID_MM: f64 = 1.0;
 
+/// Where the demo's placenta lies in the scanner (RAS, mm), as in a real
+/// scan away from the origin: so that a mesh mirrored in x and y (LPS read
+/// as RAS) misses the placenta in the MRI.
+const SCANNER_POSE: Pose = Pose {
+    rotation_deg: [0.0, 0.0, 20.0],
+    translation: [70.0, 40.0, 10.0],
+};
+
 /// Radial resolution of the slab the demo runs the placenta pipeline on:
 /// `18 n^2 m` = 10,368 tets with the default 4 layers.
 const PIPELINE_CELLS_RADIAL: usize = 12;
@@ -236,16 +250,21 @@ fn file_name(p: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// The intensity of the synthetic MRI at world point `p` (mm): smooth, so
-/// that a pull-back through any map can be checked against it.
+/// The intensity of the synthetic MRI at world point `p` (mm) inside the
+/// placenta: smooth (from about 100 to 300), so that a pull-back through
+/// any map can be checked against it.
 pub fn synthetic_intensity(p: &Point3<f64>) -> f64 {
-    100.0 + 40.0 * (p.x / 15.0).sin() + 30.0 * (p.y / 20.0).cos() + 2.0 * p.z
+    200.0 + 40.0 * (p.x / 15.0).sin() + 30.0 * (p.y / 20.0).cos() + 2.0 * (p.z - 10.0)
 }
+
+/// The synthetic MRI's background (outside the placenta).
+const BACKGROUND: f64 = 20.0;
 
 /// A 2 mm image covering `points` with a 10 mm margin, on a grid rotated by
 /// 10 degrees about z (an oblique scanner frame), holding
-/// [`synthetic_intensity`].
-fn synthetic_mri(points: &[Point3<f64>]) -> Result<NiftiImage, CliError> {
+/// [`synthetic_intensity`] inside the placenta (`inside`) and a dark
+/// background elsewhere.
+fn synthetic_mri(points: &[Point3<f64>], inside: &TetLocator) -> Result<NiftiImage, CliError> {
     let spacing = 2.0;
     let bb = bounding_box(points).ok_or_else(|| CliError::Usage("empty shape".into()))?;
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
@@ -276,7 +295,12 @@ fn synthetic_mri(points: &[Point3<f64>]) -> Result<NiftiImage, CliError> {
         for j in 0..dims[1] {
             for i in 0..dims[0] {
                 let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
-                data.push(synthetic_intensity(&p) as f32);
+                let v = if inside.locate(&p).is_some() {
+                    synthetic_intensity(&p)
+                } else {
+                    BACKGROUND
+                };
+                data.push(v as f32);
             }
         }
     }

@@ -49,15 +49,17 @@ use unfold::io::{
     Datatype, NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image,
     write_mesh,
 };
+use unfold::io::{Frame, mesh_frame_hint};
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
 use unfold::organs::placenta::displacement::{VectorFrame, displacement_field};
-use unfold::organs::placenta::images::check_images;
+use unfold::organs::placenta::images::{check_images, template_grid};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
+use unfold::organs::placenta::pullback::PullbackTable;
 use unfold::organs::placenta::segmentation::from_segmentation;
 use unfold::organs::placenta::{
-    Config, Image, Interpolation, Pipeline, PlacentaError, PreparedMesh, PullbackError, Report,
-    SolverKind, TemplateKind, prepare_mesh,
+    Config, GridBox, Image, Interpolation, Pipeline, PlacentaError, PreparedMesh, PullbackError,
+    Report, SolverKind, TemplateKind, prepare_mesh,
 };
 use unfold::organs::{OrganError, PipelineObserver};
 use unfold::param::Iteration;
@@ -79,6 +81,45 @@ impl From<InterpArg> for Interpolation {
             InterpArg::Nearest => Interpolation::Nearest,
         }
     }
+}
+
+/// The frame of the mesh file's coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum MeshFrameArg {
+    /// 3D Slicer's SPACE= marker in the file, else RAS.
+    Auto,
+    /// Right, anterior, superior (NIfTI's world frame).
+    Ras,
+    /// Left, posterior, superior (ITK, DICOM, 3D Slicer).
+    Lps,
+}
+
+/// `--grid XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX`: six finite numbers, mm.
+fn parse_grid(text: &str) -> Result<[f64; 6], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{text}' is not six numbers XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX"))?;
+    <[f64; 6]>::try_from(values).map_err(|v| {
+        format!(
+            "'{text}' has {} numbers, expected XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
+            v.len()
+        )
+    })
+}
+
+/// The frame of a mesh file: the flag's, or for `auto` the file's Slicer
+/// marker (RAS without one).
+fn mesh_frame(arg: MeshFrameArg, path: &Path) -> Result<Frame, CliError> {
+    Ok(match arg {
+        MeshFrameArg::Ras => Frame::Ras,
+        MeshFrameArg::Lps => Frame::Lps,
+        MeshFrameArg::Auto => {
+            let bytes = std::fs::read(path).map_err(|e| at(path, e))?;
+            mesh_frame_hint(&bytes).unwrap_or(Frame::Ras)
+        }
+    })
 }
 
 /// Templates on the command line.
@@ -181,13 +222,37 @@ pub struct PlacentaArgs {
     /// input image's own voxel spacing].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     spacing_mm: Option<f64>,
+    /// A fixed template-frame box for the pulled-back images,
+    /// XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX in mm (needs --spacing-mm): voxel
+    /// centres from the minima in steps of the spacing, so every run with the
+    /// same box and spacing writes images of one grid. Mesh vertices outside
+    /// the box are counted in report.json and warned about.
+    #[arg(
+        long,
+        value_name = "BOX",
+        value_parser = parse_grid,
+        allow_hyphen_values = true,
+        requires = "spacing_mm"
+    )]
+    grid: Option<[f64; 6]>,
+    /// The frame of the mesh's coordinates: ras (NIfTI's world), lps (ITK,
+    /// DICOM, 3D Slicer's default) or auto (3D Slicer's SPACE= marker in
+    /// the file, else ras). LPS meshes are converted to RAS on reading; every
+    /// output is in RAS.
+    #[arg(long, value_enum, default_value = "auto", conflicts_with = "seg")]
+    mesh_frame: MeshFrameArg,
+    /// Skip the check that the mesh lies in each image's foreground (for
+    /// images without a placenta foreground).
+    #[arg(long)]
+    no_frame_check: bool,
     /// How the images are sampled: linear (intensities) or nearest (label
     /// maps).
     #[arg(long, value_enum, default_value = "linear")]
     interp: InterpArg,
     /// Also write the map as a displacement field (.nii or .nii.gz) that
-    /// ITK, ANTs and SimpleITK read: on the template grid (the spacing of
-    /// --spacing-mm, else of the first --image, else --voxel-mm), vectors
+    /// ITK, ANTs and SimpleITK read: on the template grid (--grid if given;
+    /// the spacing of --spacing-mm, else of the first --image, else
+    /// --voxel-mm), vectors
     /// d(p) = z(p) - p in LPS (ITK's frame) so that a template voxel p comes
     /// from the scanner point p + d(p); 0 outside the placenta.
     #[arg(long, value_name = "FILE")]
@@ -252,7 +317,16 @@ impl PlacentaArgs {
             half_thickness_mm,
             spacing_mm: self.spacing_mm,
             interpolation: self.interp.into(),
+            grid: self.grid.as_ref().map(|g| GridBox {
+                min: [g[0], g[2], g[4]],
+                max: [g[1], g[3], g[5]],
+            }),
+            frame_check: !self.no_frame_check,
         };
+        if let Some(g) = &config.grid {
+            g.validate()
+                .map_err(|e| CliError::Usage(format!("--grid: {e}")))?;
+        }
         config
             .validate()
             .map_err(|e| CliError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
@@ -338,6 +412,8 @@ pub(crate) struct PipelineInput<'a> {
     pub figures: bool,
     /// Write the map as an ITK displacement field here.
     pub displacement: Option<&'a Path>,
+    /// The frame the mesh file was in (it is in RAS now), for messages.
+    pub frame: Frame,
 }
 
 /// `displacement` in `report.json`: the map as an ITK displacement field.
@@ -601,13 +677,26 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         .collect();
     // The library checks the images again; checking them here first means
     // nothing is created for a run that cannot start.
-    check_images(&input.mesh.mesh, &images).map_err(|e| pipeline_error(label, input.images, e))?;
+    let frame_check = input.pipeline.settings().frame_check;
+    check_images(&input.mesh.mesh, &images, frame_check)
+        .map_err(|e| pipeline_error(label, input.frame, input.images, e))?;
     super::ensure_dir(input.dir)?;
     let mut progress = Progress::new(input.progress);
     let mut outcome = input
         .pipeline
         .run_prepared(input.mesh.clone(), &images, &mut progress)
-        .map_err(|e| pipeline_error(label, input.images, e))?;
+        .map_err(|e| pipeline_error(label, input.frame, input.images, e))?;
+    for i in &outcome.report.images {
+        if i.vertices_outside_grid > 0 {
+            eprintln!(
+                "warning: {}: {} of the flattened mesh's {} vertices lie outside the --grid box \
+                 (counted in report.json)",
+                i.name,
+                i.vertices_outside_grid,
+                outcome.flattened.num_vertices()
+            );
+        }
+    }
 
     let dir = input.dir;
     let mut written = Vec::new();
@@ -650,9 +739,17 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
                 (None, Some(img)) => img.image.volume.spacing(),
                 (None, None) => [settings.parcellation.voxel_mm; 3],
             };
-            let table = outcome
-                .pullback_table(spacing)
-                .map_err(|e| at(path, format!("cannot build the displacement field: {e}")))?;
+            let failed =
+                |e: PullbackError| at(path, format!("cannot build the displacement field: {e}"));
+            let grid = template_grid(&outcome.flattened, spacing, settings.grid.as_ref())
+                .map_err(failed)?;
+            let table = PullbackTable::new(
+                grid,
+                &outcome.flattened.positions,
+                &outcome.flattened.tets,
+                &outcome.original.positions,
+            )
+            .map_err(failed)?;
             let field = displacement_field(&table, VectorFrame::Lps)
                 .map_err(|e| at(path, format!("cannot build the displacement field: {e}")))?;
             let mut img = NiftiImage::new(field);
@@ -711,9 +808,46 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
 
 /// A pipeline error, attributed to the file it is about: an image's errors
 /// to the image, bad settings to the command line, the rest to the mesh.
-fn pipeline_error(label: &str, images: &[ImageInput], e: OrganError) -> CliError {
+fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganError) -> CliError {
     let image_path = |index: usize| images.get(index).map(|i| i.path.display().to_string());
     match e {
+        OrganError::Placenta(PlacentaError::MeshFlipped {
+            index,
+            inside,
+            flip,
+            flipped_inside,
+        }) => {
+            let image = image_path(index).unwrap_or_default();
+            let fix = if flip.is_lps_ras() {
+                let other = match frame {
+                    Frame::Ras => "lps",
+                    Frame::Lps => "ras",
+                };
+                format!(
+                    "({} -> {}) {:.0}% would: rerun with --mesh-frame {other}",
+                    frame.name(),
+                    if other == "lps" { "LPS" } else { "RAS" },
+                    100.0 * flipped_inside
+                )
+            } else {
+                format!(
+                    "{:.0}% would: convert the mesh to the image's frame \
+                     (or --no-frame-check)",
+                    100.0 * flipped_inside
+                )
+            };
+            CliError::Usage(format!(
+                "{label}: only {:.0}% of the mesh lies in the foreground of {image}; mirrored in {} {fix}",
+                100.0 * inside,
+                flip.describe()
+            ))
+        }
+        OrganError::Placenta(PlacentaError::MeshOutsideForeground { index, .. }) => {
+            let path = image_path(index).unwrap_or_else(|| label.to_string());
+            CliError::Usage(format!(
+                "{label}: {e}; if {path} has no placenta foreground, rerun with --no-frame-check"
+            ))
+        }
         OrganError::Config(_) => CliError::Usage(e.to_string()),
         OrganError::Placenta(PlacentaError::ImagePullback { index, source }) => {
             let path = image_path(index).unwrap_or_else(|| label.to_string());
@@ -838,10 +972,23 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     }
 
     let label = input.display().to_string();
+    // A mask's mesh is made in the mask's world frame, RAS.
+    let frame = match &a.seg {
+        None => mesh_frame(a.mesh_frame, input)?,
+        Some(_) => Frame::Ras,
+    };
     let (mesh, config, seg) = match &a.seg {
         None => {
             let cells = read_mesh(input)?;
-            let mesh = cells.volume_tets().map_err(|e| at(input, e))?;
+            let mut mesh = cells.volume_tets().map_err(|e| at(input, e))?;
+            // Into RAS: negate x and y of an LPS mesh (a half turn about z,
+            // so no tet changes orientation).
+            let signs = frame.to_ras_signs();
+            for p in &mut mesh.positions {
+                for a in 0..3 {
+                    p[a] *= signs[a];
+                }
+            }
             (mesh, a.config(3.0, None)?, None)
         }
         Some(seg) => {
@@ -901,6 +1048,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         segmentation: seg.as_ref(),
         figures: !a.no_figures,
         displacement: a.displacement.as_deref(),
+        frame,
     })?;
     println!("{summary}");
     Ok(())

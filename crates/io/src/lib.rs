@@ -12,6 +12,7 @@
 
 mod error;
 mod format;
+pub mod frame;
 pub mod gmsh;
 pub mod medit;
 pub mod nifti;
@@ -29,5 +30,6 @@ pub use format::{
     FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,
     write_image, write_mesh,
 };
+pub use frame::{Frame, mesh_frame_hint};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};

@@ -20,7 +20,8 @@
 //!   polys, strips) with the type VTK gives a polydata cell from its size
 //!   (1 point vertex, more poly-vertex; 2 line, more polyline; 3 triangle,
 //!   4 quad, more polygon); strips are split into triangles, their cell
-//!   data repeated. `FieldData` is ignored. One `<Piece>` only. Cell types
+//!   data repeated. `FieldData` is ignored by [`read`] ([`field_data_text`]
+//!   reads one string array of it). One `<Piece>` only. Cell types
 //!   are those of [`CellType`]; others are
 //!   unsupported.
 //!
@@ -90,6 +91,8 @@ enum Section {
     Lines,
     Strips,
     Polys,
+    /// `<FieldData>` of the dataset (only read by [`field_data_text`]).
+    FieldData,
 }
 
 impl Section {
@@ -202,6 +205,45 @@ pub fn read(bytes: &[u8]) -> Result<CellMesh, IoError> {
     } else {
         build_grid(&doc)
     }
+}
+
+/// The text of the field-data string array `name` of a VTK XML file (its
+/// first string: the bytes up to the first NUL), e.g. `"LPS"` for the
+/// `SPACE` array 3D Slicer writes into every `.vtu` / `.vtp` model
+/// (`<FieldData><Array type="String" Name="SPACE" ...>`). Any encoding
+/// the reader supports (ASCII byte values, inline base64, appended, zlib).
+/// `Ok(None)` when the file has no such array.
+///
+/// # Errors
+/// As [`read`] for a file that is not VTK XML or whose array data is
+/// malformed.
+pub fn field_data_text(bytes: &[u8], name: &str) -> Result<Option<String>, IoError> {
+    let doc = parse_head(bytes)?;
+    let Some(a) = doc.array(Section::FieldData, Some(name)) else {
+        return Ok(None);
+    };
+    // A VTK string array is stored as its bytes, each string ended by a NUL.
+    let ty = if a.ty == "String" { "UInt8" } else { &a.ty };
+    let bytes_of = ArrayDesc {
+        section: a.section,
+        name: a.name.clone(),
+        ty: ty.to_string(),
+        ncomp: 1,
+        format: a.format,
+        text: a.text.clone(),
+        text_pos: a.text_pos,
+        pos: a.pos,
+    };
+    // A frame tag is a few bytes; 1 MiB bounds what a hostile file can make
+    // the reader inflate for it.
+    let raw: Vec<u8> = match doc.values(&bytes_of, 1 << 20)? {
+        FieldValues::U8(v) => v,
+        FieldValues::I32(v) => v.iter().map(|&x| x as u8).collect(),
+        FieldValues::I64(v) => v.iter().map(|&x| x as u8).collect(),
+        FieldValues::F32(_) | FieldValues::F64(_) => return Ok(None),
+    };
+    let end = raw.iter().position(|&b| b == 0).unwrap_or(raw.len());
+    Ok(Some(String::from_utf8_lossy(&raw[..end]).into_owned()))
 }
 
 /// Splits off the appended data and parses the XML before it.
@@ -385,6 +427,35 @@ fn parse_head(bytes: &[u8]) -> Result<Doc<'_>, IoError> {
                 Some(s) => Elem::Section(s),
                 None => Elem::Other,
             },
+            Some(Elem::Dataset) if name == "FieldData" => Elem::Section(Section::FieldData),
+            // Field data (Slicer's `SPACE` string array) never fails a read:
+            // an array it cannot describe is skipped.
+            Some(Elem::Section(Section::FieldData)) if name == "Array" || name == "DataArray" => {
+                let format = match get("format").unwrap_or("ascii") {
+                    "ascii" => Some(Format::Ascii),
+                    "binary" => Some(Format::Binary),
+                    "appended" => get("offset")
+                        .and_then(|o| o.trim().parse::<usize>().ok())
+                        .map(Format::Appended),
+                    _ => None,
+                };
+                match (get("type"), format) {
+                    (Some(ty), Some(format)) => {
+                        doc.arrays.push(ArrayDesc {
+                            section: Section::FieldData,
+                            name: get("Name").map(str::to_string),
+                            ty: ty.to_string(),
+                            ncomp: 1,
+                            format,
+                            text: Cow::Borrowed(&[]),
+                            text_pos: before,
+                            pos: before,
+                        });
+                        Elem::Array(doc.arrays.len() - 1)
+                    }
+                    _ => Elem::Other,
+                }
+            }
             Some(Elem::Section(s)) if name == "DataArray" => {
                 let ty = get("type")
                     .ok_or_else(|| err_at(before, "a <DataArray> without a type".into()))?

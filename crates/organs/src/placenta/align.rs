@@ -6,7 +6,10 @@
 //! [`PcaAlignment`] is the placenta pipeline's default [`Initializer`]: the
 //! aligned rest positions. Whatever initializer starts the pipeline, the
 //! report's transform is the rigid motion that best fits its start
-//! ([`Alignment::fit`]): for this one, exactly the alignment.
+//! ([`Alignment::fit`]; for this one, exactly the alignment) followed by
+//! the canonical motion applied after the optimization
+//! ([`super::canonical`]), so that it maps the input into the frame the
+//! flattened mesh is written in.
 
 use super::error::PlacentaError;
 use super::side;
@@ -79,6 +82,16 @@ impl Alignment {
         m.fixed_view_mut::<3, 1>(0, 3)
             .copy_from(&self.translation());
         m
+    }
+
+    /// This motion followed by `next`: `x'' = Qn (Q (z - c) + m - cn) + mn`,
+    /// i.e. rotation `Qn Q`, centroid `c`, offset `Qn (m - cn) + mn`.
+    pub fn then(&self, next: &Alignment) -> Alignment {
+        Alignment {
+            rotation: next.rotation * self.rotation,
+            centroid: self.centroid,
+            offset: next.rotation * (self.offset - next.centroid.coords) + next.offset,
+        }
     }
 
     /// The transform as written to `report.json`.

@@ -1,6 +1,7 @@
 //! The numeric settings of the placenta pipeline, and the shipped solvers
 //! by name.
 
+use super::error::PullbackError;
 use super::parcellation::ParcellationConfig;
 use super::pullback::Interpolation;
 use crate::{ConfigError, OrganError, Requirement};
@@ -37,6 +38,45 @@ pub struct Config {
     /// How the images are sampled (default trilinear; nearest for label
     /// maps).
     pub interpolation: Interpolation,
+    /// A fixed box of the template frame for every pulled-back image
+    /// (default `None`: a grid covering the flattened mesh), so that images
+    /// of different placentas share one grid ([`TemplateGrid::fixed`](super::pullback::TemplateGrid::fixed)).
+    pub grid: Option<GridBox>,
+    /// Check that the mesh lies in each image's foreground before any work
+    /// ([`frame_check`](super::frame_check); default true). Off for images
+    /// without a placenta foreground.
+    pub frame_check: bool,
+}
+
+/// A box of the template frame, mm: the first voxel centre at `min`, the
+/// last at or below `max` ([`TemplateGrid::fixed`](super::pullback::TemplateGrid::fixed)).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridBox {
+    /// `(xmin, ymin, zmin)`, mm.
+    pub min: [f64; 3],
+    /// `(xmax, ymax, zmax)`, mm; each at least its `min`.
+    pub max: [f64; 3],
+}
+
+impl GridBox {
+    /// Checks that every bound is finite and `max >= min` on every axis.
+    ///
+    /// # Errors
+    /// [`PullbackError::GridBox`] naming the box.
+    pub fn validate(&self) -> Result<(), PullbackError> {
+        let ok = (0..3).all(|a| {
+            self.min[a].is_finite() && self.max[a].is_finite() && self.max[a] >= self.min[a]
+        });
+        if ok {
+            Ok(())
+        } else {
+            Err(PullbackError::GridBox {
+                min: self.min,
+                max: self.max,
+            })
+        }
+    }
 }
 
 impl Default for Config {
@@ -50,6 +90,8 @@ impl Default for Config {
             half_thickness_mm: None,
             spacing_mm: None,
             interpolation: Interpolation::Linear,
+            grid: None,
+            frame_check: true,
         }
     }
 }
@@ -79,6 +121,9 @@ impl Config {
         }
         if let Some(s) = self.spacing_mm {
             ConfigError::check("spacing_mm", s, Requirement::Positive)?;
+        }
+        if let Some(g) = &self.grid {
+            g.validate()?;
         }
         Ok(self.parcellation.validate()?)
     }

@@ -155,6 +155,41 @@ pub enum PlacentaError {
         /// The image that repeats it.
         index: usize,
     },
+    /// The mesh lies outside the foreground of image `index`, and an axis
+    /// flip would put it in ([`super::frame_check`]): the mesh is probably
+    /// in another frame (x and y: LPS instead of RAS).
+    #[error(
+        "only {:.0}% of the mesh lies in the foreground of image {index}; mirrored in {} \
+         ({}) {:.0}% would: convert the mesh to the image's frame",
+        100.0 * .inside,
+        .flip.describe(),
+        if .flip.is_lps_ras() { "LPS <-> RAS" } else { "an axis flip" },
+        100.0 * .flipped_inside
+    )]
+    MeshFlipped {
+        /// The image.
+        index: usize,
+        /// Fraction of the mesh volume in its foreground.
+        inside: f64,
+        /// The flip that would fix it.
+        flip: super::frame_check::Flip,
+        /// Fraction after that flip.
+        flipped_inside: f64,
+    },
+    /// Almost none of the mesh lies in the foreground of image `index`, and
+    /// no axis flip helps ([`super::frame_check`]).
+    #[error(
+        "only {:.0}% of the mesh lies in the foreground of image {index} (values >= {threshold:.4}) \
+         and no axis flip helps: check that the image and the mesh come from the same scan"
+    , 100.0 * .inside)]
+    MeshOutsideForeground {
+        /// The image.
+        index: usize,
+        /// Fraction of the mesh volume in its foreground.
+        inside: f64,
+        /// The foreground threshold (Otsu's).
+        threshold: f64,
+    },
 
     /// Pulling one image back failed (the table of its spacing or its
     /// resampling).
@@ -185,6 +220,20 @@ impl From<PullbackError> for PlacentaError {
 #[non_exhaustive]
 pub enum PullbackError {
     // ---- the template grid ----
+    /// A fixed template grid box has a non-finite bound or a max below its
+    /// min.
+    #[error(
+        "invalid configuration: the template grid box needs finite bounds with max >= min on \
+         every axis, got min [{}] and max [{}] mm",
+        Mm3(.min),
+        Mm3(.max)
+    )]
+    GridBox {
+        /// `(xmin, ymin, zmin)`, mm.
+        min: [f64; 3],
+        /// `(xmax, ymax, zmax)`, mm.
+        max: [f64; 3],
+    },
     /// A template voxel spacing is not finite and positive.
     #[error(
         "invalid configuration: the template voxel spacing must be finite and positive, got [{}] mm",

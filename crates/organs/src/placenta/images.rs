@@ -3,7 +3,9 @@
 //! table per distinct grid spacing, shared by every frame of a 4D series and
 //! by every image with that spacing.
 
+use super::config::GridBox;
 use super::error::{PlacentaError, PullbackError};
+use super::frame_check;
 use super::pullback::{Interpolation, PullbackTable, TemplateGrid, image_world_box};
 use super::report::ImageReport;
 use crate::{OrganError, PipelineObserver};
@@ -34,13 +36,21 @@ pub struct FlatImage {
     pub report: ImageReport,
 }
 
-/// Checks the images before any work: distinct names, and every image's
-/// world box meeting the mesh's bounding box.
+/// Checks the images before any work: distinct names, every image's
+/// world box meeting the mesh's bounding box and, with `frame_check`, the
+/// mesh lying in every image's foreground ([`frame_check::check`]). A mesh
+/// whose box misses an image's but that an axis flip puts in its
+/// foreground gets the flip's error rather than `Disjoint`.
 ///
 /// # Errors
-/// [`PlacentaError::ImageNameRepeated`]; [`PullbackError::Disjoint`]
+/// [`PlacentaError::ImageNameRepeated`]; [`PlacentaError::MeshFlipped`] /
+/// [`PlacentaError::MeshOutsideForeground`]; [`PullbackError::Disjoint`]
 /// naming the first image that misses the mesh.
-pub fn check_images(mesh: &TetMesh, images: &[Image<'_>]) -> Result<(), OrganError> {
+pub fn check_images(
+    mesh: &TetMesh,
+    images: &[Image<'_>],
+    frame_check: bool,
+) -> Result<(), OrganError> {
     for (index, image) in images.iter().enumerate() {
         if let Some(first) = images[..index].iter().position(|i| i.name == image.name) {
             return Err(PlacentaError::ImageNameRepeated { first, index }.into());
@@ -56,6 +66,12 @@ pub fn check_images(mesh: &TetMesh, images: &[Image<'_>]) -> Result<(), OrganErr
     for (index, image) in images.iter().enumerate() {
         let (image_lo, image_hi) = image_world_box(image.volume);
         if !(0..3).all(|a| image_lo[a] <= mesh_hi[a] && mesh_lo[a] <= image_hi[a]) {
+            if frame_check
+                && let Err(e @ PlacentaError::MeshFlipped { .. }) =
+                    frame_check::check(mesh, image.volume, index)
+            {
+                return Err(e.into());
+            }
             return Err(PullbackError::Disjoint {
                 index,
                 image_lo,
@@ -64,6 +80,9 @@ pub fn check_images(mesh: &TetMesh, images: &[Image<'_>]) -> Result<(), OrganErr
                 mesh_hi,
             }
             .into());
+        }
+        if frame_check {
+            frame_check::check(mesh, image.volume, index)?;
         }
     }
     Ok(())
@@ -78,19 +97,40 @@ fn row_major(m: &Matrix4<f64>) -> [[f64; 4]; 4] {
     std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
 }
 
-/// Pulls every image back: the grid covers the flattened mesh at
-/// `spacing_mm` (isotropic) or at each image's own voxel spacing; one table
-/// per distinct spacing; every image sampled with `interpolation`.
+/// The template grid of a pull-back at `spacing`: the fixed box `grid`
+/// when given ([`TemplateGrid::fixed`], the same for every subject), else
+/// the grid covering the flattened mesh ([`TemplateGrid::covering`]).
+///
+/// # Errors
+/// As [`TemplateGrid::fixed`] and [`TemplateGrid::covering`].
+pub fn template_grid(
+    flattened: &TetMesh,
+    spacing: [f64; 3],
+    grid: Option<&GridBox>,
+) -> Result<TemplateGrid, PullbackError> {
+    match grid {
+        Some(b) => TemplateGrid::fixed(b.min, b.max, spacing),
+        None => TemplateGrid::covering(&flattened.positions, spacing),
+    }
+}
+
+/// Pulls every image back: the grid covers the flattened mesh, or is the
+/// fixed box `grid` ([`TemplateGrid::fixed`]), at `spacing_mm` (isotropic)
+/// or at each image's own voxel spacing; one table per distinct spacing;
+/// every image sampled with `interpolation`. Flattened vertices outside a
+/// fixed box are counted in the image's report (`vertices_outside_grid`),
+/// not an error.
 ///
 /// # Errors
 /// [`PlacentaError::ImagePullback`] naming the image, with the error of
-/// [`TemplateGrid::covering`], [`PullbackTable::new`] or
-/// [`PullbackTable::apply`].
+/// [`TemplateGrid::covering`] / [`TemplateGrid::fixed`],
+/// [`PullbackTable::new`] or [`PullbackTable::apply`].
 pub fn pull_back(
     flattened: &TetMesh,
     original: &[Point3<f64>],
     images: &[Image<'_>],
     spacing_mm: Option<f64>,
+    grid: Option<&GridBox>,
     interpolation: Interpolation,
     observer: &mut dyn PipelineObserver,
 ) -> Result<Vec<FlatImage>, OrganError> {
@@ -109,7 +149,7 @@ pub fn pull_back(
                     "pull-back table at [{}] mm",
                     spacing.map(|s| format!("{s:.3}")).join(", ")
                 ));
-                let grid = TemplateGrid::covering(&flattened.positions, spacing).map_err(failed)?;
+                let grid = template_grid(flattened, spacing, grid).map_err(failed)?;
                 let table =
                     PullbackTable::new(grid, &flattened.positions, &flattened.tets, original)
                         .map_err(failed)?;
@@ -123,6 +163,12 @@ pub fn pull_back(
             .apply_with(image.volume, interpolation)
             .map_err(failed)?;
         let grid = *table.grid();
+        let (lo, hi) = grid.bounds();
+        let vertices_outside_grid = flattened
+            .positions
+            .iter()
+            .filter(|p| (0..3).any(|a| p[a] < lo[a] || p[a] > hi[a]))
+            .count();
         out.push(FlatImage {
             name: image.name.to_string(),
             report: ImageReport {
@@ -137,6 +183,7 @@ pub fn pull_back(
                 inside_mesh: stats.inside_mesh,
                 sampled: stats.sampled,
                 outside_image: stats.outside_image,
+                vertices_outside_grid,
             },
             volume,
         });

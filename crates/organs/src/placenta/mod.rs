@@ -26,11 +26,13 @@
 //!    [`pushback`] carries template-space images onto a scanner grid.
 
 pub mod align;
+pub mod canonical;
 pub mod config;
 pub mod displacement;
 pub mod error;
 pub mod estimate;
 pub mod evaluate;
+pub mod frame_check;
 pub mod images;
 pub mod optimize;
 pub mod parcellation;
@@ -43,12 +45,13 @@ pub mod segmentation;
 pub mod templates;
 
 pub use align::{Alignment, PcaAlignment, TransformReport};
-pub use config::{Config, SolverKind};
+pub use canonical::{TemplateSymmetry, canonical_motion};
+pub use config::{Config, GridBox, SolverKind};
 pub use error::{PlacentaError, PullbackError};
 pub use images::{FlatImage, Image};
 pub use pipeline::{Outcome, Pipeline};
 pub use prepare::{PreparedMesh, boundary_weights, prepare_mesh};
 pub use pullback::Interpolation;
-pub use report::{ImageReport, Pieces, Report};
+pub use report::{CanonicalReport, ImageReport, Pieces, Report};
 pub use templates::{Ellipsoid, ParallelPlanes, PlacentaTemplate, SinglePlane, TemplateKind};
 pub use unfold_mesh::shapes::side;

@@ -2,6 +2,7 @@
 //! run on a tet mesh and the images to pull into the template.
 
 use super::align::{Alignment, PcaAlignment};
+use super::canonical::canonical_motion;
 use super::config::Config;
 use super::error::PullbackError;
 use super::estimate::{estimate, estimate_with_thickness};
@@ -11,7 +12,7 @@ use super::optimize::{Method, Problem, named, optimize};
 use super::parcellation::{Parcellation, parcellate};
 use super::prepare::{PreparedMesh, boundary_weights, prepare_mesh};
 use super::pullback::{PullbackTable, TemplateGrid};
-use super::report::{BoundaryReport, InputReport, Pieces, Report, Timings};
+use super::report::{BoundaryReport, CanonicalReport, InputReport, Pieces, Report, Timings};
 use super::templates::{ParallelPlanes, PlacentaTemplate};
 use crate::{OrganError, PipelineObserver};
 use std::time::Instant;
@@ -80,8 +81,10 @@ pub struct Outcome {
     pub labels: Vec<u8>,
     /// The parcellation.
     pub parcellation: Parcellation,
-    /// The rigid motion that best fits the initial map (input to template
-    /// frame; for the default initializer exactly its alignment).
+    /// Input to template frame: the rigid motion that best fits the initial
+    /// map (for the default initializer exactly its alignment) followed by
+    /// the canonical motion (ALGORITHMS 2.10), so that it maps the input
+    /// into the frame of `flattened`.
     pub alignment: Alignment,
     /// Final template parameters.
     pub theta: Vec<f64>,
@@ -214,7 +217,7 @@ impl Pipeline {
             ..Timings::default()
         };
         let rest = prepared.mesh;
-        check_images(&rest, images)?;
+        check_images(&rest, images, config.frame_check)?;
 
         observer.stage("parcellation");
         let t = Instant::now();
@@ -268,7 +271,7 @@ impl Pipeline {
             line_search,
             stopping: config.stopping(self.solver.as_ref()),
         };
-        let opt = optimize(
+        let mut opt = optimize(
             &problem,
             &method,
             self.template.as_ref(),
@@ -276,6 +279,19 @@ impl Pipeline {
             start_map.x.clone(),
             observer,
         )?;
+        // The canonical frame (ALGORITHMS 2.10): a symmetry of the
+        // template, so the objective and every figure stay as they are.
+        let optimized: Vec<Point3<f64>> = opt
+            .x
+            .chunks_exact(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
+        let canonical = canonical_motion(&optimized, &rest.tets, self.template.symmetry());
+        for (c, p) in opt.x.chunks_exact_mut(3).zip(&optimized) {
+            let q = canonical.apply(p);
+            c.copy_from_slice(&[q.x, q.y, q.z]);
+        }
+        let alignment = alignment.then(&canonical);
         timings.optimization = t.elapsed().as_secs_f64();
 
         observer.stage("evaluation");
@@ -315,6 +331,7 @@ impl Pipeline {
             &original.positions,
             images,
             config.spacing_mm,
+            config.grid.as_ref(),
             config.interpolation,
             observer,
         )?;
@@ -359,6 +376,10 @@ impl Pipeline {
                 parcellation: *s,
             },
             transform: alignment.report(),
+            canonical_frame: CanonicalReport {
+                symmetry: template.symmetry(),
+                motion: canonical.report(),
+            },
             input: InputReport {
                 vertices: rest.num_vertices(),
                 tets: rest.num_tets(),

@@ -98,6 +98,39 @@ impl TemplateGrid {
         })
     }
 
+    /// The grid of a fixed box `[min, max]` at `spacing` mm: voxel centres
+    /// at `min + i s` for `i = 0 .. n - 1`, `n = floor((max - min) / s +
+    /// 1e-9) + 1` along each axis, so the first centre is `min` and the last
+    /// at or below `max` (up to rounding). The same box and spacing give the
+    /// same grid whatever the mesh.
+    ///
+    /// # Errors
+    /// [`PullbackError::Spacing`], [`PullbackError::GridBox`] for a bad box,
+    /// [`PullbackError::GridSize`] for more than [`MAX_VOXELS`] voxels.
+    pub fn fixed(min: [f64; 3], max: [f64; 3], spacing: [f64; 3]) -> Result<Self, PullbackError> {
+        check_spacing(spacing)?;
+        let ok = (0..3).all(|a| min[a].is_finite() && max[a].is_finite() && max[a] >= min[a]);
+        if !ok {
+            return Err(PullbackError::GridBox { min, max });
+        }
+        let counts: [f64; 3] =
+            std::array::from_fn(|a| ((max[a] - min[a]) / spacing[a] + 1e-9).floor() + 1.0);
+        let limit = MAX_VOXELS as f64;
+        if counts.iter().any(|c| !c.is_finite() || *c > limit)
+            || counts.iter().product::<f64>() > limit
+        {
+            return Err(PullbackError::GridSize {
+                dims: counts.map(|c| c.min(limit) as usize),
+                limit: MAX_VOXELS,
+            });
+        }
+        Ok(TemplateGrid {
+            origin: min,
+            spacing,
+            dims: counts.map(|c| c as usize),
+        })
+    }
+
     /// Checks a grid built by hand: finite origin, finite positive spacing,
     /// no zero dimension and at most [`MAX_VOXELS`] voxels.
     ///

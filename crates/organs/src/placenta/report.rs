@@ -1,6 +1,7 @@
 //! `report.json` of the placenta pipeline.
 
 use super::align::TransformReport;
+use super::canonical::TemplateSymmetry;
 use super::estimate::Estimates;
 use super::optimize::StageReport;
 use super::parcellation::ParcellationSummary;
@@ -105,8 +106,12 @@ pub struct Report {
     pub log2_area_ratio: Option<Summary>,
     /// Boundary vertex counts.
     pub boundary: BoundaryReport,
-    /// Input to template frame.
+    /// Input to template frame: the rigid motion that best fits the start
+    /// of the optimization, followed by `canonical_frame.motion`.
     pub transform: TransformReport,
+    /// The motion applied to the optimized map to put it into the
+    /// canonical template frame (ALGORITHMS 2.10).
+    pub canonical_frame: CanonicalReport,
     /// The input.
     pub input: InputReport,
     /// One entry per optimization stage.
@@ -132,6 +137,17 @@ pub struct Pieces {
     pub line_search: &'static str,
     /// The solver.
     pub solver: &'static str,
+}
+
+/// `canonical_frame` in the report (ALGORITHMS 2.10).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CanonicalReport {
+    /// The template's symmetry the motion is drawn from.
+    pub symmetry: TemplateSymmetry,
+    /// The motion, optimized map -> canonical frame (`x' = rotation x +
+    /// translation`; `centroid` is the mid-surface centre `c` moved to the
+    /// origin).
+    pub motion: TransformReport,
 }
 
 /// One entry of `images` in `report.json`.
@@ -164,4 +180,8 @@ pub struct ImageReport {
     pub sampled: usize,
     /// Of those, voxels whose source point lies outside the image (0).
     pub outside_image: usize,
+    /// Vertices of the flattened mesh outside the template grid (always 0
+    /// for the grid covering the mesh; with a fixed `grid` box, the part of
+    /// the placenta it cuts off).
+    pub vertices_outside_grid: usize,
 }

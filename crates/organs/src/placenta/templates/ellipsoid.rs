@@ -1,6 +1,6 @@
 //! An axis-aligned ellipsoid (ALGORITHMS 2.3).
 
-use super::PlacentaTemplate;
+use super::{PlacentaTemplate, TemplateSymmetry};
 use crate::placenta::estimate::Estimates;
 use crate::placenta::side;
 use serde::{Deserialize, Serialize};
@@ -229,5 +229,13 @@ impl PlacentaTemplate for Ellipsoid {
             estimates.ry_mm,
             estimates.half_thickness_mm,
         ]
+    }
+
+    /// An axis-aligned ellipsoid centred at the origin is invariant under
+    /// the half turns about its axes; the half turn about z is the one that
+    /// keeps the fetal side up. (With `rx = ry` every rotation about z is a
+    /// symmetry too; the canonical frame does not use them.)
+    fn symmetry(&self) -> TemplateSymmetry {
+        TemplateSymmetry::HalfTurnAboutZ
     }
 }

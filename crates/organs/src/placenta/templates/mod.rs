@@ -20,6 +20,7 @@ pub use ellipsoid::Ellipsoid;
 pub use planes::ParallelPlanes;
 pub use single_plane::SinglePlane;
 
+pub use super::canonical::TemplateSymmetry;
 use super::estimate::Estimates;
 use serde::{Deserialize, Serialize};
 use unfold_param::Template;
@@ -40,6 +41,15 @@ pub trait PlacentaTemplate: Template {
     fn warm_start(&self) -> Option<Box<dyn PlacentaTemplate>> {
         None
     }
+
+    /// The rigid motions of the flattened mesh that leave this template's
+    /// term unchanged (the distortion term is invariant under all of them),
+    /// which the canonical frame (ALGORITHMS 2.10) uses to fix the origin
+    /// and in-plane orientation. Default [`TemplateSymmetry::None`]: the
+    /// frame is left as the optimization ends.
+    fn symmetry(&self) -> TemplateSymmetry {
+        TemplateSymmetry::None
+    }
 }
 
 /// A boxed placenta template is a placenta template.
@@ -49,6 +59,9 @@ impl<T: PlacentaTemplate + ?Sized> PlacentaTemplate for Box<T> {
     }
     fn warm_start(&self) -> Option<Box<dyn PlacentaTemplate>> {
         (**self).warm_start()
+    }
+    fn symmetry(&self) -> TemplateSymmetry {
+        (**self).symmetry()
     }
 }
 

@@ -1,6 +1,7 @@
 //! Two parallel planes, the placenta paper's default template
 //! (ALGORITHMS 2.3).
 
+use super::TemplateSymmetry;
 use super::{PlacentaTemplate, SinglePlane};
 use crate::placenta::estimate::Estimates;
 use crate::placenta::side;
@@ -187,5 +188,11 @@ impl PlacentaTemplate for ParallelPlanes {
     /// `[h]`, the estimated half thickness (ALGORITHMS 2.4).
     fn initial_theta(&self, estimates: &Estimates) -> Vec<f64> {
         vec![estimates.half_thickness_mm]
+    }
+
+    /// The planes `z = +-h` are invariant under translations in x and y and
+    /// rotations about z.
+    fn symmetry(&self) -> TemplateSymmetry {
+        TemplateSymmetry::InPlane
     }
 }

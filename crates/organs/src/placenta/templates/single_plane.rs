@@ -1,6 +1,6 @@
 //! The single-plane relaxation of the parallel planes (ALGORITHMS 2.3).
 
-use super::{ParallelPlanes, PlacentaTemplate};
+use super::{ParallelPlanes, PlacentaTemplate, TemplateSymmetry};
 use crate::placenta::estimate::Estimates;
 use serde::{Deserialize, Serialize};
 use unfold_param::Template;
@@ -104,5 +104,11 @@ impl PlacentaTemplate for SinglePlane {
     /// where the single plane starts.
     fn warm_start(&self) -> Option<Box<dyn PlacentaTemplate>> {
         Some(Box::new(ParallelPlanes::default()))
+    }
+
+    /// The plane `z = -h` (and the free fetal side) is invariant under
+    /// translations in x and y and rotations about z.
+    fn symmetry(&self) -> TemplateSymmetry {
+        TemplateSymmetry::InPlane
     }
 }
