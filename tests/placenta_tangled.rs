@@ -2,7 +2,8 @@
 //! placenta mesh (a vertex dragged past its neighbour; a strong jitter) is
 //! refused with the first folded face named, a mirrored one (every tet
 //! negative, nothing overlapping) is mapped, and the report counts the
-//! output's folded faces as well as its inverted tets.
+//! output's folded faces as well as its inverted tets; a full mask is
+//! refused for what it is.
 
 use unfold::io::{WriteOptions, write_mesh};
 use unfold::mesh::nalgebra::Point3;
@@ -92,4 +93,27 @@ fn tangled_meshes_are_refused_and_mirrored_ones_mapped() {
     assert_eq!(r["input"]["reoriented_tets"], clean.tets.len());
     assert_eq!(r["folded_faces"], 0);
     assert_eq!(r["inverted_tets"], 0);
+}
+
+/// A mask with every voxel set (an inverted mask) is refused for what it
+/// is, not blamed on `--margin-mm`.
+#[test]
+fn a_full_mask_is_refused_for_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let mask = dir.path().join("ones.nii.gz");
+    let affine = unfold::mesh::nalgebra::Matrix4::new_scaling(3.0);
+    let mut affine = affine;
+    affine[(3, 3)] = 1.0;
+    let vol = unfold::mesh::Volume::new([12, 12, 6, 1], affine, vec![1.0f32; 864]).unwrap();
+    unfold::io::write_image(&mask, &unfold::io::NiftiImage::new(vol)).unwrap();
+    let o = unfold(&[
+        "placenta",
+        "--seg",
+        &s(&mask),
+        "-o",
+        &s(&dir.path().join("out")),
+        "--no-figures",
+    ]);
+    assert_one_line_error(&o, "every one of the segmentation's 864 voxels is set");
+    assert!(!stderr(&o).contains("--margin-mm"), "{}", stderr(&o));
 }

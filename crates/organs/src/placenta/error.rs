@@ -64,6 +64,16 @@ pub enum PlacentaError {
     /// A segmentation has no voxel inside.
     #[error("the segmentation has no voxel inside")]
     EmptyMask,
+    /// Every voxel of a segmentation is set: no background, so no
+    /// boundary and no thickness to measure.
+    #[error(
+        "every one of the segmentation's {voxels} voxels is set: a mask needs background around \
+         the placenta (an inverted mask? a probability map needs --threshold)"
+    )]
+    FullMask {
+        /// Voxels in the mask (all set).
+        voxels: usize,
+    },
     /// The optimizer ran no stage (an internal error).
     #[error("no optimization stage ran")]
     NoStage,

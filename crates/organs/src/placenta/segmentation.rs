@@ -31,11 +31,18 @@ pub struct Segmented {
 ///
 /// # Errors
 /// `Mesh` for a mask that cannot be meshed (empty, options out of range);
-/// [`PlacentaError::EmptyMask`] when no voxel is inside.
+/// [`PlacentaError::EmptyMask`] when no voxel is inside,
+/// [`PlacentaError::FullMask`] when every voxel is (no background).
 pub fn from_segmentation(
     mask: &Volume<bool>,
     options: &MaskMeshOptions,
 ) -> Result<Segmented, OrganError> {
+    if mask.data().iter().all(|&v| v) {
+        return Err(PlacentaError::FullMask {
+            voxels: mask.data().len(),
+        }
+        .into());
+    }
     let meshed = mesh_mask(mask, options)?;
     let mut thick = None;
     for _ in 0..options.dilate {
@@ -83,6 +90,20 @@ mod tests {
                 s.half_thickness_mm
             );
         }
+    }
+
+    #[test]
+    fn a_full_mask_is_a_clear_error() {
+        let full = Volume::new([6, 6, 6, 1], Matrix4::identity(), vec![true; 216]).unwrap();
+        let e = from_segmentation(&full, &MaskMeshOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                OrganError::Placenta(PlacentaError::FullMask { voxels: 216 })
+            ),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("needs background"), "{e}");
     }
 
     #[test]
