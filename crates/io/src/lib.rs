@@ -3,7 +3,8 @@
 //! Meshes: VTK legacy `.vtk` (ASCII / binary, versions up to 4.2 and 5.1),
 //! VTK XML `.vtu` / `.vtp` (ASCII, inline base64, appended raw or base64,
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
-//! NIfTI-1 `.nii` / `.nii.gz`. The format is chosen by file extension.
+//! NIfTI-1 `.nii` / `.nii.gz`. Landmarks: 3D Slicer markups `.mrk.json` and
+//! `.fcsv` ([`markups`]). The format is chosen by file extension.
 //!
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
@@ -13,6 +14,7 @@
 mod error;
 mod format;
 pub mod gmsh;
+pub mod markups;
 pub mod medit;
 pub mod nifti;
 pub mod obj;
@@ -28,5 +30,6 @@ pub use format::{
     FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,
     write_image, write_mesh,
 };
+pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};
