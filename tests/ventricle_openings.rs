@@ -119,15 +119,23 @@ fn holes_in_the_wall_are_capped_and_far_points_keep_their_coordinates() {
     let dir = tempfile::tempdir().unwrap();
     let v = cup();
     let centres = [wall(&v.surface, 1.0, -25.0), wall(&v.surface, 3.5, -35.0)];
-    let s = holed(&v.surface, &centres);
-    assert_eq!(boundary_loops(&s).unwrap().len(), 3);
+    let cut = holed(&v.surface, &centres);
+    assert_eq!(boundary_loops(&cut).unwrap().len(), 3);
     let (anatomy, clean) = inputs(dir.path(), &v, &v.surface, "clean.vtp");
-    let (_, holes) = inputs(dir.path(), &v, &s, "holes.vtp");
+    let (_, holes) = inputs(dir.path(), &v, &cut, "holes.vtp");
     let out0 = dir.path().join("clean");
     let out1 = dir.path().join("holes");
     assert_ok(&run(&anatomy, &clean, &out0, &flags(&v)));
     let o = run(&anatomy, &holes, &out1, &flags(&v));
     assert_ok(&o);
+    let text = stdout(&o);
+    assert!(
+        text.contains(&format!(
+            "{}: 3 openings; the rim is opening 0 (nearest the rim landmarks), 2 capped with",
+            s(&holes)
+        )),
+        "{text}"
+    );
 
     // the report: three openings, the base is the rim, two caps
     let (r0, r1) = (report(&out0), report(&out1));

@@ -56,6 +56,7 @@ use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::organs::ventricle::openings::RimChoice;
 use unfold::organs::ventricle::{
     Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
 };
@@ -723,6 +724,21 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         bullseye_array: a.bullseye_array.as_deref(),
     })?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
+    let o = &result.outcome.report.openings;
+    if o.loops.len() > 1 {
+        println!(
+            "{}: {} openings; the rim is opening {} (nearest the {}), {} capped with {} triangles",
+            surface_label,
+            o.loops.len(),
+            o.rim,
+            match o.chosen_by {
+                RimChoice::RimNear => "--rim-near point",
+                _ => "rim landmarks",
+            },
+            o.cap_vertices,
+            o.cap_triangles
+        );
+    }
     if let Some(t) = &result.transfer {
         println!(
             "transferred {} points into {} in {:.2} s",

@@ -517,9 +517,12 @@ mod tests {
         );
     }
 
+    /// Whether an error is the one expected.
+    type Check = fn(&MarkupsError) -> bool;
+
     #[test]
     fn bad_files_give_typed_one_line_errors() {
-        let cases: Vec<(&str, fn(&MarkupsError) -> bool, &str)> = vec![
+        let cases: Vec<(&str, Check, &str)> = vec![
             (
                 "{\"markups\": [",
                 |e| matches!(e, MarkupsError::NotJson { line: 1, .. }),

@@ -149,6 +149,17 @@ pub enum VentricleError {
         /// Fan triangles turning against the loop.
         folded: usize,
     },
+    /// The cap of an opening would cross S.
+    #[error(
+        "the cap of opening {opening} of S (a fan from its centroid) would cross triangle \
+         {triangle} of S; cap or trim that opening before unfolding"
+    )]
+    CapCrossesSurface {
+        /// Which opening (longest first).
+        opening: usize,
+        /// A triangle of S it crosses.
+        triangle: usize,
+    },
 
     // ---- the disk map (ALGORITHMS 3.2) ----
     /// An arc of the RV rim between its two corners has no length.

@@ -21,7 +21,10 @@
 //! and so keep S consistently oriented. The fan is accepted when it is
 //! star-shaped seen along the loop's Newell normal
 //! `n = sum_k (b_k - c) x (b_{k+1} - c)`: every spoke triangle turns the
-//! same way, `((b_k - c) x (b_{k+1} - c)) . n > 0`. Each cap adds one
+//! same way, `((b_k - c) x (b_{k+1} - c)) . n > 0`, and when it crosses no
+//! triangle of S (every triangle near the cap that touches no loop vertex:
+//! its edges against the fan, the fan's spokes against it; the field's
+//! inside/outside test needs S and its caps to bound one region). Each cap adds one
 //! vertex, `m` edges and `m` triangles, so the Euler characteristic rises
 //! by one per cap: a sphere with `k` holes (`chi = 2 - k`) becomes a disk
 //! (`chi = 1`). The caps are part of S for the field and the streamlines
@@ -156,7 +159,8 @@ fn perimeter_centroid(positions: &[Point3<f64>], loop_: &[u32]) -> (f64, Point3<
 ///   `snap_mm` from every loop, [`VentricleError::AmbiguousRim`] when two
 ///   loops are about equally near;
 /// - [`VentricleError::OpeningNotCappable`] when a loop is not star-shaped
-///   about its centroid;
+///   about its centroid, [`VentricleError::CapCrossesSurface`] when its cap
+///   would cross S;
 /// - `Config` for a `snap_mm` that is not finite and `> 0`.
 pub fn cap_openings(
     surface: &TriMesh,
@@ -228,7 +232,9 @@ pub fn cap_openings(
         let added = if j == rim {
             0
         } else {
-            fan(pos, l, &c, j, &mut positions, &mut triangles)?
+            let added = fan(pos, l, &c, j, &mut positions, &mut triangles)?;
+            check_crossing(surface, l, &c, j)?;
+            added
         };
         cap_triangles += added;
         openings.push(Opening {
@@ -288,6 +294,82 @@ fn fan(
         triangles.push([l[(k + 1) % m], l[k], centre]);
     }
     Ok(m)
+}
+
+/// Whether the segment `p q` crosses the triangle `a b c` inside both
+/// (Moller-Trumbore; touching within a relative `1e-9` and coplanar
+/// configurations do not count).
+fn segment_crosses(
+    p: &Point3<f64>,
+    q: &Point3<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    c: &Point3<f64>,
+) -> bool {
+    const EPS: f64 = 1e-9;
+    let d = q - p;
+    let (e1, e2) = (b - a, c - a);
+    let h = d.cross(&e2);
+    let det = e1.dot(&h);
+    let scale = d.norm() * e1.norm() * e2.norm();
+    if det.abs() <= EPS * scale {
+        return false;
+    }
+    let f = 1.0 / det;
+    let s = p - a;
+    let u = f * s.dot(&h);
+    let qv = s.cross(&e1);
+    let v = f * d.dot(&qv);
+    let t = f * e2.dot(&qv);
+    u > EPS && v > EPS && u + v < 1.0 - EPS && t > EPS && t < 1.0 - EPS
+}
+
+/// Refuses the fan of loop `l` (number `index`) from `c` when it crosses a
+/// triangle of S that touches no loop vertex: every edge of such a triangle
+/// near the cap against every fan triangle, and every spoke `c b_k` against
+/// every such triangle (two triangles that cross meet along a segment whose
+/// ends lie on edges of one or the other).
+fn check_crossing(
+    surface: &TriMesh,
+    l: &[u32],
+    c: &Point3<f64>,
+    index: usize,
+) -> Result<(), VentricleError> {
+    let pos = &surface.positions;
+    let m = l.len();
+    let radius = l
+        .iter()
+        .map(|&v| (pos[v as usize] - c).norm())
+        .fold(0.0, f64::max);
+    let on_loop: std::collections::HashSet<u32> = l.iter().copied().collect();
+    for (t, tri) in surface.triangles.iter().enumerate() {
+        if tri.iter().any(|v| on_loop.contains(v)) {
+            continue;
+        }
+        let [a, b, d] = tri.map(|v| pos[v as usize]);
+        let centre = Point3::from((a.coords + b.coords + d.coords) / 3.0);
+        let reach = [a, b, d]
+            .iter()
+            .map(|p| (p - centre).norm())
+            .fold(0.0, f64::max);
+        if (centre - c).norm() > radius + reach {
+            continue;
+        }
+        let crossing = (0..m).any(|k| {
+            let (b0, b1) = (pos[l[k] as usize], pos[l[(k + 1) % m] as usize]);
+            segment_crosses(c, &b0, &a, &b, &d)
+                || [(a, b), (b, d), (d, a)]
+                    .iter()
+                    .any(|(p, q)| segment_crosses(p, q, &b1, &b0, c))
+        });
+        if crossing {
+            return Err(VentricleError::CapCrossesSurface {
+                opening: index,
+                triangle: t,
+            });
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -588,6 +670,57 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A tube whose wall folds in below its bottom opening: the bottom's
+    /// cap would cross the wall, and is refused.
+    #[test]
+    fn a_cap_that_would_cross_s_is_refused() {
+        let rings: [(f64, f64); 4] = [(10.0, 0.0), (10.0, 2.0), (3.0, -3.0), (3.0, 10.0)];
+        let n = 24u32;
+        let mut pos = Vec::new();
+        for &(r, z) in &rings {
+            for k in 0..n {
+                let t = k as f64 * std::f64::consts::TAU / n as f64;
+                pos.push(Point3::new(r * t.cos(), r * t.sin(), z));
+            }
+        }
+        let mut tris = Vec::new();
+        for i in 0..rings.len() as u32 - 1 {
+            for k in 0..n {
+                let (a, b) = (i * n + k, i * n + (k + 1) % n);
+                let (c, d) = (a + n, b + n);
+                tris.push([a, b, d]);
+                tris.push([a, d, c]);
+            }
+        }
+        let s = TriMesh::new(pos, tris);
+        let top = s.positions[3 * n as usize];
+        let other = s.positions[3 * n as usize + 8];
+        match cap_openings(&s, &top, &other, None, 1.0) {
+            Err(OrganError::Ventricle(e @ VentricleError::CapCrossesSurface { .. })) => {
+                let VentricleError::CapCrossesSurface { opening, triangle } = e else {
+                    unreachable!()
+                };
+                // the bottom loop (longer, so opening 0) and a triangle of
+                // the fold between rings 1 and 2
+                assert_eq!(opening, 0);
+                assert!(
+                    (2 * n as usize..4 * n as usize).contains(&triangle),
+                    "{triangle}"
+                );
+                assert!(e.to_string().contains("would cross triangle"), "{e}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // without the fold the same tube is capped
+        let mut straight = s.clone();
+        for k in 0..n as usize {
+            let p = &mut straight.positions[2 * n as usize + k];
+            *p = Point3::new(p.x * 10.0 / 3.0, p.y * 10.0 / 3.0, 5.0);
+        }
+        let c = cap_openings(&straight, &top, &other, None, 1.0).unwrap();
+        assert_eq!(c.openings.cap_triangles, n as usize);
     }
 
     proptest! {
