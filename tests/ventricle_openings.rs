@@ -63,6 +63,11 @@ fn write(path: &Path, mesh: &CellMesh) {
 /// Runs `unfold ventricle ANATOMY --surface S --grid-mm 1.5 --no-figures
 /// -o OUT` plus `extra`.
 fn run(anatomy: &Path, surface: &Path, out: &Path, extra: &[String]) -> Output {
+    run_with(anatomy, surface, out, extra, false)
+}
+
+/// [`run`], with the figures when `figures`.
+fn run_with(anatomy: &Path, surface: &Path, out: &Path, extra: &[String], figures: bool) -> Output {
     let mut args = vec![
         "ventricle".to_string(),
         s(anatomy),
@@ -70,10 +75,12 @@ fn run(anatomy: &Path, surface: &Path, out: &Path, extra: &[String]) -> Output {
         s(surface),
         "--grid-mm".into(),
         "1.5".into(),
-        "--no-figures".into(),
         "-o".into(),
         s(out),
     ];
+    if !figures {
+        args.push("--no-figures".into());
+    }
     args.extend(extra.iter().cloned());
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     unfold(&refs)
@@ -126,7 +133,7 @@ fn holes_in_the_wall_are_capped_and_far_points_keep_their_coordinates() {
     let out0 = dir.path().join("clean");
     let out1 = dir.path().join("holes");
     assert_ok(&run(&anatomy, &clean, &out0, &flags(&v)));
-    let o = run(&anatomy, &holes, &out1, &flags(&v));
+    let o = run_with(&anatomy, &holes, &out1, &flags(&v), true);
     assert_ok(&o);
     let text = stdout(&o);
     assert!(
@@ -208,9 +215,22 @@ fn holes_in_the_wall_are_capped_and_far_points_keep_their_coordinates() {
     assert!(far > v.anatomy.positions.len() / 2, "{far}");
     assert!(disk < DISK_TOL, "disk position moved by {disk}");
     assert!(depth < DEPTH_TOL, "depth moved by {depth}");
-    // the disk: every vertex in the unit disk, the caps' centres included
+    // the disk: every vertex in the unit disk, the caps' centres included;
+    // the caps are part of it (two more vertices than the clean disk, less
+    // the vertices cut away)
     let d = read_mesh(out1.join("disk.vtp")).unwrap();
     assert!(d.positions.iter().all(|p| p.x.hypot(p.y) <= 1.0 + 1e-9));
+    let clean_disk = read_mesh(out0.join("disk.vtp")).unwrap();
+    let used: std::collections::HashSet<u32> = cut.triangles.iter().flatten().copied().collect();
+    let cut_away = v.surface.positions.len() - used.len();
+    assert_eq!(d.positions.len() + cut_away, clean_disk.positions.len() + 2);
+    // every output is a valid file, and the figures were drawn
+    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtp"] {
+        let o = unfold(&["info", &s(&out1.join(f)), "--strict"]);
+        assert!(o.status.success(), "{f}: {}", stderr(&o));
+    }
+    let figures = std::fs::read_dir(out1.join("figures")).unwrap().count();
+    assert!(figures > 0);
 }
 
 /// Largest move of a far point's disk position `(xi, zeta)`. Measured:
@@ -348,14 +368,32 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
     .unwrap();
     let out0 = dir.path().join("flags");
     let out1 = dir.path().join("file");
-    assert_ok(&run(&anatomy, &surface, &out0, &flags(&v)));
-    assert_ok(&run(
-        &anatomy,
-        &surface,
-        &out1,
-        &["--landmarks".into(), s(&mrk)],
-    ));
-    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtp"] {
+    // with a transfer into the same heart, its landmarks from the same file
+    let mut args = flags(&v);
+    args.extend(["--to-surface".into(), s(&surface)]);
+    for (flag, p) in [
+        ("--to-anterior", v.anterior),
+        ("--to-inferior", v.inferior),
+        ("--to-apex", v.apex),
+    ] {
+        args.extend([flag.into(), pt(&p)]);
+    }
+    assert_ok(&run(&anatomy, &surface, &out0, &args));
+    let args = [
+        "--landmarks".into(),
+        s(&mrk),
+        "--to-surface".into(),
+        s(&surface),
+        "--to-landmarks".into(),
+        s(&mrk),
+    ];
+    assert_ok(&run(&anatomy, &surface, &out1, &args));
+    for f in [
+        "normalized.vtu",
+        "anatomy.vtu",
+        "disk.vtp",
+        "transferred.vtu",
+    ] {
         let a = std::fs::read(out0.join(f)).unwrap();
         let b = std::fs::read(out1.join(f)).unwrap();
         assert!(a == b, "{f} differs");
@@ -363,8 +401,11 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
     let (mut r0, mut r1) = (report(&out0), report(&out1));
     for r in [&mut r0, &mut r1] {
         r.as_object_mut().unwrap().remove("seconds");
+        let t = r["transfer"].as_object_mut().unwrap();
+        t.retain(|k, _| !k.ends_with("seconds"));
     }
     assert_eq!(r0, r1);
+    assert_eq!(r1["landmark_snap_mm"], serde_json::json!([0.0, 0.0, 0.0]));
 
     // bad files and flags: one-line errors
     let bad = |name: &str, text: &str, extra: &[&str], needles: &[&str]| {
