@@ -187,9 +187,12 @@ pub struct VentricleArgs {
     to_rim_near: Option<Point3<f64>>,
 }
 
-/// Labels of the landmarks in a markups file (compared case-insensitively).
+/// Label of the anterior landmark (LV) or first septal corner (RV) in a
+/// markups file (compared case-insensitively; no synonyms).
 const ANTERIOR_LABELS: &[&str] = &["anterior"];
+/// Label of the inferior landmark (LV) or second septal corner (RV).
 const INFERIOR_LABELS: &[&str] = &["inferior"];
+/// Label of the apex (optional in the file).
 const APEX_LABELS: &[&str] = &["apex"];
 
 /// The landmarks of one heart: from a markups file, or the flags'
