@@ -407,6 +407,35 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
     assert_eq!(r0, r1);
     assert_eq!(r1["landmark_snap_mm"], serde_json::json!([0.0, 0.0, 0.0]));
 
+    // Slicer's older .fcsv (RAS here), labels in any case
+    let fcsv = dir.path().join("landmarks.fcsv");
+    let line = |k: usize, p: &Point3<f64>, label: &str| {
+        format!(
+            "vtkMRMLMarkupsFiducialNode_{k},{:?},{:?},{:?},0,0,0,1,1,1,0,{label},,vtkMRMLModelNode4\n",
+            p.x, p.y, p.z
+        )
+    };
+    let text = format!(
+        "# Markups fiducial file version = 4.10\n# CoordinateSystem = 0\n\
+         # columns = id,x,y,z,ow,ox,oy,oz,vis,sel,lock,label,desc,associatedNodeID\n{}{}{}",
+        line(0, &v.apex, "Apex"),
+        line(1, &v.anterior, "anterior"),
+        line(2, &v.inferior, "Inferior")
+    );
+    std::fs::write(&fcsv, text).unwrap();
+    let out2 = dir.path().join("fcsv");
+    assert_ok(&run(
+        &anatomy,
+        &surface,
+        &out2,
+        &["--landmarks".into(), s(&fcsv)],
+    ));
+    for f in ["normalized.vtu", "disk.vtp"] {
+        let a = std::fs::read(out0.join(f)).unwrap();
+        let b = std::fs::read(out2.join(f)).unwrap();
+        assert!(a == b, "{f} differs");
+    }
+
     // bad files and flags: one-line errors
     let bad = |name: &str, text: &str, extra: &[&str], needles: &[&str]| {
         let p = dir.path().join(name);
