@@ -79,6 +79,7 @@ fn figures(c: &mut Criterion) {
                 anterior: cup.anterior,
                 inferior: cup.inferior,
                 apex: Some(cup.apex),
+                rim_near: None,
             },
         )
         .expect("ventricle");

@@ -33,6 +33,7 @@ fn ventricle(c: &mut Criterion) {
         anterior: s.positions[rim[0] as usize],
         inferior: s.positions[rim[rim.len() / 3] as usize],
         apex: None,
+        rim_near: None,
     };
     let mut config = Config::default();
     config.chart.field.grid_mm = 1.0;

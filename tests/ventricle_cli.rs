@@ -330,7 +330,9 @@ fn surfaces_that_are_not_disks_are_rejected() {
     let v = cup();
     let (anatomy, _) = write_cup(dir.path(), &v);
 
-    // A hole at the apex: two boundary loops.
+    // A hole at the apex: two boundary loops; the one nearest the rim
+    // landmarks is the rim, the other is capped (tests/ventricle_openings.rs)
+    // and the given apex snaps to the cap's centre.
     let holed = TriMesh::new(
         v.surface.positions.clone(),
         v.surface
@@ -344,7 +346,29 @@ fn surfaces_that_are_not_disks_are_rejected() {
     write(&p, &CellMesh::from(&holed));
     let out = dir.path().join("out_holed");
     let o = run(&anatomy, &p, &v, &out, &[]);
-    assert_one_line_error(&o, "2 boundary loops");
+    assert_ok(&o);
+    let r = report(&out);
+    assert_eq!(r["openings"]["loops"].as_array().unwrap().len(), 2);
+    assert_eq!(r["openings"]["chosen_by"], "landmarks");
+    assert_eq!(r["openings"]["cap_vertices"], 1);
+
+    // Two cups side by side: the second cup's rim is capped, but S is still
+    // two pieces.
+    let mut two = v.surface.clone();
+    let n = two.positions.len() as u32;
+    two.positions.extend(
+        v.surface
+            .positions
+            .iter()
+            .map(|p| p + Vector3::new(200.0, 0.0, 0.0)),
+    );
+    two.triangles
+        .extend(v.surface.triangles.iter().map(|t| t.map(|i| i + n)));
+    let p = dir.path().join("two.vtp");
+    write(&p, &CellMesh::from(&two));
+    let out = dir.path().join("out_two");
+    let o = run(&anatomy, &p, &v, &out, &[]);
+    assert_one_line_error(&o, "2 connected components");
     assert_one_line_error(&o, "S is not a disk");
     assert!(!out.join("report.json").exists());
 

@@ -39,6 +39,7 @@ fn rim_landmarks(s: &TriMesh) -> LandmarkPoints {
         anterior: r.positions[rim[0] as usize],
         inferior: r.positions[rim[rim.len() / 3] as usize],
         apex: None,
+        rim_near: None,
     }
 }
 
@@ -330,6 +331,7 @@ fn a_messy_surface_is_repaired_and_reported() {
         anterior: cup.anterior,
         inferior: cup.inferior,
         apex: None,
+        rim_near: None,
     };
     let clean = run(&points, &cup.surface, &landmarks, &config(2.0)).unwrap();
     let fixed = run(&points, &messy, &landmarks, &config(2.0)).unwrap();

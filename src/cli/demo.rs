@@ -210,6 +210,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
             anterior: v.anterior,
             inferior: v.inferior,
             apex: Some(v.apex),
+            rim_near: None,
         },
         config,
         transfer: None,

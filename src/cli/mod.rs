@@ -94,7 +94,7 @@ enum Command {
     /// Carry the anatomy inside a heart chamber into the canonical cylinder: the enclosing
     /// surface flattened to a disk (LV) or half disk (RV), depth along Laplace streamlines,
     /// AHA 17 segments, exact inverse map and transfer to another heart.
-    Ventricle(ventricle::VentricleArgs),
+    Ventricle(Box<ventricle::VentricleArgs>),
     /// Lay a mitral valve out in 2D: annulus first, leaflets below, relaxed flip-free, with
     /// clinical maps (coaptation, tenting, Carpentier segments) and measurements.
     Mitral(mitral::MitralArgs),

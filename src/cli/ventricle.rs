@@ -29,6 +29,13 @@
 //! - `report.json`: the library's report, the inputs and (with a transfer)
 //!   `transfer`.
 //!
+//! The landmarks come from the flags or from a 3D Slicer markups file
+//! (`--landmarks FILE.mrk.json`, points labelled `anterior`, `inferior`,
+//! `apex`; a flag next to the file is a usage error). S may have several
+//! openings: the basal rim is the one nearest the rim landmarks (or
+//! `--rim-near X,Y,Z`), the others are capped; `report.json` lists them
+//! under `openings`.
+//!
 //! An anatomy without cells is written with one VTK vertex cell per point,
 //! so that viewers show it. Progress lines (`ventricle: ...`) go to stderr
 //! when it is a terminal.
@@ -40,12 +47,16 @@ use std::borrow::Cow;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use unfold::io::{WriteOptions, atomic_write, read_mesh, read_tri_mesh, write_mesh};
+use unfold::io::{
+    FilePath, IoError, MarkupsError, WriteOptions, atomic_write, read_markups, read_mesh,
+    read_tri_mesh, write_mesh,
+};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::organs::ventricle::openings::RimChoice;
 use unfold::organs::ventricle::{
     Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
 };
@@ -95,16 +106,28 @@ pub struct VentricleArgs {
     surface: PathBuf,
     /// Anterior RV insertion point (LV) or first septal corner (RV), on the
     /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    anterior: Point3<f64>,
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          required_unless_present = "landmarks")]
+    anterior: Option<Point3<f64>>,
     /// Inferior RV insertion point (LV) or second septal corner (RV), on the
     /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    inferior: Point3<f64>,
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          required_unless_present = "landmarks")]
+    inferior: Option<Point3<f64>>,
     /// The apex (snapped to the nearest vertex of S) [default: the vertex of
     /// S farthest from the rim's centroid].
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
     apex: Option<Point3<f64>>,
+    /// The landmarks from a 3D Slicer markups file (.mrk.json, or .fcsv):
+    /// points labelled anterior, inferior and (optional) apex, any case; LPS
+    /// points are converted to RAS. Instead of --anterior/--inferior/--apex.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["anterior", "inferior", "apex"])]
+    landmarks: Option<PathBuf>,
+    /// A point on or near the basal rim, naming it when S has several
+    /// openings [default: the opening nearest the rim landmarks]; the other
+    /// openings are capped.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
+    rim_near: Option<Point3<f64>>,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -152,6 +175,64 @@ pub struct VentricleArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
           requires = "to_surface")]
     to_apex: Option<Point3<f64>>,
+    /// The second heart's landmarks from a Slicer markups file (with
+    /// --to-surface; like --landmarks).
+    #[arg(long, value_name = "FILE", requires = "to_surface",
+          conflicts_with_all = ["to_anterior", "to_inferior", "to_apex"])]
+    to_landmarks: Option<PathBuf>,
+    /// A point near the second heart's basal rim (with --to-surface; like
+    /// --rim-near).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
+          requires = "to_surface")]
+    to_rim_near: Option<Point3<f64>>,
+}
+
+/// Label of the anterior landmark (LV) or first septal corner (RV) in a
+/// markups file (compared case-insensitively; no synonyms).
+const ANTERIOR_LABELS: &[&str] = &["anterior"];
+/// Label of the inferior landmark (LV) or second septal corner (RV).
+const INFERIOR_LABELS: &[&str] = &["inferior"];
+/// Label of the apex (optional in the file).
+const APEX_LABELS: &[&str] = &["apex"];
+
+/// The landmarks of one heart: from a markups file, or the flags'
+/// `anterior`, `inferior` and `apex` (clap makes sure one of the two is
+/// given, never both).
+fn landmark_points(
+    file: Option<&Path>,
+    anterior: Option<Point3<f64>>,
+    inferior: Option<Point3<f64>>,
+    apex: Option<Point3<f64>>,
+    rim_near: Option<Point3<f64>>,
+    flags: &str,
+) -> Result<LandmarkPoints, CliError> {
+    let Some(path) = file else {
+        let (Some(anterior), Some(inferior)) = (anterior, inferior) else {
+            return Err(CliError::Usage(format!(
+                "give {flags} (the rim landmarks) or a markups file with them"
+            )));
+        };
+        return Ok(LandmarkPoints {
+            anterior,
+            inferior,
+            apex,
+            rim_near,
+        });
+    };
+    let m = read_markups(path)?;
+    let labelled = |e: MarkupsError| -> CliError {
+        IoError::Markups {
+            path: FilePath(path.into()),
+            source: e,
+        }
+        .into()
+    };
+    Ok(LandmarkPoints {
+        anterior: m.require(ANTERIOR_LABELS).map_err(labelled)?,
+        inferior: m.require(INFERIOR_LABELS).map_err(labelled)?,
+        apex: m.find(APEX_LABELS).map_err(labelled)?,
+        rim_near,
+    })
 }
 
 /// Parses a point `X,Y,Z` (spaces around the commas allowed).
@@ -552,15 +633,20 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             "exists and is not a directory; -o needs a directory (created if missing)",
         ));
     }
-    if a.to_surface.is_some() && (a.to_anterior.is_none() || a.to_inferior.is_none()) {
+    if a.to_surface.is_some()
+        && a.to_landmarks.is_none()
+        && (a.to_anterior.is_none() || a.to_inferior.is_none())
+    {
         return Err(CliError::Usage(
             "--to-surface needs --to-anterior and --to-inferior (the second heart's rim \
-             landmarks)"
+             landmarks) or --to-landmarks FILE"
                 .into(),
         ));
     }
     let mut inputs = vec![&a.anatomy, &a.surface];
     inputs.extend(&a.to_surface);
+    inputs.extend(&a.landmarks);
+    inputs.extend(&a.to_landmarks);
     check_not_inputs(out, &inputs)?;
 
     let anatomy = read_mesh(&a.anatomy)?;
@@ -586,23 +672,35 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let transfer = match (&to_surface, a.to_anterior, a.to_inferior, &hemisphere) {
-        (Some(surface), Some(anterior), Some(inferior), _) => Some(TransferInput {
+    let landmarks = landmark_points(
+        a.landmarks.as_deref(),
+        a.anterior,
+        a.inferior,
+        a.apex,
+        a.rim_near,
+        "--anterior and --inferior",
+    )?;
+    let transfer = match (&to_surface, &hemisphere) {
+        (Some(surface), _) => Some(TransferInput {
             label: &to_label,
             surface,
-            landmarks: LandmarkPoints {
-                anterior,
-                inferior,
-                apex: a.to_apex,
-            },
+            landmarks: landmark_points(
+                a.to_landmarks.as_deref(),
+                a.to_anterior,
+                a.to_inferior,
+                a.to_apex,
+                a.to_rim_near,
+                "--to-anterior and --to-inferior",
+            )?,
         }),
-        (None, _, _, Some(h)) => Some(TransferInput {
+        (None, Some(h)) => Some(TransferInput {
             label: &to_label,
             surface: &h.surface,
             landmarks: LandmarkPoints {
                 anterior: h.anterior,
                 inferior: h.inferior,
                 apex: Some(h.apex),
+                rim_near: None,
             },
         }),
         _ => None,
@@ -621,11 +719,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         anatomy: &anatomy,
         surface_label: &surface_label,
         surface: &surface,
-        landmarks: LandmarkPoints {
-            anterior: a.anterior,
-            inferior: a.inferior,
-            apex: a.apex,
-        },
+        landmarks,
         config,
         transfer,
         dir: out,
@@ -633,6 +727,21 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         bullseye_array: a.bullseye_array.as_deref(),
     })?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
+    let o = &result.outcome.report.openings;
+    if o.loops.len() > 1 {
+        println!(
+            "{}: {} openings; the rim is opening {} (nearest the {}), {} capped with {} triangles",
+            surface_label,
+            o.loops.len(),
+            o.rim,
+            match o.chosen_by {
+                RimChoice::RimNear => "--rim-near point",
+                _ => "rim landmarks",
+            },
+            o.cap_vertices,
+            o.cap_triangles
+        );
+    }
     if let Some(t) = &result.transfer {
         println!(
             "transferred {} points into {} in {:.2} s",

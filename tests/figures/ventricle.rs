@@ -36,6 +36,7 @@ fn run_cup(chamber: Chamber, anatomy: &CellMesh) -> Outcome {
             anterior: v.anterior,
             inferior: v.inferior,
             apex: Some(v.apex),
+            rim_near: None,
         },
         &config,
     )

@@ -91,6 +91,14 @@ pub enum IoError {
         /// The mesh problem.
         source: MeshError,
     },
+    /// The file is not a usable markups (landmarks) file.
+    #[error("{path}: {source}")]
+    Markups {
+        /// The file.
+        path: FilePath,
+        /// What is wrong with it.
+        source: crate::markups::MarkupsError,
+    },
 }
 
 impl IoError {
@@ -118,7 +126,8 @@ impl IoError {
             | IoError::UnknownFormat { path, .. }
             | IoError::Malformed { path, .. }
             | IoError::Unsupported { path, .. }
-            | IoError::Mesh { path, .. } => path,
+            | IoError::Mesh { path, .. }
+            | IoError::Markups { path, .. } => path,
         };
         if slot.0.as_os_str().is_empty() {
             slot.0 = p.into();

@@ -3,7 +3,9 @@
 //! Meshes: VTK legacy `.vtk` (ASCII / binary, versions up to 4.2 and 5.1),
 //! VTK XML `.vtu` / `.vtp` (ASCII, inline base64, appended raw or base64,
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
-//! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`. The format is chosen by file extension.
+//! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`.
+//! Landmarks: 3D Slicer markups `.mrk.json` and `.fcsv` ([`markups`]). The
+//! format is chosen by file extension.
 //!
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
@@ -14,6 +16,7 @@ mod error;
 mod format;
 pub mod frame;
 pub mod gmsh;
+pub mod markups;
 pub mod medit;
 pub mod nifti;
 pub mod nrrd;
@@ -31,5 +34,6 @@ pub use format::{
     write_image, write_mesh,
 };
 pub use frame::{Frame, mesh_frame_hint};
+pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};

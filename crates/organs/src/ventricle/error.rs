@@ -8,6 +8,7 @@
 //! [`Chart::inverse`](super::Chart::inverse). Settings out of range are
 //! [`ConfigError`](crate::ConfigError)s.
 
+use super::openings::RimChoice;
 use super::trace::{TraceFailure, TraceTarget};
 use std::fmt;
 use thiserror::Error;
@@ -98,6 +99,66 @@ pub enum VentricleError {
         apex: u32,
         /// Vertices of S.
         vertices: usize,
+    },
+
+    // ---- several openings (ALGORITHMS 3.1) ----
+    /// Two boundary loops of S are about equally near the points that name
+    /// the rim.
+    #[error(
+        "the basal rim is ambiguous: openings {} and {} are about equally near the {} (distances \
+         {}; the rim must be at least twice as near and {snap_mm} mm nearer than any other \
+         opening); name the rim with a point on it (--rim-near X,Y,Z)",
+        .nearest[0],
+        .nearest[1],
+        choice_name(*.by),
+        distance_list(.distances_mm)
+    )]
+    AmbiguousRim {
+        /// What named the rim (the landmarks or the `rim_near` point).
+        by: RimChoice,
+        /// The two nearest openings.
+        nearest: [usize; 2],
+        /// Distance of every opening, mm (longest opening first).
+        distances_mm: Vec<f64>,
+        /// The snap distance, mm.
+        snap_mm: f64,
+    },
+    /// The `rim_near` point is far from every boundary loop of S.
+    #[error(
+        "the rim-near point is more than {snap_mm} mm from every opening of S (distances {}); \
+         give a point on the basal rim",
+        distance_list(.distances_mm)
+    )]
+    RimNearFar {
+        /// Distance of every opening, mm (longest opening first).
+        distances_mm: Vec<f64>,
+        /// The largest distance accepted, mm.
+        snap_mm: f64,
+    },
+    /// An opening other than the rim cannot be capped by a fan from its
+    /// centroid.
+    #[error(
+        "opening {opening} of S ({vertices} vertices) is not star-shaped about its centroid \
+         ({folded} fan triangles fold); cap or trim it before unfolding"
+    )]
+    OpeningNotCappable {
+        /// Which opening (longest first).
+        opening: usize,
+        /// Its vertices.
+        vertices: usize,
+        /// Fan triangles turning against the loop.
+        folded: usize,
+    },
+    /// The cap of an opening would cross S.
+    #[error(
+        "the cap of opening {opening} of S (a fan from its centroid) would cross triangle \
+         {triangle} of S; cap or trim that opening before unfolding"
+    )]
+    CapCrossesSurface {
+        /// Which opening (longest first).
+        opening: usize,
+        /// A triangle of S it crosses.
+        triangle: usize,
     },
 
     // ---- the disk map (ALGORITHMS 3.2) ----
@@ -283,4 +344,21 @@ impl fmt::Display for Streamline<'_> {
             }
         }
     }
+}
+
+/// What named the rim, in words.
+fn choice_name(c: RimChoice) -> &'static str {
+    match c {
+        RimChoice::RimNear => "rim-near point",
+        _ => "rim landmarks (mean distance of anterior and inferior)",
+    }
+}
+
+/// `opening 0: 1.234 mm, opening 1: ...`.
+fn distance_list(d: &[f64]) -> String {
+    d.iter()
+        .enumerate()
+        .map(|(k, x)| format!("opening {k}: {x:.3} mm"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -18,6 +18,8 @@ use super::error::{PointFailure, VentricleError};
 use super::field::{FieldConfig, LaplaceField};
 use super::harmonic_disk::HarmonicDisk;
 use super::landmarks::Landmarks;
+use super::openings::{Capped, Openings, cap_openings};
+use super::pipeline::LandmarkPoints;
 use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceTarget, Tracer};
 use crate::OrganError;
 use rayon::prelude::*;
@@ -126,6 +128,7 @@ pub struct Chart {
     max_length: f64,
     strip_height_mm: f64,
     original_vertices: usize,
+    openings: Openings,
     timings: ChartTimings,
 }
 
@@ -163,12 +166,44 @@ impl Chart {
         config: &ChartConfig,
         disk: &dyn Initializer,
     ) -> Result<Chart, OrganError> {
+        let landmarks = LandmarkPoints {
+            anterior: *anterior,
+            inferior: *inferior,
+            apex: apex.copied(),
+            rim_near: None,
+        };
+        Self::from_landmarks(surface, &landmarks, config, disk)
+    }
+
+    /// [`Chart::build`] with the landmarks as one value, `rim_near` included:
+    /// S may have several boundary loops; the basal rim is the one nearest
+    /// `rim_near` (when given) or the rim landmarks, and every other loop is
+    /// capped ([`cap_openings`]) before the landmarks are snapped.
+    ///
+    /// # Errors
+    /// As [`Chart::build`], and [`cap_openings`]'s errors
+    /// ([`VentricleError::AmbiguousRim`], [`VentricleError::RimNearFar`],
+    /// [`VentricleError::OpeningNotCappable`]).
+    pub fn from_landmarks(
+        surface: &TriMesh,
+        points: &LandmarkPoints,
+        config: &ChartConfig,
+        disk: &dyn Initializer,
+    ) -> Result<Chart, OrganError> {
+        let (anterior, inferior, apex) = (&points.anterior, &points.inferior, points.apex.as_ref());
         OrganError::check_positive(&[
             ("trace tolerance (mm)", config.trace_tolerance_mm),
             ("on-surface distance (mm)", config.on_surface_mm),
         ])?;
         let t0 = Instant::now();
         let (surface, repair) = repair_tri_mesh(surface)?;
+        let Capped { surface, openings } = cap_openings(
+            &surface,
+            anterior,
+            inferior,
+            points.rim_near.as_ref(),
+            config.snap_mm,
+        )?;
         let landmarks = Landmarks::resolve(&surface, anterior, inferior, apex, config.snap_mm)?;
         let ExtendedSurface {
             surface,
@@ -234,6 +269,7 @@ impl Chart {
             max_length: 4.0 * diag,
             strip_height_mm,
             original_vertices,
+            openings,
             timings: ChartTimings {
                 disk: (t1 - t0).as_secs_f64(),
                 laplace: (t2 - t1).as_secs_f64(),
@@ -247,7 +283,8 @@ impl Chart {
         &self.surface
     }
 
-    /// Number of vertices of (repaired) S at the start of [`Chart::surface`].
+    /// Number of vertices of S (repaired, its openings but the rim capped)
+    /// at the start of [`Chart::surface`].
     pub fn original_vertices(&self) -> usize {
         self.original_vertices
     }
@@ -256,6 +293,11 @@ impl Chart {
     /// planar rim).
     pub fn strip_height_mm(&self) -> f64 {
         self.strip_height_mm
+    }
+
+    /// S's boundary loops: which is the rim, and the caps of the others.
+    pub fn openings(&self) -> &Openings {
+        &self.openings
     }
 
     /// What the repair of S changed.

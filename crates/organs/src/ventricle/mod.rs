@@ -8,6 +8,8 @@
 //!
 //! - [`landmarks`]: the two rim landmarks snapped to boundary vertices, the
 //!   apex (given and snapped, or the vertex farthest from the rim centroid).
+//! - [`openings`]: the basal rim among S's boundary loops, the others
+//!   capped so that S is a disk.
 //! - [`base`]: S closed down to a planar base (a strip under a tilted rim).
 //! - [`disk`]: the LV disk map `phi: S -> D` (harmonic map with arc-length
 //!   boundary, the landmarks' bisector along +x, a thin-plate-spline warp
@@ -32,6 +34,7 @@ pub mod field;
 pub mod harmonic_disk;
 pub mod landmarks;
 pub mod map;
+pub mod openings;
 pub mod pipeline;
 pub mod trace;
 

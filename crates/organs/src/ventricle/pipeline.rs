@@ -7,6 +7,7 @@ use super::disk::display_warp;
 use super::error::VentricleError;
 use super::harmonic_disk::HarmonicDisk;
 use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
+use super::openings::Openings;
 use crate::OrganError;
 use serde::Serialize;
 use std::time::Instant;
@@ -48,6 +49,10 @@ pub struct LandmarkPoints {
     /// The apex, or `None` to take the vertex of S farthest from the rim
     /// centroid.
     pub apex: Option<Point3<f64>>,
+    /// A point on or near the basal rim, naming it among several openings
+    /// of S; `None`: the opening nearest the two rim landmarks (see
+    /// [`super::openings`]).
+    pub rim_near: Option<Point3<f64>>,
 }
 
 /// Mean, median, standard deviation and maximum of a set of values.
@@ -147,6 +152,9 @@ pub struct Report {
     pub landmark_snap_mm: [f64; 3],
     /// The apex used, mm.
     pub apex_mm: [f64; 3],
+    /// S's boundary loops (openings): each one's size, which is the basal
+    /// rim and why, and the caps closing the others.
+    pub openings: Openings,
     /// Anatomy points per AHA segment 1..17 (LV only).
     pub aha_points: Option<[usize; 17]>,
     /// The Laplace field.
@@ -250,14 +258,7 @@ impl Pipeline {
         surface: &TriMesh,
         landmarks: &LandmarkPoints,
     ) -> Result<Chart, OrganError> {
-        Chart::build(
-            surface,
-            &landmarks.anterior,
-            &landmarks.inferior,
-            landmarks.apex.as_ref(),
-            &self.config.chart,
-            self.disk.as_ref(),
-        )
+        Chart::from_landmarks(surface, landmarks, &self.config.chart, self.disk.as_ref())
     }
 
     /// Runs the pipeline: the chart of `surface`, `psi` of every point of
@@ -378,6 +379,7 @@ fn outcome(
         surface_repair: *chart.repair(),
         landmark_snap_mm: chart.landmarks().snap_distances_mm,
         apex_mm: [apex.x, apex.y, apex.z],
+        openings: chart.openings().clone(),
         aha_points,
         field: FieldReport {
             grid_nodes: stats.grid_nodes,
