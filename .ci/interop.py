@@ -193,8 +193,8 @@ if not np.allclose(flat_img.affine, np.array(entry["affine"]), rtol=1e-6, atol=1
 inside = int(np.count_nonzero(flat_data))
 if inside != entry["sampled"]:
     fail(f"{flat_img_path.name}: {inside} non-zero voxels, report.json says {entry['sampled']} sampled")
-# The mitral pipeline's outputs (VTP: meshio reads no POLYDATA, so the mesh
-# is converted to VTU by unfold and read back here).
+# The mitral pipeline's outputs (surfaces written as VTU so meshio reads
+# them directly).
 mi = pl.parent / "mitral"
 mreport = json.loads((mi / "report.json").read_text())
 for key in ["annulus_length_mm", "u_extent_mm", "leaflet_area_mm2", "saddle_horn_height_mm",
@@ -203,17 +203,14 @@ for key in ["annulus_length_mm", "u_extent_mm", "leaflet_area_mm2", "saddle_horn
         fail(f"mitral/report.json: missing {key}")
 if mreport["flipped_triangles"] != 0:
     fail(f"mitral/report.json: {mreport['flipped_triangles']} flipped triangles")
-flat_vtu = mi / "valve2d_check.vtu"
-unfold("convert", str(mi / "valve2d.vtp"), str(flat_vtu))
-m2 = meshio.read(flat_vtu)
+m2 = meshio.read(mi / "valve2d.vtu")
 for name in ["leaflet", "carpentier", "coaptation", "tenting_mm", "uv"]:
     if name not in m2.point_data:
-        fail(f"valve2d.vtp: no point array {name}")
+        fail(f"valve2d.vtu: no point array {name}")
 if not np.all(m2.points[:, 2] == 0):
-    fail("valve2d.vtp: z is not 0")
+    fail("valve2d.vtu: z is not 0")
 if set(np.unique(m2.point_data["carpentier"]).tolist()) != {1, 2, 3, 4, 5, 6}:
-    fail(f"valve2d.vtp: carpentier labels {np.unique(m2.point_data['carpentier'])}")
-flat_vtu.unlink()
+    fail(f"valve2d.vtu: carpentier labels {np.unique(m2.point_data['carpentier'])}")
 # The ventricle pipeline's outputs (`unfold demo` runs it into ventricle/).
 ve = pl.parent / "ventricle"
 vreport = json.loads((ve / "report.json").read_text())
@@ -237,12 +234,9 @@ if not np.allclose(nv.points[:, 2], np.ravel(nv.point_data["depth"])):
     fail("ventricle/normalized.vtu: z is not the depth")
 if set(np.unique(np.ravel(nv.point_data["aha"])).tolist()) != set(range(1, 18)):
     fail(f"ventricle/normalized.vtu: aha labels {np.unique(nv.point_data['aha'])}")
-disk_vtu = ve / "disk_check.vtu"
-unfold("convert", str(ve / "disk.vtp"), str(disk_vtu))
-dv = meshio.read(disk_vtu)
+dv = meshio.read(ve / "disk.vtu")
 if not np.all(dv.points[:, 2] == 0) or np.hypot(dv.points[:, 0], dv.points[:, 1]).max() > 1 + 1e-9:
-    fail("ventricle/disk.vtp: not in the unit disk at z = 0")
-disk_vtu.unlink()
+    fail("ventricle/disk.vtu: not in the unit disk at z = 0")
 # The map as an ITK displacement field, with SimpleITK as the client:
 # resampling the subject image through the field onto the flat image's grid
 # reproduces unfold's pull-back.
@@ -271,6 +265,17 @@ if not err <= 1e-5 * scale:
     fail(f"SimpleITK through {disp.name} differs from unfold's pull-back by {err} (image max {scale})")
 print(f"SimpleITK resampled the subject through {disp.name}: {moved.sum()} voxels, max difference "
       f"{err:.2e} (image max {scale:.1f})")
+checked += 1
+
+# Every mesh the demo and its pipelines wrote reads in meshio (no .vtp left).
+meshes_written = sorted(p for p in demo.rglob("*") if p.suffix in {".vtu", ".vtk", ".vtp"})
+if any(p.suffix == ".vtp" for p in meshes_written):
+    fail(f"a .vtp output meshio cannot read: {[str(p) for p in meshes_written if p.suffix == '.vtp']}")
+for p in meshes_written:
+    m = meshio.read(p)
+    if len(m.points) == 0:
+        fail(f"{p}: meshio read no points")
+print(f"meshio read all {len(meshes_written)} meshes unfold wrote")
 checked += 1
 
 print(f"{checked + 10} passed, 0 failed")

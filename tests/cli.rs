@@ -359,9 +359,9 @@ fn demo_writes_valid_shapes_an_image_and_their_info() {
         "placenta/flattened.vtu",
         "ventricle/normalized.vtu",
         "ventricle/anatomy.vtu",
-        "ventricle/disk.vtp",
-        "mitral/valve3d.vtp",
-        "mitral/valve2d.vtp",
+        "ventricle/disk.vtu",
+        "mitral/valve3d.vtu",
+        "mitral/valve2d.vtu",
     ] {
         let p = out.join(output).display().to_string();
         let o = unfold(&["info", &p, "--strict"]);
@@ -379,9 +379,9 @@ fn demo_writes_valid_shapes_an_image_and_their_info() {
             .any(|a| a["name"] == "side")
     );
     for leaflet in [
-        "valve_anterior.vtp",
-        "valve_posterior.vtp",
-        "ventricle_surface.vtp",
+        "valve_anterior.vtu",
+        "valve_posterior.vtu",
+        "ventricle_surface.vtu",
     ] {
         assert_eq!(
             files[leaflet]["boundary_loops"].as_array().unwrap().len(),

@@ -84,7 +84,7 @@ fn a_valve_gives_both_maps_and_a_report() {
         let img = unfold::figures::render::Image::from_png(&png).unwrap();
         assert_eq!((img.width(), img.height()), (960, 400), "{name}");
     }
-    for name in ["valve3d.vtp", "valve2d.vtp"] {
+    for name in ["valve3d.vtu", "valve2d.vtu"] {
         let m = read_mesh(out.join(name)).unwrap();
         assert_eq!(m.positions.len(), n, "{name}");
         for array in [
@@ -104,7 +104,7 @@ fn a_valve_gives_both_maps_and_a_report() {
             assert!(m.cell_data.get(array).is_some(), "{name}: {array}");
         }
     }
-    let flat = read_mesh(out.join("valve2d.vtp")).unwrap();
+    let flat = read_mesh(out.join("valve2d.vtu")).unwrap();
     assert!(flat.positions.iter().all(|p| p.z == 0.0));
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
@@ -207,7 +207,7 @@ fn a_series_gives_one_set_per_step_and_a_table() {
     assert!(o.status.success(), "{}", stderr(&o));
     for step in 0..3 {
         let d = out.join(format!("step_{step:03}"));
-        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+        for f in ["valve3d.vtu", "valve2d.vtu", "report.json"] {
             assert!(d.join(f).is_file(), "{}", d.join(f).display());
         }
     }
@@ -305,7 +305,7 @@ fn the_demo_runs_the_mitral_pipeline() {
     let dir = tempfile::tempdir().unwrap();
     let o = unfold(&["demo", "-o", &s(dir.path())]);
     assert!(o.status.success(), "{}", stderr(&o));
-    for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+    for f in ["valve3d.vtu", "valve2d.vtu", "report.json"] {
         assert!(dir.path().join("mitral").join(f).is_file(), "{f}");
     }
     let r: serde_json::Value = serde_json::from_str(
@@ -313,4 +313,48 @@ fn the_demo_runs_the_mitral_pipeline() {
     )
     .unwrap();
     assert_eq!(r["flipped_triangles"], 0);
+}
+
+/// An annulus given as separate 2-point line segments (as meshio and many
+/// tools write a curve), in shuffled order, gives the same valve as the
+/// one poly-line; segments that do not form one ring are a one-line error.
+#[test]
+fn an_annulus_of_line_segments_is_chained_into_the_ring() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = small_valve();
+    let files = write_valve(dir.path(), "", &v.anterior, &v.posterior, &v.annulus);
+    let n = v.annulus.len() as u32;
+    let segments = |order: &mut dyn Iterator<Item = u32>| {
+        let mut m = CellMesh::from_points(v.annulus.clone());
+        for i in order {
+            m.push_cell(CellType::Line, &[i, (i + 1) % n]);
+        }
+        m
+    };
+    let seg_path = dir.path().join("ring_segments.vtu");
+    // every third segment first, then the rest: same ring, another order
+    let mut order = (0..n)
+        .filter(|i| i % 3 == 0)
+        .chain((0..n).filter(|i| i % 3 != 0));
+    write_mesh(&seg_path, &segments(&mut order), &WriteOptions::default()).unwrap();
+    let polyline_out = dir.path().join("polyline");
+    let segments_out = dir.path().join("segments");
+    assert_ok(&run_files(&files, &polyline_out, &["--no-figures"]));
+    let seg_files = [files[0].clone(), files[1].clone(), seg_path];
+    assert_ok(&run_files(&seg_files, &segments_out, &["--no-figures"]));
+    for f in ["valve3d.vtu", "valve2d.vtu"] {
+        let a = read_mesh(polyline_out.join(f)).unwrap();
+        let b = read_mesh(segments_out.join(f)).unwrap();
+        assert_eq!(a.positions, b.positions, "{f}");
+    }
+    // A branch is refused with its vertex named.
+    let mut branched = segments(&mut (0..n));
+    branched.push_cell(CellType::Line, &[0, n / 2]);
+    let bad = dir.path().join("branched.vtu");
+    write_mesh(&bad, &branched, &WriteOptions::default()).unwrap();
+    let bad_files = [files[0].clone(), files[1].clone(), bad];
+    assert_one_line_error(
+        &run_files(&bad_files, &dir.path().join("bad"), &["--no-figures"]),
+        "is used by 3 segments",
+    );
 }

@@ -98,7 +98,7 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
         "{stdout}"
     );
     assert!(stdout.contains(&format!("wrote {}", s(&out.join("report.json")))));
-    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtp", "report.json"] {
+    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtu", "report.json"] {
         assert!(out.join(f).is_file(), "{f}");
     }
     assert!(!out.join("transferred.vtu").exists());
@@ -154,7 +154,7 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
     assert_eq!(array(&anat, "depth"), depth);
     assert_eq!(aha_labels(&anat), seg);
 
-    let disk = read_mesh(out.join("disk.vtp")).unwrap();
+    let disk = read_mesh(out.join("disk.vtu")).unwrap();
     assert!(disk.positions.len() >= v.surface.positions.len());
     assert!(
         disk.positions
@@ -524,7 +524,7 @@ fn the_demo_runs_the_ventricle_pipeline() {
     let o = unfold(&["demo", "-o", &s(dir.path())]);
     assert_ok(&o);
     let out = dir.path().join("ventricle");
-    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtp", "report.json"] {
+    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtu", "report.json"] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let r = report(&out);

@@ -218,14 +218,14 @@ fn holes_in_the_wall_are_capped_and_far_points_keep_their_coordinates() {
     // the disk: every vertex in the unit disk, the caps' centres included;
     // the caps are part of it (two more vertices than the clean disk, less
     // the vertices cut away)
-    let d = read_mesh(out1.join("disk.vtp")).unwrap();
+    let d = read_mesh(out1.join("disk.vtu")).unwrap();
     assert!(d.positions.iter().all(|p| p.x.hypot(p.y) <= 1.0 + 1e-9));
-    let clean_disk = read_mesh(out0.join("disk.vtp")).unwrap();
+    let clean_disk = read_mesh(out0.join("disk.vtu")).unwrap();
     let used: std::collections::HashSet<u32> = cut.triangles.iter().flatten().copied().collect();
     let cut_away = v.surface.positions.len() - used.len();
     assert_eq!(d.positions.len() + cut_away, clean_disk.positions.len() + 2);
     // every output is a valid file, and the figures were drawn
-    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtp"] {
+    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtu"] {
         let o = unfold(&["info", &s(&out1.join(f)), "--strict"]);
         assert!(o.status.success(), "{f}: {}", stderr(&o));
     }
@@ -391,7 +391,7 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
     for f in [
         "normalized.vtu",
         "anatomy.vtu",
-        "disk.vtp",
+        "disk.vtu",
         "transferred.vtu",
     ] {
         let a = std::fs::read(out0.join(f)).unwrap();
@@ -430,7 +430,7 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
         &out2,
         &["--landmarks".into(), s(&fcsv)],
     ));
-    for f in ["normalized.vtu", "disk.vtp"] {
+    for f in ["normalized.vtu", "disk.vtu"] {
         let a = std::fs::read(out0.join(f)).unwrap();
         let b = std::fs::read(out2.join(f)).unwrap();
         assert!(a == b, "{f} differs");

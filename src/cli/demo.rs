@@ -35,11 +35,14 @@ fn points_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
     m
 }
 
+/// A closed ring as 2-point line segments (meshio reads `line` cells, not
+/// VTK's poly-lines).
 fn ring_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
     let mut m = CellMesh::from_points(points.to_vec());
-    let mut ids: Vec<u32> = (0..points.len() as u32).collect();
-    ids.push(0);
-    m.push_cell(CellType::PolyLine, &ids);
+    let n = points.len() as u32;
+    for i in 0..n {
+        m.push_cell(CellType::Line, &[i, (i + 1) % n]);
+    }
     m
 }
 
@@ -68,41 +71,41 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
 
     let v = ventricle_cup(&VentricleParams::default())?;
     put(
-        "ventricle_surface.vtp",
+        "ventricle_surface.vtu",
         CellMesh::from(&v.surface),
         "ventricle-like cup S (disk topology, basal rim)",
     )?;
     put(
-        "ventricle_anatomy.vtp",
+        "ventricle_anatomy.vtu",
         CellMesh::from(&v.anatomy),
         "anatomy surface inside S",
     )?;
     put(
-        "ventricle_points.vtp",
+        "ventricle_points.vtu",
         points_mesh(&v.anatomy_points),
         "anatomy points inside S (rings and meridians)",
     )?;
     put(
-        "ventricle_landmarks.vtp",
+        "ventricle_landmarks.vtu",
         points_mesh(&[v.anterior, v.inferior, v.apex]),
         "landmarks: anterior, inferior, apex",
     )?;
 
     let valve = mitral_valve(&ValveParams::default())?;
     put(
-        "valve_anterior.vtp",
+        "valve_anterior.vtu",
         CellMesh::from(&valve.anterior),
         "anterior leaflet",
     )?;
     put(
-        "valve_posterior.vtp",
+        "valve_posterior.vtu",
         CellMesh::from(&valve.posterior),
         "posterior leaflet",
     )?;
     put(
-        "valve_annulus.vtp",
+        "valve_annulus.vtu",
         ring_mesh(&valve.annulus),
-        "annulus ring (closed polyline, clockwise from the atrium, from the anterolateral commissure)",
+        "annulus ring (closed, as line segments, clockwise from the atrium, from the anterolateral commissure)",
     )?;
 
     // The pipeline runs on a coarser slab of the same shape (about 10,000
@@ -176,9 +179,9 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
 
     // The mitral pipeline, from the valve files written above.
     let files = super::mitral::ValveFiles {
-        anterior: dir.join("valve_anterior.vtp"),
-        posterior: dir.join("valve_posterior.vtp"),
-        annulus: dir.join("valve_annulus.vtp"),
+        anterior: dir.join("valve_anterior.vtu"),
+        posterior: dir.join("valve_posterior.vtu"),
+        annulus: dir.join("valve_annulus.vtu"),
     };
     let mitral_dir = dir.join("mitral");
     let outcome = super::mitral::run_valve(
@@ -192,7 +195,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         super::mitral::summary(&outcome.report)
     );
     println!(
-        "wrote {} (valve3d.vtp, valve2d.vtp, report.json)",
+        "wrote {} (valve3d.vtu, valve2d.vtu, report.json)",
         mitral_dir.display()
     );
 
@@ -223,7 +226,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         super::ventricle::summary(&result.outcome.report)
     );
     println!(
-        "wrote {} (normalized.vtu, anatomy.vtu, disk.vtp, report.json)",
+        "wrote {} (normalized.vtu, anatomy.vtu, disk.vtu, report.json)",
         ventricle_dir.display()
     );
     Ok(())

@@ -5,12 +5,13 @@
 //!
 //! Inputs: two leaflet surfaces (triangle meshes with disk topology, any
 //! surface format) and the annulus ring: a closed polyline in a mesh file
-//! (one polyline cell; `.vtp`, `.vtk`, `.obj`, ...), a file of points only
+//! (one polyline cell, or 2-point line segments that chain into one ring;
+//! `.vtu`, `.vtp`, `.vtk`, `.obj`, ...), a file of points only
 //! (in ring order), or a text file (`.csv`, `.txt`, `.xyz`) with one
 //! `x,y,z` (or `x y z`) per line.
 //!
-//! Outputs in DIR: `valve3d.vtp` (both leaflets, anterior first, with every
-//! map as a point or cell array), `valve2d.vtp` (the same at `(u, v, 0)`)
+//! Outputs in DIR: `valve3d.vtu` (both leaflets, anterior first, with every
+//! map as a point or cell array), `valve2d.vtu` (the same at `(u, v, 0)`)
 //! and `report.json`.
 //!
 //! `--series DIR`: every file in DIR whose name contains `anterior`,
@@ -65,7 +66,7 @@ enum RelaxArg {
 /// Arguments of `unfold mitral`.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Writes DIR/valve3d.vtp, DIR/valve2d.vtp (arrays: leaflet, u_gradient, \
+    after_help = "Writes DIR/valve3d.vtu, DIR/valve2d.vtu (arrays: leaflet, u_gradient, \
                   u_interval, checker, carpentier, area_energy, angle_energy, length_energy, \
                   coaptation, coaptation_distance_mm, tenting_mm, uv) and DIR/report.json; with \
                   --series, one such set per time step and DIR/series.csv."
@@ -280,6 +281,14 @@ pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
                 ))
             }
         }
+        // Separate 2-point segments (as meshio and many tools write a
+        // curve) are chained into the ring.
+        n if lines.iter().all(|l| l.len() == 2) => {
+            let segments: Vec<[u32; 2]> = lines.iter().map(|l| [l[0], l[1]]).collect();
+            let order = unfold::mesh::chain::chain_segments(&segments)
+                .map_err(|e| at(path, format!("its {n} line segments are not one ring: {e}")))?;
+            Ok(order.iter().map(|&v| cells.positions[v as usize]).collect())
+        }
         n => Err(at(
             path,
             format!("has {n} polylines; the annulus ring is one closed polyline"),
@@ -308,8 +317,8 @@ impl ValveFiles {
     }
 }
 
-/// Reads one valve and runs the pipeline; writes `valve3d.vtp`,
-/// `valve2d.vtp`, `report.json` and (with `figures`) `figures/*.png` into
+/// Reads one valve and runs the pipeline; writes `valve3d.vtu`,
+/// `valve2d.vtu`, `report.json` and (with `figures`) `figures/*.png` into
 /// `dir`.
 pub(crate) fn run_valve(
     files: &ValveFiles,
@@ -351,12 +360,12 @@ pub(crate) fn write_outcome(
     super::ensure_dir(dir)?;
     let opts = WriteOptions::default();
     write_mesh(
-        dir.join("valve3d.vtp"),
+        dir.join("valve3d.vtu"),
         &CellMesh::from(&outcome.valve3d),
         &opts,
     )?;
     write_mesh(
-        dir.join("valve2d.vtp"),
+        dir.join("valve2d.vtu"),
         &CellMesh::from(&outcome.valve2d),
         &opts,
     )?;
@@ -521,7 +530,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
         let outcome = run_valve(&files, &pipeline, out, !a.no_figures)?;
         println!("{}", summary(&outcome.report));
-        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+        for f in ["valve3d.vtu", "valve2d.vtu", "report.json"] {
             println!("wrote {}", out.join(f).display());
         }
         return Ok(());
@@ -619,7 +628,7 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
     let d = super::canonical(dir);
     for input in inputs {
         let c = super::canonical(input);
-        for f in ["valve3d.vtp", "valve2d.vtp", "report.json"] {
+        for f in ["valve3d.vtu", "valve2d.vtu", "report.json"] {
             if d.join(f) == c {
                 return Err(at(
                     input,

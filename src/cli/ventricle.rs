@@ -23,7 +23,7 @@
 //!   with `(X, Y)` the displayed disk position; point arrays `xi`, `zeta`,
 //!   `depth` and (LV) `aha`;
 //! - `anatomy.vtu`: the input anatomy with the same arrays;
-//! - `disk.vtp`: S flattened (`z = 0`), arrays `xi`, `zeta`;
+//! - `disk.vtu`: S flattened (`z = 0`), arrays `xi`, `zeta`;
 //! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
 //!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
 //! - `report.json`: the library's report, the inputs and (with a transfer)
@@ -84,7 +84,7 @@ impl From<ChamberArg> for Chamber {
 #[command(
     after_help = "Writes DIR/normalized.vtu (the anatomy at (X, Y, depth) in the cylinder), \
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
-                  and (LV) aha, DIR/disk.vtp (S flattened), DIR/report.json and, with \
+                  and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
                   --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart). \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
@@ -289,7 +289,7 @@ fn progress(line: impl FnOnce() -> String) {
 /// The output files.
 const NORMALIZED: &str = "normalized.vtu";
 const ANATOMY: &str = "anatomy.vtu";
-const DISK: &str = "disk.vtp";
+const DISK: &str = "disk.vtu";
 const TRANSFERRED: &str = "transferred.vtu";
 const REPORT: &str = "report.json";
 

@@ -17,6 +17,7 @@
 
 pub mod bcc;
 pub mod cells;
+pub mod chain;
 pub mod coarsen;
 mod error;
 pub mod field;
