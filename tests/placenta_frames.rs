@@ -354,3 +354,194 @@ fn a_grid_smaller_than_the_placenta_is_counted_and_warned_about() {
     assert_eq!(img.volume.affine()[(0, 3)], -40.0);
     assert_eq!(img.volume.affine()[(1, 1)], 4.0);
 }
+
+/// A placenta smaller than the demo's (so a 2.5 mm mask meshes into a few
+/// thousand tets) with a clear major axis (120 by 80 mm) and a strong lobe
+/// (a distinct third moment), in its own frame.
+fn seg_shape() -> TetMesh {
+    placenta_slab(&PlacentaParams {
+        length: 120.0,
+        width: 80.0,
+        thickness_centre: 20.0,
+        thickness_rim: 10.0,
+        bend_radius: 150.0,
+        lobe: 0.3,
+        cells_radial: 10,
+        cells_through: 3,
+        ..PlacentaParams::default()
+    })
+    .expect("slab")
+    .mesh
+}
+
+/// A binary mask (0 and 1) of `mesh` on an axis-aligned grid of `voxel`
+/// mm covering it with a margin of three voxels.
+fn mask_of(mesh: &TetMesh, voxel: f64) -> NiftiImage {
+    let loc = TetLocator::new(mesh);
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
+    for p in &mesh.positions {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    lo -= Vector3::repeat(3.0 * voxel);
+    hi += Vector3::repeat(3.0 * voxel);
+    let dims: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / voxel).ceil() as usize + 1);
+    let mut affine = Matrix4::identity();
+    for a in 0..3 {
+        affine[(a, a)] = voxel;
+        affine[(a, 3)] = lo[a];
+    }
+    let mut data = Vec::with_capacity(dims.iter().product());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
+                data.push(if loc.locate(&p).is_some() { 1.0 } else { 0.0 });
+            }
+        }
+    }
+    NiftiImage::new(Volume::new([dims[0], dims[1], dims[2], 1], affine, data).unwrap())
+}
+
+/// The template coordinates of the world point `p` in the run written to
+/// `dir`: located in `original.vtu`, mapped with the same barycentric
+/// coordinates through `flattened.vtu`.
+struct TemplateMap {
+    locator: TetLocator,
+    tets: Vec<[u32; 4]>,
+    flat: Vec<Point3<f64>>,
+}
+
+impl TemplateMap {
+    fn new(dir: &Path) -> TemplateMap {
+        let original = read_mesh(dir.join("original.vtu"))
+            .unwrap()
+            .volume_tets()
+            .unwrap();
+        let flat = flattened(dir);
+        assert_eq!(flat.len(), original.positions.len());
+        TemplateMap {
+            locator: TetLocator::new(&original),
+            tets: original.tets.clone(),
+            flat,
+        }
+    }
+
+    fn map(&self, p: &Point3<f64>) -> Option<Point3<f64>> {
+        let (t, b) = self.locator.locate(p)?;
+        let v = self.tets[t];
+        Some(Point3::from((0..4).fold(Vector3::zeros(), |a, i| {
+            a + b[i] * self.flat[v[i] as usize].coords
+        })))
+    }
+}
+
+#[test]
+fn five_poses_of_a_mask_give_the_same_template_coordinates_and_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let shape = seg_shape();
+    let mask = mask_of(&shape, 2.5);
+    // The material points: the centroids of the shape's tets (its own
+    // frame).
+    let points: Vec<Point3<f64>> = (0..shape.num_tets())
+        .map(|t| {
+            let p = shape.tet_points(t);
+            Point3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0)
+        })
+        .collect();
+    let mut maps: Vec<(Rotation3<f64>, Vector3<f64>, TemplateMap)> = Vec::new();
+    let mut runs: Vec<PathBuf> = Vec::new();
+    for k in 0..5u64 {
+        let (r, t) = if k == 0 {
+            (Rotation3::identity(), Vector3::zeros())
+        } else {
+            pose(k)
+        };
+        // The mask's voxel grid turned and moved with the pose: the world
+        // geometry is the posed shape.
+        let mp = d.join(format!("mask{k}.nii.gz"));
+        write_image(&mp, &moved_image(&mask, &r, &t)).unwrap();
+        let out = d.join(format!("out{k}"));
+        let o = run(&[
+            "--seg",
+            &s(&mp),
+            "-o",
+            &s(&out),
+            "--size-mm",
+            "5",
+            "--image",
+            &s(&mp),
+            "--spacing-mm",
+            "5",
+            "--grid",
+            "-90,90,-70,70,-25,25",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        maps.push((r, t, TemplateMap::new(&out)));
+        runs.push(out);
+    }
+    // Template coordinates of every material point found in every run.
+    let mut coords: Vec<Vec<Point3<f64>>> = vec![Vec::new(); maps.len()];
+    let mut missed = 0;
+    for p in &points {
+        let mapped: Option<Vec<Point3<f64>>> =
+            maps.iter().map(|(r, t, m)| m.map(&(r * p + t))).collect();
+        match mapped {
+            Some(x) => {
+                for (c, q) in coords.iter_mut().zip(x) {
+                    c.push(q);
+                }
+            }
+            None => missed += 1,
+        }
+    }
+    println!("{} material points, {missed} outside a mesh", points.len());
+    assert!(
+        missed * 10 < points.len(),
+        "{missed} of {} points outside a mesh",
+        points.len()
+    );
+    let mut worst_all = 0.0f64;
+    for (k, c) in coords.iter().enumerate().skip(1) {
+        let dist: Vec<f64> = c
+            .iter()
+            .zip(&coords[0])
+            .map(|(p, q)| (p - q).norm())
+            .collect();
+        let worst = dist.iter().cloned().fold(0.0, f64::max);
+        let mean = dist.iter().sum::<f64>() / dist.len() as f64;
+        println!("pose {k}: template coordinates differ by max {worst:.3e} mm, mean {mean:.3e} mm");
+        worst_all = worst_all.max(worst);
+    }
+    // The flattened mask: one grid for every pose (`compare` checks the
+    // dimensions and the affine), nearly the same values (a binary image:
+    // counted are the voxels whose value differs by more than a half).
+    let base = read_image(runs[0].join("mask0_flat.nii.gz")).unwrap();
+    for (k, out) in runs.iter().enumerate().skip(1) {
+        let flat = read_image(out.join(format!("mask{k}_flat.nii.gz"))).unwrap();
+        let (diff, _) = compare(&base, &flat);
+        let (a, b) = (base.volume.data(), flat.volume.data());
+        let flipped = a
+            .iter()
+            .zip(b)
+            .filter(|(x, y)| (*x - *y).abs() > 0.5)
+            .count();
+        let inside = a.iter().filter(|x| **x > 0.5).count();
+        println!(
+            "pose {k}: flattened mask: {flipped} of {inside} inside voxels differ by > 0.5 \
+             (largest difference {diff:.3})"
+        );
+        assert!(
+            inside > 0 && flipped * 100 <= inside,
+            "pose {k}: {flipped} of {inside}"
+        );
+    }
+    assert!(
+        worst_all < 0.5,
+        "template coordinates differ by {worst_all} mm"
+    );
+}

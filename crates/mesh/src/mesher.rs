@@ -12,7 +12,15 @@
 //!    `f(p) = c - s(A^-1 p)` with `s` interpolated trilinearly between
 //!    voxel centres (`A` the voxel-to-world affine), meshed by
 //!    [`crate::stuffing::stuff`] with cube side `size_mm` (default: the smallest
-//!    voxel spacing).
+//!    voxel spacing) in the mask's *voxel frame* ([`voxel_frame`]): the
+//!    lattice's axes are the voxel axes made orthonormal, `Q`, and its
+//!    origin is fixed to the cropped grid's first voxel `o`, so stuffing
+//!    meshes `g(q) = f(o + Q q)` and the vertices are mapped back by
+//!    `p = o + Q q`. The mesh is then a function of the mask alone: a mask
+//!    whose affine is moved by a rigid motion `P` (`P A`, the same voxels)
+//!    gives the same mesh moved by `P`, which a lattice along the world
+//!    axes would not (its cut of the surface would change with the pose,
+//!    by up to a lattice cell).
 //!
 //! The level: the reference takes `c = 0.5` ([`IsoLevel::Fixed`]). Smoothing
 //! moves that level set inward where the surface curves, by about
@@ -37,7 +45,7 @@ use crate::geometry::{tet_dihedral_angles, total_volume};
 use crate::spatial::ClosestPointQuery;
 use crate::stuffing::{Implicit, Stuffed, stuff};
 use crate::{MeshError, TetMesh, Volume, mask};
-use nalgebra::{Matrix4, Point3, Vector4};
+use nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3, Vector4};
 use serde::Serialize;
 
 /// The level `c` of the smoothed mask `s` whose superlevel set `s > c` is
@@ -227,16 +235,56 @@ fn crop(mask: &Volume<bool>, lo: [i64; 3], dims: [usize; 3]) -> Result<Volume<bo
     Volume::new([dims[0], dims[1], dims[2], 1], affine, data)
 }
 
-/// The smoothed mask as an implicit function: `c - s` (`s` = 0 outside the
-/// grid).
+/// The rotation whose columns are the voxel axes of `affine` made
+/// orthonormal (Gram-Schmidt in the order i, j, k):
+///
+/// ```text
+/// e0 = a0 / |a0|,  e1 = (a1 - (a1 . e0) e0) / |...|,  e2 = e0 x e1
+/// ```
+///
+/// (`a_j` the affine's columns). `e2` is `+-a2 / |a2|` for an affine with
+/// orthogonal axes (`-` when the affine mirrors), so the lattice's cubes
+/// line up with the voxels either way while `Q` stays a rotation (tets keep
+/// their orientation). `None` when the first two axes are parallel or not
+/// finite.
+pub fn voxel_frame(affine: &Matrix4<f64>) -> Option<Rotation3<f64>> {
+    let a0: Vector3<f64> = affine.fixed_view::<3, 1>(0, 0).into_owned();
+    let a1: Vector3<f64> = affine.fixed_view::<3, 1>(0, 1).into_owned();
+    let e0 = a0.try_normalize(1e-12)?;
+    let e1 = (a1 - a1.dot(&e0) * e0).try_normalize(1e-12 * a1.norm())?;
+    let e2 = e0.cross(&e1);
+    let q = Matrix3::from_columns(&[e0, e1, e2]);
+    q.iter()
+        .all(|x| x.is_finite())
+        .then(|| Rotation3::from_matrix_unchecked(q))
+}
+
+/// The smoothed mask as an implicit function in the lattice frame:
+/// `g(q) = c - s(o + Q q)` (`s` = 0 outside the grid).
 struct SmoothedMask {
     s: Volume<f64>,
     c: f64,
+    /// The lattice frame's axes in world coordinates.
+    frame: Rotation3<f64>,
+    /// The lattice frame's origin in world coordinates.
+    origin: Point3<f64>,
+}
+
+impl SmoothedMask {
+    /// The world point of lattice-frame point `q`: `o + Q q`.
+    fn world(&self, q: &Point3<f64>) -> Point3<f64> {
+        self.origin + self.frame * q.coords
+    }
+
+    /// The lattice-frame point of world point `p`: `Q^T (p - o)`.
+    fn local(&self, p: &Point3<f64>) -> Point3<f64> {
+        Point3::from(self.frame.inverse() * (p - self.origin))
+    }
 }
 
 impl Implicit for SmoothedMask {
-    fn value(&self, p: &Point3<f64>) -> f64 {
-        self.c - self.s.sample_world(p, 0).unwrap_or(0.0)
+    fn value(&self, q: &Point3<f64>) -> f64 {
+        self.c - self.s.sample_world(&self.world(q), 0).unwrap_or(0.0)
     }
 }
 
@@ -355,6 +403,20 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
         } else {
             0.0
         };
+    let frame = voxel_frame(s.affine()).ok_or_else(|| {
+        MeshError::Image(format!(
+            "the mask's voxel axes are degenerate (affine {:?}); fix its header",
+            s.affine()
+        ))
+    })?;
+    let origin = s.voxel_to_world(&Point3::origin());
+    let f = SmoothedMask {
+        s,
+        c,
+        frame,
+        origin,
+    };
+    // the box to mesh, in the lattice frame
     let (mut bmin, mut bmax) = (
         Point3::from([f64::INFINITY; 3]),
         Point3::from([f64::NEG_INFINITY; 3]),
@@ -369,15 +431,14 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
                 (margin as usize + hi[a] - lo[a]) as f64 + reach
             }
         };
-        let w = s.voxel_to_world(&Point3::new(corner(0), corner(1), corner(2)));
+        let w = f.local(&f.s.voxel_to_world(&Point3::new(corner(0), corner(1), corner(2))));
         for a in 0..3 {
             bmin[a] = bmin[a].min(w[a]);
             bmax[a] = bmax[a].max(w[a]);
         }
     }
-    let f = SmoothedMask { s, c };
     let Stuffed {
-        mesh,
+        mut mesh,
         components,
         dropped_components,
         ..
@@ -387,6 +448,10 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
         },
         e => e,
     })?;
+    // back to world coordinates (a rotation: the tets keep their orientation)
+    for p in &mut mesh.positions {
+        *p = f.world(p);
+    }
     let (mesh, graded_collapses) = if opts.grade {
         let g = grade(&mesh, size)?;
         (g.mesh, g.collapses)

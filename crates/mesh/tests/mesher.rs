@@ -5,9 +5,12 @@
 //! voxel of the analytic surface both ways (Hausdorff), dihedral angles at
 //! least 10 degrees, a valid mesh with a closed manifold boundary.
 
+use proptest::prelude::*;
 use std::f64::consts::PI;
 use unfold_mesh::geometry::tet_dihedral_angles;
-use unfold_mesh::mesher::{IsoLevel, MaskMeshOptions, MeshQuality, mask_from_image, mesh_mask};
+use unfold_mesh::mesher::{
+    IsoLevel, MaskMeshOptions, MeshQuality, mask_from_image, mesh_mask, voxel_frame,
+};
 use unfold_mesh::nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3};
 use unfold_mesh::spatial::ClosestPointQuery;
 use unfold_mesh::stuffing::check_closed_manifold;
@@ -406,4 +409,62 @@ fn grading_coarsens_the_inside_and_keeps_the_boundary() {
         t
     };
     assert_eq!(key(u), key(g));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(6))]
+
+    /// The lattice lies in the mask's voxel frame: the same voxels under an
+    /// affine moved by a rigid motion `P` (`P A`) give the same mesh moved
+    /// by `P`, vertex for vertex.
+    #[test]
+    fn a_rigidly_moved_mask_gives_the_same_mesh_moved(
+        angles in prop::array::uniform3(-3.2..3.2f64),
+        shift in prop::array::uniform3(-80.0..80.0f64),
+    ) {
+        let mask = voxelize(&ellipsoid([14.0, 9.0, 6.0]), 17.0, 2.0, &rotation());
+        let r = Rotation3::from_euler_angles(angles[0], angles[1], angles[2]);
+        let t = Vector3::from(shift);
+        let mut pose = Matrix4::identity();
+        pose.fixed_view_mut::<3, 3>(0, 0).copy_from(r.matrix());
+        pose.fixed_view_mut::<3, 1>(0, 3).copy_from(&t);
+        let moved = Volume::new(mask.dims(), pose * mask.affine(), mask.data().to_vec()).unwrap();
+        let a = mesh_mask(&mask, &MaskMeshOptions::default()).unwrap().mesh;
+        let b = mesh_mask(&moved, &MaskMeshOptions::default()).unwrap().mesh;
+        prop_assert_eq!(a.num_vertices(), b.num_vertices());
+        prop_assert_eq!(&a.tets, &b.tets);
+        let worst = a
+            .positions
+            .iter()
+            .zip(&b.positions)
+            .map(|(p, q)| (r * p + t - q).norm())
+            .fold(0.0, f64::max);
+        prop_assert!(worst < 1e-9, "{}", worst);
+    }
+}
+
+/// The voxel frame is a rotation along the voxel axes, also for a mirroring
+/// affine (its third axis then points against the k axis); parallel axes
+/// have none.
+#[test]
+fn the_voxel_frame_is_a_rotation_along_the_voxel_axes() {
+    let mut a = grid_affine([0.0; 3], 2.0, &rotation());
+    for i in 0..3 {
+        a[(i, 0)] = -a[(i, 0)];
+    }
+    let q = voxel_frame(&a).unwrap();
+    assert!((q.matrix().determinant() - 1.0).abs() < 1e-12);
+    for j in 0..3 {
+        let axis: Vector3<f64> = a.fixed_view::<3, 1>(0, j).into_owned() / 2.0;
+        let sign = if j == 2 { -1.0 } else { 1.0 };
+        assert!(
+            (q.matrix().column(j) - sign * axis).norm() < 1e-12,
+            "axis {j}"
+        );
+    }
+    let mut flat = a;
+    for i in 0..3 {
+        flat[(i, 1)] = 3.0 * a[(i, 0)];
+    }
+    assert!(voxel_frame(&flat).is_none());
 }
