@@ -134,6 +134,31 @@ pub fn repair_tri_mesh_with(
     mesh: &TriMesh,
     options: &RepairOptions,
 ) -> Result<(TriMesh, RepairReport), MeshError> {
+    repair_tri_mesh_traced(mesh, options).map(|t| (t.mesh, t.report))
+}
+
+/// A repaired mesh, what changed, and where each input vertex went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Traced<M> {
+    /// The repaired mesh.
+    pub mesh: M,
+    /// What changed.
+    pub report: RepairReport,
+    /// `vertex_of_input[i]`: the repaired vertex input vertex `i` became
+    /// (welded copies all point to the same one; `None` when it was dropped
+    /// as unused; the first copy when it was split).
+    pub vertex_of_input: Vec<Option<u32>>,
+}
+
+/// [`repair_tri_mesh_with`], also telling where each input vertex went
+/// (for data indexed by the input's vertices, e.g. targets).
+///
+/// # Errors
+/// As [`repair_tri_mesh_with`].
+pub fn repair_tri_mesh_traced(
+    mesh: &TriMesh,
+    options: &RepairOptions,
+) -> Result<Traced<TriMesh>, MeshError> {
     check_input(
         &mesh.positions,
         &mesh.triangles,
@@ -171,15 +196,16 @@ pub fn repair_tri_mesh_with(
     r.unused_vertices = w.drop_unreferenced();
     r.components = connected_components(w.positions.len(), &w.elements).count;
     let (point_data, cell_data) = w.fields(&mesh.point_data, &mesh.cell_data);
-    Ok((
-        TriMesh {
+    Ok(Traced {
+        vertex_of_input: w.vertex_of_input(),
+        mesh: TriMesh {
             positions: w.positions,
             triangles: w.elements,
             point_data,
             cell_data,
         },
-        r,
-    ))
+        report: r,
+    })
 }
 
 /// Repairs a tet mesh without welding: [`repair_tet_mesh_with`] with the
@@ -207,6 +233,17 @@ pub fn repair_tet_mesh_with(
     mesh: &TetMesh,
     options: &RepairOptions,
 ) -> Result<(TetMesh, RepairReport), MeshError> {
+    repair_tet_mesh_traced(mesh, options).map(|t| (t.mesh, t.report))
+}
+
+/// [`repair_tet_mesh_with`], also telling where each input vertex went.
+///
+/// # Errors
+/// As [`repair_tet_mesh_with`].
+pub fn repair_tet_mesh_traced(
+    mesh: &TetMesh,
+    options: &RepairOptions,
+) -> Result<Traced<TetMesh>, MeshError> {
     check_input(
         &mesh.positions,
         &mesh.tets,
@@ -223,6 +260,7 @@ pub fn repair_tet_mesh_with(
     r.duplicate_elements = duplicates::drop_duplicates(&mut w);
     r.unused_vertices = w.drop_unreferenced();
     let (point_data, cell_data) = w.fields(&mesh.point_data, &mesh.cell_data);
+    let vertex_of_input = w.vertex_of_input();
     let mut out = TetMesh {
         positions: w.positions,
         tets: w.elements,
@@ -233,7 +271,11 @@ pub fn repair_tet_mesh_with(
         r.flipped = out.orient()?;
     }
     r.components = connected_components(out.positions.len(), &out.tets).count;
-    Ok((out, r))
+    Ok(Traced {
+        mesh: out,
+        report: r,
+        vertex_of_input,
+    })
 }
 
 #[cfg(test)]

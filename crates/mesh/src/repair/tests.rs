@@ -706,3 +706,26 @@ fn glue_injects_what_it_is_asked_for() {
     assert_eq!((r.fin_triangles, r.collapsed_vertices), (3, 3));
     check_fields(&clean, &out);
 }
+
+proptest! {
+    /// Every input vertex of a damaged mesh that survives maps to a repaired
+    /// vertex at its own position (welded copies: within the tolerance).
+    #[test]
+    fn traced_vertices_keep_their_positions(
+        n in 3usize..7, seed: u64, fins in 0usize..3, slivers in 0usize..3,
+    ) {
+        let clean = uv_sphere(n, n + 1, 2.0);
+        let (messy, _) = glue(&soup(&clean, 3, 4, 0.0), seed, fins, slivers);
+        let options = RepairOptions { weld: Weld::Relative, ..Default::default() };
+        let t = repair_tri_mesh_traced(&messy, &options).unwrap();
+        prop_assert_eq!(t.vertex_of_input.len(), messy.num_vertices());
+        for (i, v) in t.vertex_of_input.iter().enumerate() {
+            if let Some(v) = v {
+                prop_assert!((t.mesh.positions[*v as usize] - messy.positions[i]).norm() < 1e-5
+                    || t.report.collapsed_vertices > 0);
+            }
+        }
+        let used: std::collections::HashSet<u32> = t.vertex_of_input.iter().flatten().copied().collect();
+        prop_assert_eq!(used.len(), t.mesh.num_vertices());
+    }
+}

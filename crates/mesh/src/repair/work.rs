@@ -18,6 +18,9 @@ pub(crate) struct Work<const K: usize> {
     pub elements: Vec<[u32; K]>,
     /// `rows[e]`: the input element whose cell data element `e` takes.
     pub rows: Vec<usize>,
+    /// `current[i]`: the current vertex input vertex `i` became (`u32::MAX`
+    /// once dropped; the first copy when it was split).
+    pub current: Vec<u32>,
 }
 
 impl<const K: usize> Work<K> {
@@ -28,6 +31,7 @@ impl<const K: usize> Work<K> {
             origin: (0..positions.len()).collect(),
             elements: elements.to_vec(),
             rows: (0..elements.len()).collect(),
+            current: (0..positions.len() as u32).collect(),
         }
     }
 
@@ -63,6 +67,11 @@ impl<const K: usize> Work<K> {
         for el in &mut self.elements {
             *el = el.map(|v| number[root[v as usize]]);
         }
+        for c in &mut self.current {
+            if *c != u32::MAX {
+                *c = number[root[*c as usize]];
+            }
+        }
         self.positions = kept.iter().map(|&v| self.positions[v]).collect();
         self.origin = kept.iter().map(|&v| self.origin[v]).collect();
         n - kept.len()
@@ -85,6 +94,11 @@ impl<const K: usize> Work<K> {
         for el in &mut self.elements {
             *el = el.map(|v| number[v as usize]);
         }
+        for c in &mut self.current {
+            if *c != u32::MAX {
+                *c = number[*c as usize];
+            }
+        }
         self.positions = kept.iter().map(|&v| self.positions[v]).collect();
         self.origin = kept.iter().map(|&v| self.origin[v]).collect();
         n - kept.len()
@@ -102,6 +116,14 @@ impl<const K: usize> Work<K> {
             }
         }
         if count == 0 { 0.0 } else { sum / count as f64 }
+    }
+
+    /// Where each input vertex went (`None`: dropped).
+    pub fn vertex_of_input(&self) -> Vec<Option<u32>> {
+        self.current
+            .iter()
+            .map(|&c| (c != u32::MAX).then_some(c))
+            .collect()
     }
 
     /// The point data and cell data of the current vertices and elements,
@@ -133,5 +155,6 @@ mod tests {
         assert_eq!(w.origin, vec![0, 1, 4]);
         assert_eq!(w.positions[2].x, 4.0);
         assert_eq!(w.elements, vec![[0, 1, 2]]);
+        assert_eq!(w.current, vec![0, 1, u32::MAX, 1, 2]);
     }
 }

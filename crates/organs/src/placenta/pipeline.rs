@@ -358,6 +358,7 @@ impl Pipeline {
                 parcellation: *s,
             },
             transform: alignment.report(),
+            repair: prepared.repair,
             input: InputReport {
                 vertices: rest.num_vertices(),
                 tets: rest.num_tets(),

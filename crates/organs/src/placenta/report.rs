@@ -104,6 +104,10 @@ pub struct Report {
     pub boundary: BoundaryReport,
     /// Input to template frame.
     pub transform: TransformReport,
+    /// What the repair of the input mesh changed (see
+    /// [`super::prepare::prepare_mesh`]); the outputs use the repaired
+    /// mesh's vertices.
+    pub repair: unfold_mesh::repair::RepairReport,
     /// The input.
     pub input: InputReport,
     /// One entry per optimization stage.
