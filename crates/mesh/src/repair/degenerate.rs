@@ -1,11 +1,20 @@
 //! Degenerate elements: elements that use a vertex twice, triangles of
 //! (almost) zero area and tets of (almost) zero volume.
 //!
-//! A triangle is a *sliver* when its area is below
-//! `DEGENERATE_RELATIVE · ē²` (ē the mean edge length of the mesh), a tet
-//! when `|V| < DEGENERATE_RELATIVE · ē³`. `DEGENERATE_RELATIVE` = 1e-7 is
-//! above what rounding a point onto an edge in single precision leaves
-//! (relative 6e-8) and far below any triangle a mesher makes on purpose.
+//! An element is degenerate when its height over its largest side — `h =
+//! 2A / L` for a triangle of area `A` and longest edge `L`, `h = 3|V| / F`
+//! for a tet of volume `V` and largest face area `F` — is below
+//!
+//! ```text
+//! h_min = max(DEGENERATE_RELATIVE · ē, SINGLE_PRECISION · max |x|)
+//! ```
+//!
+//! with `ē` the mean edge length and `max |x|` the largest absolute
+//! coordinate. `DEGENERATE_RELATIVE` = 1e-5 is far below any element a
+//! mesher makes on purpose; the second term (5e-7, four single-precision
+//! ulps) covers a point put on an edge and then written in single precision
+//! (STL), whose distance to the edge is rounding of the coordinates, not of
+//! the edge.
 //!
 //! Zero-area triangles are not simply dropped: a sliver usually sits where an
 //! exporter split one side of an edge `a-b` by a vertex `m` on it and closed
@@ -24,10 +33,50 @@
 
 use super::work::Work;
 use crate::geometry::{tet_signed_volume, triangle_area};
+use nalgebra::Point3;
 
-/// The relative area / volume below which a triangle / tet is degenerate
-/// (see the module docs).
-pub const DEGENERATE_RELATIVE: f64 = 1e-7;
+/// The height, relative to the mean edge, below which an element is
+/// degenerate (see the module docs).
+pub const DEGENERATE_RELATIVE: f64 = 1e-5;
+
+/// The height, relative to the largest absolute coordinate, below which an
+/// element is degenerate (single-precision rounding; see the module docs).
+pub const SINGLE_PRECISION: f64 = 5e-7;
+
+/// `h_min` of the module docs.
+fn min_height<const K: usize>(w: &Work<K>) -> f64 {
+    let scale = w
+        .positions
+        .iter()
+        .map(|p| p.coords.amax())
+        .fold(0.0, f64::max);
+    (DEGENERATE_RELATIVE * w.mean_edge()).max(SINGLE_PRECISION * scale)
+}
+
+/// The height of a triangle over its longest edge, `2A / L` (0 when all
+/// three corners coincide).
+fn triangle_height(p: &Point3<f64>, q: &Point3<f64>, r: &Point3<f64>) -> f64 {
+    let l = (q - p).norm().max((r - q).norm()).max((p - r).norm());
+    if l == 0.0 {
+        0.0
+    } else {
+        2.0 * triangle_area(p, q, r) / l
+    }
+}
+
+/// The height of a tet over its largest face, `3|V| / F` (0 when flat in
+/// every direction).
+fn tet_height(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>, d: &Point3<f64>) -> f64 {
+    let f = triangle_area(a, b, c)
+        .max(triangle_area(a, b, d))
+        .max(triangle_area(a, c, d))
+        .max(triangle_area(b, c, d));
+    if f == 0.0 {
+        0.0
+    } else {
+        3.0 * tet_signed_volume(a, b, c, d).abs() / f
+    }
+}
 
 /// Drops the elements that use a vertex more than once; returns how many.
 pub(crate) fn drop_repeated<const K: usize>(w: &mut Work<K>) -> usize {
@@ -59,14 +108,13 @@ pub(crate) struct Collapsed {
 /// Collapses the zero-area triangles (see the module docs). The elements
 /// must not repeat a vertex ([`drop_repeated`] first).
 pub(crate) fn collapse_slivers(w: &mut Work<3>) -> Collapsed {
-    let e = w.mean_edge();
-    let threshold = DEGENERATE_RELATIVE * e * e;
+    let threshold = min_height(w);
     let n = w.positions.len();
     let mut parent: Vec<usize> = (0..n).collect();
     let mut any = false;
     for t in 0..w.elements.len() {
         let [p, q, r] = w.elements[t].map(|v| w.positions[v as usize]);
-        if triangle_area(&p, &q, &r) >= threshold {
+        if triangle_height(&p, &q, &r) >= threshold {
             continue;
         }
         let roots = w.elements[t].map(|v| find(&mut parent, v as usize));
@@ -101,17 +149,16 @@ pub(crate) fn collapse_slivers(w: &mut Work<3>) -> Collapsed {
     }
 }
 
-/// Drops the tets whose volume is below `DEGENERATE_RELATIVE · ē³`; returns
-/// how many.
+/// Drops the tets whose height is below `h_min` (see the module docs);
+/// returns how many.
 pub(crate) fn drop_flat_tets(w: &mut Work<4>) -> usize {
-    let e = w.mean_edge();
-    let threshold = DEGENERATE_RELATIVE * e * e * e;
+    let threshold = min_height(w);
     let flat: Vec<bool> = w
         .elements
         .iter()
         .map(|t| {
             let [a, b, c, d] = t.map(|v| w.positions[v as usize]);
-            tet_signed_volume(&a, &b, &c, &d).abs() < threshold
+            tet_height(&a, &b, &c, &d) < threshold
         })
         .collect();
     w.retain(|t| !flat[t])
@@ -120,7 +167,6 @@ pub(crate) fn drop_flat_tets(w: &mut Work<4>) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Point3;
 
     fn square() -> Vec<Point3<f64>> {
         vec![
@@ -152,6 +198,25 @@ mod tests {
         assert_eq!(origin_tris, vec![[0, 1, 2], [0, 2, 3], [1, 0, 5]]);
         // Nothing left to collapse.
         assert_eq!(collapse_slivers(&mut w), Collapsed::default());
+    }
+
+    #[test]
+    fn a_t_junction_rounded_to_single_precision_still_collapses() {
+        // Far from the origin (scanner coordinates), the point on the edge
+        // written as f32.
+        let off = nalgebra::Vector3::new(-180.3, 95.7, 240.1);
+        let p: Vec<Point3<f64>> = square()
+            .iter()
+            .map(|q| (q + off).map(|c| c as f32 as f64))
+            .collect();
+        let on_edge =
+            Point3::from((p[0].coords * 0.6 + p[1].coords * 0.4).map(|c| c as f32 as f64));
+        let mut p = p;
+        p[4] = on_edge;
+        let tris = vec![[0u32, 4, 2], [4, 1, 2], [0, 2, 3], [1, 0, 5], [0, 4, 1]];
+        let mut w = Work::new(&p, &tris);
+        let c = collapse_slivers(&mut w);
+        assert_eq!((c.vertices, c.triangles), (1, 2));
     }
 
     #[test]

@@ -34,7 +34,7 @@
 /// Kept here for the `repair::compact_vertices` path; the code lives in
 /// [`crate::reindex`].
 pub use crate::reindex::{Compacted, compact_vertices};
-pub use degenerate::DEGENERATE_RELATIVE;
+pub use degenerate::{DEGENERATE_RELATIVE, SINGLE_PRECISION};
 pub use report::RepairReport;
 
 pub mod component;
