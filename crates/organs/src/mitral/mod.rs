@@ -4,6 +4,9 @@
 //!
 //! Steps (each public, so a pipeline can be composed from code):
 //!
+//! 0. Both leaflets are repaired ([`unfold_mesh::repair`], coincident
+//!    vertices welded; [`Report::repair`]); the outputs use the repaired
+//!    leaflets' vertices.
 //! 1. [`contract::prepare`]: the input contract. Leaflet annulus vertices,
 //!    commissures, atrial side, ring order (clockwise seen from the atrium,
 //!    from the anterolateral commissure).
