@@ -81,6 +81,11 @@ fn fin_pass(tris: &[[u32; 3]]) -> Vec<bool> {
             }
         }
     }
+    // A patch may meet a run more than once, not consecutively.
+    for t in &mut touches {
+        t.sort_unstable();
+        t.dedup();
+    }
     // Patches by size (desc), then by their lowest triangle.
     let mut first = vec![usize::MAX; n];
     for t in (0..n).rev() {
@@ -235,6 +240,26 @@ mod tests {
         assert_eq!(w.elements, g.triangles);
         assert_eq!(w.rows, (2..20).collect::<Vec<_>>());
         assert_eq!(split_fans(&mut w), 0);
+    }
+
+    #[test]
+    fn two_fins_on_one_edge_between_the_sheet_triangles() {
+        // Fins listed between the sheet's two triangles at edge 5-6, so
+        // the sheet meets that edge's run twice, not consecutively.
+        let g = crate::shapes::primitives::grid_disk(3, 3);
+        let mut p = g.positions.clone();
+        p.push(Point3::new(1.5, 1.0, 1.0)); // 16
+        p.push(Point3::new(1.5, 1.0, -1.0)); // 17
+        let at_edge: Vec<usize> = (0..g.triangles.len())
+            .filter(|&t| g.triangles[t].contains(&5) && g.triangles[t].contains(&6))
+            .collect();
+        assert_eq!(at_edge.len(), 2);
+        let mut tris = g.triangles.clone();
+        tris.insert(at_edge[1], [5, 6, 16]);
+        tris.insert(at_edge[1], [6, 5, 17]);
+        let mut w = Work::new(&p, &tris);
+        assert_eq!(drop_fins(&mut w), 2);
+        assert_eq!(w.elements, g.triangles);
     }
 
     #[test]
