@@ -489,8 +489,8 @@ fn a_tet_soup_deforms_like_the_clean_mesh_in_the_input_numbering() {
     assert_eq!(b.positions.len(), soup.num_vertices());
     let mut worst: f64 = 0.0;
     for (t, tet) in ordered.tets.iter().enumerate() {
-        for k in 0..4 {
-            let (p, q) = (a.positions[tet[k] as usize], b.positions[4 * t + k]);
+        for (k, &v) in tet.iter().enumerate() {
+            let (p, q) = (a.positions[v as usize], b.positions[4 * t + k]);
             worst = worst.max((p - q).norm());
         }
     }
