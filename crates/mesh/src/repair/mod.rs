@@ -61,7 +61,9 @@ pub enum Weld {
     #[default]
     Off,
     /// Within [`crate::weld::default_tolerance`]: a millionth of the mean
-    /// edge length, and less than half the shortest edge.
+    /// edge length, and at most a quarter of the shortest edge. Should a
+    /// chain of close vertices still reach from one corner of an element to
+    /// another at a different position, only exact copies are welded.
     Relative,
     /// Within this distance, mm (0: exactly equal positions only).
     Within(f64),
@@ -100,13 +102,31 @@ fn weld_step<const K: usize>(w: &mut Work<K>, weld: Weld) -> Result<usize, MeshE
         Weld::Relative => crate::weld::default_tolerance(&w.positions, &w.elements),
         Weld::Within(t) => t,
     };
-    let welded = crate::weld::weld(&w.positions, tolerance)?;
+    let mut welded = crate::weld::weld(&w.positions, tolerance)?;
+    if weld == Weld::Relative && merges_an_edge(w, &welded.new_of) {
+        // A chain of close vertices reached across an element: weld exact
+        // copies only.
+        welded = crate::weld::weld(&w.positions, 0.0)?;
+    }
     let root: Vec<usize> = welded
         .new_of
         .iter()
         .map(|&k| welded.kept[k as usize])
         .collect();
     Ok(w.merge(&root))
+}
+
+/// True when welding as `new_of` says would merge two corners of one
+/// element that are at different positions.
+fn merges_an_edge<const K: usize>(w: &Work<K>, new_of: &[u32]) -> bool {
+    w.elements.iter().any(|el| {
+        (0..K).any(|i| {
+            (i + 1..K).any(|j| {
+                let (a, b) = (el[i] as usize, el[j] as usize);
+                new_of[a] == new_of[b] && w.positions[a] != w.positions[b]
+            })
+        })
+    })
 }
 
 /// Repairs a triangle mesh without welding: [`repair_tri_mesh_with`] with

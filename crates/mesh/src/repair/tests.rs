@@ -1,5 +1,6 @@
 //! Repair tests across the steps: damaged clean meshes come back clean.
 
+use super::work::Work;
 use super::*;
 use crate::Field;
 use crate::geometry::tet_signed_volume;
@@ -728,4 +729,49 @@ proptest! {
         let used: std::collections::HashSet<u32> = t.vertex_of_input.iter().flatten().copied().collect();
         prop_assert_eq!(used.len(), t.mesh.num_vertices());
     }
+}
+
+#[test]
+fn relative_welding_never_merges_two_corners_of_one_element() {
+    // A big triangle (sets the mean edge), a tiny one of side l, and a
+    // chain of tiny triangles whose corners step by less than l/4 from the
+    // tiny triangle's corner 0 to its corner 1; l is so small that the
+    // default tolerance is l/4.
+    let l = 1e-6;
+    let mut p = vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(l, 0.0, 0.0),
+        Point3::new(0.0, l, 0.0),
+        Point3::new(100.0, 0.0, 0.0),
+        Point3::new(0.0, 100.0, 0.0),
+        Point3::new(0.0, 0.0, 100.0),
+    ];
+    let mut tris = vec![[0u32, 1, 2], [3, 4, 5]];
+    for k in 1..5 {
+        let base = p.len() as u32;
+        let x = l * k as f64 / 4.2;
+        p.push(Point3::new(x, 0.0, 0.0));
+        p.push(Point3::new(x, -l, 0.0));
+        p.push(Point3::new(x, 0.0, -l));
+        tris.push([base, base + 1, base + 2]);
+    }
+    let m = TriMesh::new(p, tris);
+    let options = RepairOptions {
+        weld: Weld::Relative,
+        ..Default::default()
+    };
+    assert_eq!(
+        crate::weld::default_tolerance(&m.positions, &m.triangles),
+        l / 4.0
+    );
+    // At that tolerance the chain would merge corners 0 and 1 of the tiny
+    // triangle; the weld step welds exact copies only instead.
+    let chained = crate::weld::weld(&m.positions, l / 4.0).unwrap();
+    assert_eq!(chained.new_of[0], chained.new_of[1]);
+    let mut w = Work::new(&m.positions, &m.triangles);
+    assert_eq!(weld_step(&mut w, options.weld).unwrap(), 0);
+    assert_eq!(w.elements, m.triangles);
+    // An explicit distance is the user's choice: the chain welds.
+    let mut w = Work::new(&m.positions, &m.triangles);
+    assert!(weld_step(&mut w, Weld::Within(l / 4.0)).unwrap() >= 4);
 }
