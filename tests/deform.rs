@@ -424,3 +424,75 @@ fn deform_moves_a_targeted_loose_vertex_and_keeps_an_untargeted_one() {
     assert!((p[n] - unfold::mesh::nalgebra::Point3::new(110.0, 1.0, 2.0)).norm() < 1e-6);
     assert_eq!(p[n + 1], mesh.positions[n + 1]);
 }
+
+#[test]
+fn a_tet_soup_deforms_like_the_clean_mesh_in_the_input_numbering() {
+    let shape = small_shell();
+    let clean = &shape.mesh;
+    // Every tet with its own four vertices, renumbered in first-use order
+    // so that the welded soup solves the same system as the clean mesh.
+    let mut number = vec![u32::MAX; clean.num_vertices()];
+    let mut positions = Vec::new();
+    for t in &clean.tets {
+        for &v in t {
+            if number[v as usize] == u32::MAX {
+                number[v as usize] = positions.len() as u32;
+                positions.push(clean.positions[v as usize]);
+            }
+        }
+    }
+    let ordered = TetMesh::new(
+        positions,
+        clean
+            .tets
+            .iter()
+            .map(|t| t.map(|v| number[v as usize]))
+            .collect(),
+    );
+    let targets: Vec<(usize, [f64; 3])> = flat_targets(&shape)
+        .into_iter()
+        .map(|(v, t)| (number[v] as usize, t))
+        .collect();
+    let mut soup = TetMesh::default();
+    let mut copy_of = vec![usize::MAX; ordered.num_vertices()];
+    for t in &ordered.tets {
+        let base = soup.positions.len() as u32;
+        for (k, &v) in t.iter().enumerate() {
+            soup.positions.push(ordered.positions[v as usize]);
+            if copy_of[v as usize] == usize::MAX {
+                copy_of[v as usize] = base as usize + k;
+            }
+        }
+        soup.tets.push([base, base + 1, base + 2, base + 3]);
+    }
+    let soup_targets: Vec<(usize, [f64; 3])> =
+        targets.iter().map(|&(v, t)| (copy_of[v], t)).collect();
+    let (dc, ds) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (mc, tc) = write_problem(dc.path(), "clean.vtu", &ordered, &targets);
+    let (ms, ts) = write_problem(ds.path(), "soup.vtu", &soup, &soup_targets);
+    let (oc, os) = (
+        dc.path().join("out.vtu").display().to_string(),
+        ds.path().join("out.vtu").display().to_string(),
+    );
+    assert_ok(&unfold(&["deform", &mc, "--targets", &tc, "-o", &oc]));
+    assert_ok(&unfold(&["deform", &ms, "--targets", &ts, "-o", &os]));
+    let r = report(&os);
+    assert_eq!(
+        r["repair"]["welded_vertices"],
+        soup.num_vertices() - ordered.num_vertices(),
+        "{}",
+        r["repair"]
+    );
+    assert_eq!(report(&oc)["repair"]["welded_vertices"], 0);
+    // OUT keeps the soup's numbering: every copy at its vertex's place.
+    let (a, b) = (read_mesh(&oc).unwrap(), read_mesh(&os).unwrap());
+    assert_eq!(b.positions.len(), soup.num_vertices());
+    let mut worst: f64 = 0.0;
+    for (t, tet) in ordered.tets.iter().enumerate() {
+        for (k, &v) in tet.iter().enumerate() {
+            let (p, q) = (a.positions[v as usize], b.positions[4 * t + k]);
+            worst = worst.max((p - q).norm());
+        }
+    }
+    assert!(worst < 1e-9, "the soup moved {worst} mm differently");
+}

@@ -358,3 +358,78 @@ fn an_annulus_of_line_segments_is_chained_into_the_ring() {
         "is used by 3 segments",
     );
 }
+
+/// `m` renumbered in the order its triangles first use its vertices (the
+/// order welding its soup gives back).
+fn first_use_order(m: &TriMesh) -> TriMesh {
+    let mut number = vec![u32::MAX; m.positions.len()];
+    let mut positions = Vec::new();
+    for t in &m.triangles {
+        for &v in t {
+            if number[v as usize] == u32::MAX {
+                number[v as usize] = positions.len() as u32;
+                positions.push(m.positions[v as usize]);
+            }
+        }
+    }
+    TriMesh::new(
+        positions,
+        m.triangles
+            .iter()
+            .map(|t| t.map(|v| number[v as usize]))
+            .collect(),
+    )
+}
+
+/// `m` as a triangle soup, every 4th triangle written twice.
+fn soup_with_duplicates(m: &TriMesh) -> (TriMesh, usize) {
+    let (mut out, mut dups) = (TriMesh::default(), 0);
+    for (t, tri) in m.triangles.iter().enumerate() {
+        let copies = if t % 4 == 0 { 2 } else { 1 };
+        dups += copies - 1;
+        for _ in 0..copies {
+            let base = out.positions.len() as u32;
+            out.positions
+                .extend(tri.iter().map(|&v| m.positions[v as usize]));
+            out.triangles.push([base, base + 1, base + 2]);
+        }
+    }
+    (out, dups)
+}
+
+#[test]
+fn a_leaflet_given_as_a_triangle_soup_maps_like_the_clean_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = small_valve();
+    let anterior = first_use_order(&v.anterior);
+    let (soup, dups) = soup_with_duplicates(&anterior);
+    let clean = write_valve(dir.path(), "clean_", &anterior, &v.posterior, &v.annulus);
+    let messy = write_valve(dir.path(), "soup_", &soup, &v.posterior, &v.annulus);
+    let (oc, os) = (dir.path().join("clean"), dir.path().join("soup"));
+    for (files, out) in [(&clean, &oc), (&messy, &os)] {
+        let o = run_files(files, out, &["--no-figures"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(os.join("report.json")).unwrap()).unwrap();
+    let ra = &r["repair"]["anterior"];
+    assert_eq!(
+        ra["welded_vertices"],
+        soup.positions.len() - anterior.positions.len(),
+        "{ra}"
+    );
+    assert_eq!(ra["duplicate_elements"], dups, "{ra}");
+    assert_eq!(r["repair"]["posterior"]["welded_vertices"], 0);
+    let (a, b) = (
+        read_mesh(oc.join("valve2d.vtu")).unwrap(),
+        read_mesh(os.join("valve2d.vtu")).unwrap(),
+    );
+    assert_eq!(a.positions.len(), b.positions.len());
+    let worst = a
+        .positions
+        .iter()
+        .zip(&b.positions)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-6, "valve2d differs by {worst} mm");
+}

@@ -33,6 +33,13 @@
 //!
 //! Vertices used by no tet and without a target carry no term at all; they
 //! are kept where they are.
+//!
+//! The mesh is repaired first ([`unfold::mesh::repair`]: coincident vertices
+//! welded, duplicate, repeated-vertex and zero-volume tets dropped; an
+//! inverted tet stays an error; counts under `repair` in the report). The solve runs on the
+//! repaired mesh; targets and the output still use the input's vertex
+//! numbers (welded copies move together; the first target of a welded
+//! vertex counts; a vertex no tet uses goes to its target, if it has one).
 
 use super::{CliError, at};
 use clap::{Args, ValueEnum};
@@ -40,6 +47,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use unfold::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::MeshError;
+use unfold::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use unfold::param::energy::{Arap, SymmetricDirichlet};
 use unfold::param::{
     Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver, StopReason,
@@ -104,6 +112,8 @@ struct Report<'a> {
     targets_file: String,
     /// The output mesh.
     output: String,
+    /// What the repair of the input mesh changed.
+    repair: RepairReport,
     #[serde(flatten)]
     report: &'a DeformReport,
 }
@@ -280,6 +290,24 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         source,
     })?;
     let pairs = parse_targets(&text, &a.targets, n)?;
+    let repaired = repair_tet_mesh_traced(
+        &tet_mesh,
+        &RepairOptions {
+            weld: Weld::Relative,
+            keep_tet_orientation: true,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| at(&a.mesh, e))?;
+    let of_input = &repaired.vertex_of_input;
+    let mut targeted = vec![false; repaired.mesh.num_vertices()];
+    let solve_pairs: Vec<(usize, [f64; 3])> = pairs
+        .iter()
+        .filter_map(|&(v, t)| {
+            let r = of_input[v]? as usize;
+            (!std::mem::replace(&mut targeted[r], true)).then_some((r, t))
+        })
+        .collect();
 
     let mut stopping = match a.solver {
         SolverKind::Newton => ProjectedNewton::default().default_stopping(),
@@ -299,17 +327,27 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         SolverKind::Gd => pipeline.solver(GradientDescent),
     };
     let outcome = pipeline
-        .run(&tet_mesh, &pairs)
+        .run(&repaired.mesh, &solve_pairs)
         .map_err(|e| deform_problem(a, e))?;
     let report = &outcome.report;
 
     let mut deformed = cells;
-    deformed.positions = outcome.positions.clone();
+    for (i, p) in deformed.positions.iter_mut().enumerate() {
+        if let Some(r) = of_input[i] {
+            *p = outcome.positions[r as usize];
+        }
+    }
+    for &(v, t) in &pairs {
+        if of_input[v].is_none() {
+            deformed.positions[v] = t.into();
+        }
+    }
     write_mesh(&a.output, &deformed, &WriteOptions::default())?;
     let full = Report {
         mesh: a.mesh.display().to_string(),
         targets_file: a.targets.display().to_string(),
         output: a.output.display().to_string(),
+        repair: repaired.report,
         report,
     };
     let json = serde_json::to_string_pretty(&full)

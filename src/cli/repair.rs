@@ -1,6 +1,8 @@
 //! `unfold repair IN -o OUT`: the mesh repaired (coincident vertices
-//! welded, repeated and degenerate-index elements dropped, orientation made
-//! consistent, unused vertices dropped), with counts per kind.
+//! welded, degenerate and duplicate elements dropped, slivers collapsed,
+//! fins dropped, non-manifold vertices split, orientation made consistent,
+//! small holes filled when asked, unused vertices dropped), with counts per
+//! kind; the steps are those of [`unfold::mesh::repair`].
 
 use super::{CliError, at};
 use clap::Args;
@@ -16,7 +18,8 @@ use unfold::mesh::repair::{
 #[derive(Debug, Args)]
 #[command(
     after_help = "Triangle meshes (polygons are fan-triangulated) and tet meshes (lower-dimensional \
-cells are left out). Prints what was repaired, one count per kind."
+cells are left out). Prints what was repaired, one count per kind. Refuses only what cannot be \
+repaired (a non-orientable surface), naming the vertices."
 )]
 pub struct RepairArgs {
     /// The mesh to repair (never modified).
@@ -36,6 +39,10 @@ pub struct RepairArgs {
     /// Do not weld coincident vertices.
     #[arg(long)]
     no_weld: bool,
+    /// Close the boundary loops whose perimeter is at most this, mm
+    /// (triangle meshes; ear clipping over the loop's own vertices).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    fill_holes_mm: Option<f64>,
     /// Print the counts as JSON instead of a sentence.
     #[arg(long)]
     json: bool,
@@ -65,6 +72,13 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
             )));
         }
     };
+    if let Some(d) = a.fill_holes_mm
+        && !(d.is_finite() && d > 0.0)
+    {
+        return Err(CliError::Usage(format!(
+            "--fill-holes-mm must be a finite perimeter > 0 mm, got {d}"
+        )));
+    }
     if super::canonical(&a.input) == super::canonical(&a.output) {
         return Err(CliError::Usage(format!(
             "{}: refusing to overwrite the input; choose another output path",
@@ -72,7 +86,11 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
         )));
     }
     let cells = read_mesh(&a.input)?;
-    let options = RepairOptions { weld };
+    let options = RepairOptions {
+        weld,
+        fill_holes: a.fill_holes_mm,
+        ..Default::default()
+    };
     let volume = cells.cells().any(|(t, _)| t.dimension() == 3);
     let (out, report, elements): (CellMesh, RepairReport, &'static str) = if volume {
         let tets = cells.volume_tets().map_err(|e| at(&a.input, e))?;

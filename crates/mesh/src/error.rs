@@ -102,6 +102,25 @@ pub enum MeshError {
         /// The shared edge.
         edge: [u32; 2],
     },
+    /// A surface that no choice of triangle orientations makes consistent
+    /// (a Möbius strip, a Klein bottle): repair cannot fix it. Vertex and
+    /// triangle ids are those of the input.
+    #[error(
+        "the surface is not orientable (a Moebius strip or similar): triangles {} and {} cannot \
+         agree across the edge from vertex {} ({}, {}, {}) to vertex {} ({}, {}, {}); cut the \
+         surface along that edge or remove the twisted part",
+        triangles[0], triangles[1],
+        vertices[0], at[0][0], at[0][1], at[0][2],
+        vertices[1], at[1][0], at[1][1], at[1][2]
+    )]
+    NonOrientable {
+        /// The two triangles (input numbering).
+        triangles: [usize; 2],
+        /// The shared edge's vertices (input numbering).
+        vertices: [usize; 2],
+        /// Their coordinates, mm.
+        at: [[f64; 3]; 2],
+    },
     /// The mesh falls apart into several connected components.
     #[error(
         "the mesh has {count} connected components; expected one (largest_component() keeps the largest)"
@@ -198,6 +217,7 @@ impl MeshError {
             MeshError::NonManifoldEdge { .. } => "non_manifold_edge",
             MeshError::NonManifoldFace { .. } => "non_manifold_face",
             MeshError::InconsistentOrientation { .. } => "inconsistent_orientation",
+            MeshError::NonOrientable { .. } => "non_orientable",
             MeshError::MultipleComponents { .. } => "multiple_components",
             MeshError::ClosedSurface => "closed_surface",
             MeshError::BoundaryLoops { .. } => "boundary_loops",

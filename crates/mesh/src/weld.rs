@@ -43,10 +43,13 @@ impl Welded {
     }
 }
 
-/// `RELATIVE_TOLERANCE` times the mean edge length of `elements` (0 for no
-/// element or a mesh whose edges all have length 0).
+/// The default weld distance: `RELATIVE_TOLERANCE` times the mean edge
+/// length of `elements`, but at most a quarter of their shortest non-zero
+/// edge, so that no chain of welds shorter than four links can merge two
+/// distinct corners of one element of a clean mesh (0 for no element or a
+/// mesh whose edges all have length 0).
 pub fn default_tolerance<const K: usize>(positions: &[Point3<f64>], elements: &[[u32; K]]) -> f64 {
-    let (mut sum, mut count) = (0.0, 0usize);
+    let (mut sum, mut count, mut shortest) = (0.0, 0usize, f64::INFINITY);
     for e in elements {
         for i in 0..K {
             for j in i + 1..K {
@@ -56,15 +59,18 @@ pub fn default_tolerance<const K: usize>(positions: &[Point3<f64>], elements: &[
                     if d.is_finite() {
                         sum += d;
                         count += 1;
+                        if d > 0.0 {
+                            shortest = shortest.min(d);
+                        }
                     }
                 }
             }
         }
     }
-    if count == 0 {
+    if count == 0 || sum == 0.0 {
         0.0
     } else {
-        RELATIVE_TOLERANCE * sum / count as f64
+        (RELATIVE_TOLERANCE * sum / count as f64).min(0.25 * shortest)
     }
 }
 
@@ -154,6 +160,27 @@ mod tests {
             w.remap(&[[0u32, 4, 5], [2, 3, 1]]),
             vec![[0, 1, 2], [0, 0, 1]]
         );
+    }
+
+    #[test]
+    fn the_default_tolerance_never_spans_an_element() {
+        // A needle: one edge a billionth of the others.
+        let p = [
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(1.0, 1e-9, 0.0),
+        ];
+        let t = default_tolerance(&p, &[[0u32, 1, 2]]);
+        assert!(t > 0.0 && t <= 0.25e-9, "{t}");
+        assert_eq!(weld(&p, t).unwrap().merged(), 0);
+        let square = [
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(0.0, 1.0, 0.0),
+        ];
+        let t = default_tolerance(&square, &[[0u32, 1, 2]]);
+        assert!((t - RELATIVE_TOLERANCE * (2.0 + 2f64.sqrt()) / 3.0).abs() < 1e-18);
+        assert_eq!(default_tolerance::<3>(&square, &[]), 0.0);
     }
 
     #[test]

@@ -526,19 +526,27 @@ fn a_mesh_without_tets_is_a_clear_error() {
 }
 
 #[test]
-fn nan_degenerate_and_several_components_are_clear_errors() {
+fn nan_and_several_components_are_clear_errors_and_coincident_corners_are_repaired() {
     let mut m = small_slab();
     m.positions[3].y = f64::NAN;
     let e = flatten(&m, &Config::default()).unwrap_err();
     assert!(e.to_string().contains("non-finite"), "{e}");
 
     let mut m = small_slab();
-    // Flatten one tet: move a vertex of tet 0 onto the plane of the other
-    // three... simplest: make two of its vertices coincide in position.
+    // Two corners of tet 0 at the same position: the repair that starts the
+    // pipeline welds them and drops the tets that then repeat a vertex (the
+    // tets around that edge), and reports it.
     let [a, b, _, _] = m.tets[0];
     m.positions[b as usize] = m.positions[a as usize];
-    let e = flatten(&m, &Config::default()).unwrap_err();
-    assert!(e.to_string().contains("degenerate"), "{e}");
+    let around = m
+        .tets
+        .iter()
+        .filter(|t| t.contains(&a) && t.contains(&b))
+        .count();
+    let o = flatten(&m, &Config::default()).unwrap();
+    assert_eq!(o.report.repair.welded_vertices, 1);
+    assert_eq!(o.report.repair.repeated_vertex_elements, around);
+    assert_eq!(o.report.input.tets, m.num_tets() - around);
 
     let a = small_slab();
     let mut b = small_slab();

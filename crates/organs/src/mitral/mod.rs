@@ -4,6 +4,9 @@
 //!
 //! Steps (each public, so a pipeline can be composed from code):
 //!
+//! 0. Both leaflets are repaired ([`unfold_mesh::repair`], coincident
+//!    vertices welded; [`Report::repair`]); the outputs use the repaired
+//!    leaflets' vertices.
 //! 1. [`contract::prepare`]: the input contract. Leaflet annulus vertices,
 //!    commissures, atrial side, ring order (clockwise seen from the atrium,
 //!    from the anterolateral commissure).
@@ -317,10 +320,23 @@ pub struct Report {
     pub annulus_plane: PlaneReport,
     /// Whether the posteromedial commissure was cut.
     pub cut_posteromedial: bool,
+    /// What the repair of each leaflet changed, before the input contract
+    /// (coincident vertices welded, see [`unfold_mesh::repair`]); the
+    /// outputs use the repaired leaflets' vertices.
+    pub repair: LeafletRepairs,
     /// Wall-clock seconds of the pipeline (no file I/O).
     pub seconds: f64,
     /// Seconds per step.
     pub timings: Timings,
+}
+
+/// The repair of each leaflet ([`Report::repair`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct LeafletRepairs {
+    /// The anterior leaflet's.
+    pub anterior: unfold_mesh::repair::RepairReport,
+    /// The posterior leaflet's.
+    pub posterior: unfold_mesh::repair::RepairReport,
 }
 
 /// The pieces a run was built from, by name.

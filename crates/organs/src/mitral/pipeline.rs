@@ -10,7 +10,9 @@ use super::{
 };
 use crate::OrganError;
 use std::time::Instant;
+use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::Point3;
+use unfold_mesh::repair::{RepairOptions, Weld, repair_tri_mesh_with};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::{
     Constraints, DistortionEnergy, Initializer, LineSearch, ParamError, ParamMesh, Pin, Solver,
@@ -200,6 +202,12 @@ impl Pipeline {
         config.validate()?;
         let mut timings = Timings::default();
         let t = Instant::now();
+        let (repaired, repair) = repair_leaflets(input)?;
+        let input = &ValveInput {
+            anterior: &repaired[ANTERIOR],
+            posterior: &repaired[POSTERIOR],
+            annulus: input.annulus,
+        };
         let valve = contract::prepare(input, config.tolerance_mm)?;
         timings.contract = t.elapsed().as_secs_f64();
         let t = Instant::now();
@@ -303,6 +311,7 @@ impl Pipeline {
         timings.maps = t.elapsed().as_secs_f64();
         let pt = |p: &Point3<f64>| [p.x, p.y, p.z];
         let report = Report {
+            repair,
             annulus_length_mm: m.annulus_length_mm,
             u_extent_mm: amap.u_extent(),
             leaflet_area_mm2: m.leaflet_area_mm2,
@@ -359,4 +368,37 @@ impl Pipeline {
             report,
         })
     }
+}
+
+/// Both leaflets repaired ([`repair_tri_mesh_with`], coincident vertices
+/// welded), with what changed.
+///
+/// # Errors
+/// [`super::ContractError::LeafletMesh`] naming the leaflet when it cannot
+/// be repaired (out-of-range indices, non-finite coordinates, a
+/// non-orientable surface).
+fn repair_leaflets(
+    input: &ValveInput<'_>,
+) -> Result<([TriMesh; 2], super::LeafletRepairs), OrganError> {
+    let options = RepairOptions {
+        weld: Weld::Relative,
+        ..Default::default()
+    };
+    let one = |k: usize, mesh: &TriMesh| {
+        repair_tri_mesh_with(mesh, &options).map_err(|source| {
+            OrganError::from(super::ContractError::LeafletMesh {
+                leaflet: LeafletSide::of(k),
+                source,
+            })
+        })
+    };
+    let (a, ra) = one(ANTERIOR, input.anterior)?;
+    let (p, rp) = one(POSTERIOR, input.posterior)?;
+    Ok((
+        [a, p],
+        super::LeafletRepairs {
+            anterior: ra,
+            posterior: rp,
+        },
+    ))
 }

@@ -380,6 +380,7 @@ impl Pipeline {
                 symmetry: template.symmetry(),
                 motion: canonical.report(),
             },
+            repair: prepared.repair,
             input: InputReport {
                 vertices: rest.num_vertices(),
                 tets: rest.num_tets(),

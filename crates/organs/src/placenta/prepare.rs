@@ -5,6 +5,7 @@ use super::parcellation::Parcellation;
 use super::side;
 use crate::OrganError;
 use unfold_mesh::TetMesh;
+use unfold_mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_with};
 
 /// The input mesh after [`prepare_mesh`].
 #[derive(Debug, Clone, PartialEq)]
@@ -13,14 +14,20 @@ pub struct PreparedMesh {
     pub mesh: TetMesh,
     /// Tets whose vertex order was swapped to orient them positively.
     pub reoriented_tets: usize,
+    /// What the repair before the checks changed (welded vertices,
+    /// duplicate, repeated-vertex and zero-volume tets, unused vertices).
+    pub repair: RepairReport,
 }
 
-/// Checks that `mesh` is a usable placenta mesh and orients its tets
-/// positively (a repair that is reported, not an error): it must have tets,
-/// finite coordinates, no folded interior face
-/// ([`unfold_mesh::geometry::folded_faces`]: a tangled mesh is refused, a
-/// mirrored one is not), no degenerate tets, one connected component, a
-/// manifold boundary and no unused vertices.
+/// Repairs `mesh` ([`repair_tet_mesh_with`]: coincident vertices welded
+/// within a millionth of the mean edge, duplicate, repeated-vertex and
+/// zero-volume tets and unused vertices dropped; the orientation is left to
+/// the next step), refuses it if it is tangled (a folded interior face,
+/// [`unfold_mesh::geometry::folded_faces`]: a mirrored mesh has none),
+/// orients its tets positively (a repair that is reported, not an error)
+/// and checks that it is a usable placenta mesh: it must have tets, finite
+/// coordinates, no degenerate tets, one connected component and a manifold
+/// boundary. The vertices are then those of the repaired mesh.
 ///
 /// # Errors
 /// [`PlacentaError::NoTetrahedra`] for a mesh without tets (a surface
@@ -31,9 +38,19 @@ pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
         return Err(PlacentaError::NoTetrahedra.into());
     }
     unfold_mesh::geometry::check_finite(&mesh.positions)?;
+    let options = RepairOptions {
+        weld: Weld::Relative,
+        keep_tet_orientation: true,
+        ..Default::default()
+    };
+    let (mut m, repair) = repair_tet_mesh_with(mesh, &options)?;
+    if m.tets.is_empty() {
+        return Err(PlacentaError::NoTetrahedra.into());
+    }
     // Folds do not depend on orientation: a mirrored file has none, a
-    // tangled one has some whatever its tets' vertex order.
-    let folds = unfold_mesh::geometry::folded_faces(mesh);
+    // tangled one has some whatever its tets' vertex order. Checked after
+    // the repair, so a duplicated tet is dropped rather than seen as a fold.
+    let folds = unfold_mesh::geometry::folded_faces(&m);
     if let Some(first) = folds.first() {
         return Err(PlacentaError::Tangled {
             folded: folds.len(),
@@ -43,12 +60,12 @@ pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
         }
         .into());
     }
-    let mut m = mesh.clone();
     let reoriented_tets = m.orient()?;
     m.validate()?;
     Ok(PreparedMesh {
         mesh: m,
         reoriented_tets,
+        repair,
     })
 }
 

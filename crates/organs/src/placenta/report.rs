@@ -112,6 +112,10 @@ pub struct Report {
     /// The motion applied to the optimized map to put it into the
     /// canonical template frame (ALGORITHMS 2.10).
     pub canonical_frame: CanonicalReport,
+    /// What the repair of the input mesh changed (see
+    /// [`super::prepare::prepare_mesh`]); the outputs use the repaired
+    /// mesh's vertices.
+    pub repair: unfold_mesh::repair::RepairReport,
     /// The input.
     pub input: InputReport,
     /// One entry per optimization stage.

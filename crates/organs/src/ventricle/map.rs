@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::Point3;
-use unfold_mesh::repair::{RepairReport, repair_tri_mesh};
+use unfold_mesh::repair::{RepairOptions, RepairReport, Weld, repair_tri_mesh_with};
 use unfold_mesh::spatial::{ClosestPointQuery, PlanarTriLocator};
 use unfold_param::Initializer;
 
@@ -133,7 +133,8 @@ pub struct Chart {
 }
 
 impl Chart {
-    /// Repairs S (orientation, duplicate triangles), resolves the landmarks
+    /// Repairs S ([`repair_tri_mesh_with`], coincident vertices welded),
+    /// resolves the landmarks
     /// (given points snapped to the rim; the apex given or found), flattens
     /// S to the disk (LV) or half disk (RV) and solves the Laplace field.
     ///
@@ -196,7 +197,11 @@ impl Chart {
             ("on-surface distance (mm)", config.on_surface_mm),
         ])?;
         let t0 = Instant::now();
-        let (surface, repair) = repair_tri_mesh(surface)?;
+        let weld = RepairOptions {
+            weld: Weld::Relative,
+            ..Default::default()
+        };
+        let (surface, repair) = repair_tri_mesh_with(surface, &weld)?;
         let Capped { surface, openings } = cap_openings(
             &surface,
             anterior,
