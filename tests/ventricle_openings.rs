@@ -513,3 +513,68 @@ fn slicer_landmarks_give_the_same_outputs_as_the_flags() {
     ]);
     assert_one_line_error(&o, "--anterior");
 }
+
+/// `path`'s legacy VTK file with the title line 3D Slicer writes, naming
+/// the frame of its coordinates.
+fn with_slicer_title(path: &Path, frame: &str) {
+    let bytes = std::fs::read(path).unwrap();
+    let first = bytes.iter().position(|&b| b == b'\n').unwrap();
+    let second = first + 1 + bytes[first + 1..].iter().position(|&b| b == b'\n').unwrap();
+    let mut out = bytes[..=first].to_vec();
+    out.extend_from_slice(format!("3D Slicer output. SPACE={frame}").as_bytes());
+    out.extend_from_slice(&bytes[second..]);
+    std::fs::write(path, out).unwrap();
+}
+
+/// Meshes saved by 3D Slicer in LPS (its default for models) are turned
+/// into RAS, the frame of the command line's coordinates: the same heart
+/// as the RAS files, landmark flags in RAS, gives the same outputs; read as
+/// RAS on purpose, the heart is turned against its landmarks.
+#[test]
+fn lps_meshes_from_slicer_are_read_in_ras() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = cup();
+    let (anatomy, surface) = inputs(dir.path(), &v, &v.surface, "surface.vtu");
+    let mirror = |m: &CellMesh| {
+        let mut m = m.clone();
+        for p in &mut m.positions {
+            *p = Point3::new(-p.x, -p.y, p.z);
+        }
+        m
+    };
+    let lps_anatomy = dir.path().join("anatomy_lps.vtk");
+    let lps_surface = dir.path().join("surface_lps.vtk");
+    write(&lps_anatomy, &mirror(&CellMesh::from(&v.anatomy)));
+    write(&lps_surface, &mirror(&CellMesh::from(&v.surface)));
+    with_slicer_title(&lps_anatomy, "LPS");
+    with_slicer_title(&lps_surface, "LPS");
+    let (ras_out, lps_out) = (dir.path().join("ras"), dir.path().join("lps"));
+    assert_ok(&run(&anatomy, &surface, &ras_out, &flags(&v)));
+    let o = run(&lps_anatomy, &lps_surface, &lps_out, &flags(&v));
+    assert_ok(&o);
+    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtu"] {
+        let a = read_mesh(ras_out.join(f)).unwrap();
+        let b = read_mesh(lps_out.join(f)).unwrap();
+        assert_eq!(a.positions, b.positions, "{f}");
+    }
+    // The same files forced to RAS: the heart turned half a turn against
+    // its landmarks (the cup is symmetric, so it still maps), and the
+    // anatomy gets other coordinates.
+    let mut args = flags(&v);
+    args.extend(["--mesh-frame".into(), "ras".into()]);
+    let forced = dir.path().join("forced");
+    assert_ok(&run(&lps_anatomy, &lps_surface, &forced, &args));
+    let a = read_mesh(ras_out.join("normalized.vtu")).unwrap();
+    let b = read_mesh(forced.join("normalized.vtu")).unwrap();
+    let moved = a
+        .positions
+        .iter()
+        .zip(&b.positions)
+        .filter(|(p, q)| (*p - *q).norm() > 0.1)
+        .count();
+    assert!(
+        moved > a.positions.len() / 2,
+        "{moved} of {}",
+        a.positions.len()
+    );
+}

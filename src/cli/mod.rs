@@ -196,3 +196,45 @@ pub(crate) fn write_figures(
     }
     Ok(written)
 }
+
+/// The frame of the mesh file's coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum MeshFrameArg {
+    /// 3D Slicer's SPACE= marker in the file, else RAS.
+    Auto,
+    /// Right, anterior, superior (NIfTI's world frame).
+    Ras,
+    /// Left, posterior, superior (ITK, DICOM, 3D Slicer).
+    Lps,
+}
+
+/// The frame of a mesh file: the flag's, or for `auto` the file's Slicer
+/// marker (RAS without one).
+pub(crate) fn mesh_frame(
+    arg: MeshFrameArg,
+    path: &std::path::Path,
+) -> Result<unfold::io::Frame, CliError> {
+    Ok(match arg {
+        MeshFrameArg::Ras => unfold::io::Frame::Ras,
+        MeshFrameArg::Lps => unfold::io::Frame::Lps,
+        MeshFrameArg::Auto => {
+            let bytes = std::fs::read(path).map_err(|e| at(path, e))?;
+            unfold::io::mesh_frame_hint(&bytes).unwrap_or(unfold::io::Frame::Ras)
+        }
+    })
+}
+
+/// Positions in `frame` turned into RAS: LPS `(x, y, z)` is RAS
+/// `(-x, -y, z)`, a half turn about z (a rotation: orientation and
+/// distances are kept).
+pub(crate) fn to_ras(
+    frame: unfold::io::Frame,
+    positions: &mut [unfold::mesh::nalgebra::Point3<f64>],
+) {
+    let [sx, sy, sz] = frame.to_ras_signs();
+    for p in positions {
+        p.x *= sx;
+        p.y *= sy;
+        p.z *= sz;
+    }
+}

@@ -44,12 +44,12 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 use unfold::figures::FigureOptions;
 use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
+use unfold::io::Frame;
 use unfold::io::nifti::INTENT_VECTOR;
 use unfold::io::{
     Datatype, NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image,
     write_mesh,
 };
-use unfold::io::{Frame, mesh_frame_hint};
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
 use unfold::organs::placenta::displacement::{VectorFrame, displacement_field};
@@ -83,17 +83,6 @@ impl From<InterpArg> for Interpolation {
     }
 }
 
-/// The frame of the mesh file's coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum MeshFrameArg {
-    /// 3D Slicer's SPACE= marker in the file, else RAS.
-    Auto,
-    /// Right, anterior, superior (NIfTI's world frame).
-    Ras,
-    /// Left, posterior, superior (ITK, DICOM, 3D Slicer).
-    Lps,
-}
-
 /// `--grid XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX`: six finite numbers, mm.
 fn parse_grid(text: &str) -> Result<[f64; 6], String> {
     let values: Vec<f64> = text
@@ -106,19 +95,6 @@ fn parse_grid(text: &str) -> Result<[f64; 6], String> {
             "'{text}' has {} numbers, expected XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX",
             v.len()
         )
-    })
-}
-
-/// The frame of a mesh file: the flag's, or for `auto` the file's Slicer
-/// marker (RAS without one).
-fn mesh_frame(arg: MeshFrameArg, path: &Path) -> Result<Frame, CliError> {
-    Ok(match arg {
-        MeshFrameArg::Ras => Frame::Ras,
-        MeshFrameArg::Lps => Frame::Lps,
-        MeshFrameArg::Auto => {
-            let bytes = std::fs::read(path).map_err(|e| at(path, e))?;
-            mesh_frame_hint(&bytes).unwrap_or(Frame::Ras)
-        }
     })
 }
 
@@ -240,7 +216,7 @@ pub struct PlacentaArgs {
     /// the file, else ras). LPS meshes are converted to RAS on reading; every
     /// output is in RAS.
     #[arg(long, value_enum, default_value = "auto", conflicts_with = "seg")]
-    mesh_frame: MeshFrameArg,
+    mesh_frame: super::MeshFrameArg,
     /// Skip the check that the mesh lies in each image's foreground (for
     /// images without a placenta foreground).
     #[arg(long)]
@@ -974,7 +950,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     let label = input.display().to_string();
     // A mask's mesh is made in the mask's world frame, RAS.
     let frame = match &a.seg {
-        None => mesh_frame(a.mesh_frame, input)?,
+        None => super::mesh_frame(a.mesh_frame, input)?,
         Some(_) => Frame::Ras,
     };
     let (mesh, config, seg) = match &a.seg {

@@ -128,6 +128,13 @@ pub struct VentricleArgs {
     /// openings are capped.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
     rim_near: Option<Point3<f64>>,
+    /// The frame of the mesh files' coordinates: auto (3D Slicer's SPACE=
+    /// marker in each file, else RAS), ras, or lps (ITK, Slicer's default
+    /// for models). Meshes are turned into RAS, the frame of the
+    /// coordinates given on the command line and of every output;
+    /// landmarks files carry their own frame.
+    #[arg(long, value_enum, default_value = "auto")]
+    mesh_frame: super::MeshFrameArg,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -649,16 +656,25 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     inputs.extend(&a.to_landmarks);
     check_not_inputs(out, &inputs)?;
 
-    let anatomy = read_mesh(&a.anatomy)?;
+    let mut anatomy = read_mesh(&a.anatomy)?;
+    super::to_ras(
+        super::mesh_frame(a.mesh_frame, &a.anatomy)?,
+        &mut anatomy.positions,
+    );
     if anatomy.positions.is_empty() {
         return Err(at(
             &a.anatomy,
             "has no points; the anatomy to map is a mesh or points inside S",
         ));
     }
-    let surface = read_tri_mesh(&a.surface)?;
+    let read_surface = |p: &Path| -> Result<_, CliError> {
+        let mut m = read_tri_mesh(p)?;
+        super::to_ras(super::mesh_frame(a.mesh_frame, p)?, &mut m.positions);
+        Ok(m)
+    };
+    let surface = read_surface(&a.surface)?;
     let to_surface = match &a.to_surface {
-        Some(p) => Some(read_tri_mesh(p)?),
+        Some(p) => Some(read_surface(p)?),
         None => None,
     };
     let hemisphere = match a.to_hemisphere {
