@@ -446,3 +446,29 @@ fn outputs_honour_the_umask() {
     assert_ok(&run("077"));
     assert_eq!(mode(&out), 0o604, "a replaced file keeps its mode");
 }
+
+/// `info --strict` fails on a mesh file with no vertex at all (a file of
+/// bare points is fine).
+#[test]
+fn info_strict_fails_on_an_empty_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.vtk");
+    std::fs::write(
+        &empty,
+        "# vtk DataFile Version 4.2\nempty\nASCII\nDATASET POLYDATA\nPOINTS 0 float\n",
+    )
+    .unwrap();
+    let e = empty.display().to_string();
+    assert_one_line_error(&unfold(&["info", &e, "--strict"]), "the mesh is empty");
+    let points = dir.path().join("points.vtk");
+    std::fs::write(
+        &points,
+        "# vtk DataFile Version 4.2\npts\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0 1 1 1\n",
+    )
+    .unwrap();
+    assert_ok(&unfold(&[
+        "info",
+        &points.display().to_string(),
+        "--strict",
+    ]));
+}

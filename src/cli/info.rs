@@ -12,7 +12,7 @@ use unfold::mesh::topology::{
     boundary_loops, connected_components, euler_characteristic, tet_boundary,
 };
 use unfold::mesh::validate::{ValidationOptions, check_tet_mesh, check_tri_mesh};
-use unfold::mesh::{CellMesh, Field};
+use unfold::mesh::{CellMesh, Field, MeshError};
 
 /// Arguments of `unfold info`.
 #[derive(Debug, Args)]
@@ -180,6 +180,11 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
             }
             Err(e) => vec![unfold::mesh::validate::Problem { error: e, count: 1 }],
         },
+        // A file of bare points is valid, a file of nothing is not.
+        _ if mesh.num_points() == 0 => vec![unfold::mesh::validate::Problem {
+            error: MeshError::Empty { what: "vertices" },
+            count: 1,
+        }],
         _ => Vec::new(),
     };
     info.valid = problems.is_empty();

@@ -144,12 +144,7 @@ impl TemplateGrid {
                 origin: self.origin,
             });
         }
-        let n = self
-            .dims
-            .iter()
-            .try_fold(1usize, |acc, &d| acc.checked_mul(d))
-            .unwrap_or(usize::MAX);
-        if n == 0 || n > MAX_VOXELS {
+        if !fits(self.dims) {
             return Err(PullbackError::GridSize {
                 dims: self.dims,
                 limit: MAX_VOXELS,
@@ -531,6 +526,16 @@ pub struct PullbackStats {
     pub sampled: usize,
     /// Of those, voxels whose source point lies outside the image (set to 0).
     pub outside_image: usize,
+}
+
+/// Whether a grid of `dims` has between 1 and [`MAX_VOXELS`] voxels (the
+/// product checked for overflow).
+pub(super) fn fits(dims: [usize; 3]) -> bool {
+    let n = dims
+        .iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .unwrap_or(usize::MAX);
+    n != 0 && n <= MAX_VOXELS
 }
 
 fn check_spacing(spacing: [f64; 3]) -> Result<(), PullbackError> {

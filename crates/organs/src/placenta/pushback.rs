@@ -18,7 +18,7 @@
 //! point lies outside the template image, gets 0.
 
 use super::error::PullbackError;
-use super::pullback::{Interpolation, MAX_VOXELS, PullbackStats, PullbackTable, VoxelGrid};
+use super::pullback::{Interpolation, MAX_VOXELS, PullbackStats, PullbackTable, VoxelGrid, fits};
 use nalgebra::{Matrix4, Point3};
 use unfold_mesh::Volume;
 
@@ -59,12 +59,7 @@ impl VoxelGrid for ScannerGrid {
     }
 
     fn validate(&self) -> Result<(), PullbackError> {
-        let n = self
-            .dims
-            .iter()
-            .try_fold(1usize, |acc, &d| acc.checked_mul(d))
-            .unwrap_or(usize::MAX);
-        if n == 0 || n > MAX_VOXELS {
+        if !fits(self.dims) {
             return Err(PullbackError::ReferenceGridSize {
                 dims: self.dims,
                 limit: MAX_VOXELS,
