@@ -557,8 +557,30 @@ fn figures_are_written_unless_asked_not_to() {
     let bare = dir.path().join("bare");
     assert_ok(&run(&anatomy, &surface, &v, &bare, &["--no-figures"]));
     assert!(!bare.join("figures").exists());
+    // A missing array is refused before any work: nothing is written.
+    let fresh = dir.path().join("fresh");
     assert_one_line_error(
-        &run(&anatomy, &surface, &v, &bare, &["--bullseye-array", "nope"]),
+        &run(
+            &anatomy,
+            &surface,
+            &v,
+            &fresh,
+            &["--bullseye-array", "nope"],
+        ),
         "no point array \"nope\"",
     );
+    assert!(
+        !fresh.exists(),
+        "nothing written for a bad --bullseye-array"
+    );
+    // With --no-figures it would draw nothing: a usage error, not ignored.
+    let o = run(
+        &anatomy,
+        &surface,
+        &v,
+        &fresh,
+        &["--bullseye-array", "nope", "--no-figures"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--no-figures"), "{}", stderr(&o));
 }

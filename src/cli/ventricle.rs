@@ -94,7 +94,7 @@ pub struct VentricleArgs {
     no_figures: bool,
     /// A point array of the anatomy to show on the bull's-eye (LV), as its
     /// mean per AHA segment [default: the depth].
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, value_name = "NAME", conflicts_with = "no_figures")]
     bullseye_array: Option<String>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
@@ -666,6 +666,27 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             &a.anatomy,
             "has no points; the anatomy to map is a mesh or points inside S",
         ));
+    }
+    // The bull's-eye's array is checked before any work, not after it.
+    if let Some(name) = &a.bullseye_array {
+        match anatomy.point_data.get(name) {
+            None => {
+                return Err(at(
+                    &a.anatomy,
+                    format!("has no point array {name:?} for the bull's-eye"),
+                ));
+            }
+            Some(f) if f.components() != 1 => {
+                return Err(at(
+                    &a.anatomy,
+                    format!(
+                        "point array {name:?} has {} components; the bull's-eye needs 1",
+                        f.components()
+                    ),
+                ));
+            }
+            Some(_) => {}
+        }
     }
     let read_surface = |p: &Path| -> Result<_, CliError> {
         let mut m = read_tri_mesh(p)?;
