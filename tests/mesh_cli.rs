@@ -350,3 +350,40 @@ fn placenta_segmentation_flags_need_seg_and_exclude_a_mesh() {
         "no voxel set",
     );
 }
+
+/// Smoothing so wide that its working grid cannot be held is refused with
+/// the grid's size and what to change, before anything is allocated (it
+/// used to overflow the allocator or abort).
+#[test]
+fn a_huge_smoothing_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let mask = dir.path().join("box.nii");
+    let mut data = vec![0.0f32; 12 * 12 * 12];
+    for k in 4..8 {
+        for j in 4..8 {
+            for i in 4..8 {
+                data[i + 12 * (j + 12 * k)] = 1.0;
+            }
+        }
+    }
+    let vol = unfold::mesh::Volume::new(
+        [12, 12, 12, 1],
+        unfold::mesh::nalgebra::Matrix4::identity(),
+        data,
+    )
+    .unwrap();
+    unfold::io::write_image(&mask, &unfold::io::NiftiImage::new(vol)).unwrap();
+    for sigma in ["1e6", "1e4", "200"] {
+        let out = dir.path().join(format!("m{sigma}.vtu"));
+        let o = unfold(&[
+            "mesh",
+            &mask.display().to_string(),
+            "-o",
+            &out.display().to_string(),
+            "--smooth-voxels",
+            sigma,
+        ]);
+        assert_one_line_error(&o, "lower --smooth-voxels");
+        assert!(!out.exists());
+    }
+}

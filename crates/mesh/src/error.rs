@@ -195,6 +195,27 @@ pub enum MeshError {
         /// The tolerance given, mm.
         tolerance: f64,
     },
+    /// A working grid (the cropped, smoothed mask of the mesher) would have
+    /// more voxels than can be held.
+    #[error(
+        "{what} would need a {} x {} x {} voxel working grid ({voxels:.3e} voxels, about {gib:.1} \
+         GiB), more than the {limit} voxels allowed; {hint}",
+        dims[0], dims[1], dims[2]
+    )]
+    WorkingGridTooLarge {
+        /// What needs the grid.
+        what: &'static str,
+        /// Voxels along each axis (as reals: they may not fit an integer).
+        dims: [f64; 3],
+        /// Their product.
+        voxels: f64,
+        /// Estimated memory, GiB.
+        gib: f64,
+        /// The largest grid allowed, voxels.
+        limit: usize,
+        /// What to change.
+        hint: &'static str,
+    },
     /// A volume's data length or dimensions are inconsistent.
     #[error("image: {0}")]
     Image(String),
@@ -227,6 +248,7 @@ impl MeshError {
             MeshError::WrongCellType { .. } => "wrong_cell_type",
             MeshError::CellSize { .. } => "cell_size",
             MeshError::WeldTolerance { .. } => "weld_tolerance",
+            MeshError::WorkingGridTooLarge { .. } => "working_grid_too_large",
             MeshError::Image(_) => "image",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }

@@ -311,13 +311,22 @@ pub fn grade(mesh: &TetMesh, size: f64) -> Result<crate::coarsen::Coarsened, Mes
     Ok(out)
 }
 
+/// The largest working grid of the mesher (the mask cropped to its voxels
+/// plus the smoothing margin): `512^3` voxels.
+pub const MAX_WORKING_VOXELS: usize = 512 * 512 * 512;
+
+/// Bytes per voxel of the working grid: the mask (1), its smoothed copy and
+/// the separable filter's buffer (8 each).
+const WORKING_BYTES_PER_VOXEL: f64 = 17.0;
+
 /// Meshes the mask (see the module doc).
 ///
 /// # Errors
 /// `Image` for a 4D mask; `Empty` for a mask with no voxel set or one whose
 /// smoothed level set is empty (an object thinner than the smoothing
-/// removes); `InvalidArgument` for bad options; the errors of
-/// [`stuff`].
+/// removes); `InvalidArgument` for bad options; `WorkingGridTooLarge` when
+/// the cropped mask plus the smoothing margin would exceed
+/// [`MAX_WORKING_VOXELS`]; the errors of [`stuff`].
 pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh, MeshError> {
     let d = mask.dims();
     if d[3] != 1 {
@@ -376,8 +385,23 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
         });
     }
     let voxel_volume = mask.affine().fixed_view::<3, 3>(0, 0).determinant().abs();
-    // crop with room for the dilations, the smoothing kernel and one voxel
-    let margin = (opts.dilate + (3.0 * opts.smooth_voxels).ceil() as usize + 2) as i64;
+    // crop with room for the dilations, the smoothing kernel and one voxel;
+    // its size is checked before anything is allocated (a huge smoothing
+    // would otherwise overflow or exhaust memory)
+    let margin_f = opts.dilate as f64 + (3.0 * opts.smooth_voxels).ceil() + 2.0;
+    let crop_dims: [f64; 3] = std::array::from_fn(|a| (hi[a] - lo[a] + 1) as f64 + 2.0 * margin_f);
+    let crop_voxels: f64 = crop_dims.iter().product();
+    if crop_voxels > MAX_WORKING_VOXELS as f64 {
+        return Err(MeshError::WorkingGridTooLarge {
+            what: "smoothing the mask",
+            dims: crop_dims,
+            voxels: crop_voxels,
+            gib: crop_voxels * WORKING_BYTES_PER_VOXEL / f64::from(1u32 << 30),
+            limit: MAX_WORKING_VOXELS,
+            hint: "lower --smooth-voxels (the kernel reaches 3 sigma) or crop the mask",
+        });
+    }
+    let margin = margin_f as i64;
     let start = lo.map(|x| x as i64 - margin);
     let dims = [0, 1, 2].map(|a| hi[a] - lo[a] + 1 + 2 * margin as usize);
     let mut m = crop(mask, start, dims)?;
