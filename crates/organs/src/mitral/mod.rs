@@ -294,6 +294,11 @@ pub struct Report {
     pub distortion: DistortionReport,
     /// Triangles with non-positive area in the final 2D map (both leaflets).
     pub flipped_triangles: usize,
+    /// Interior edges folded in the final 2D map, both leaflets (the two
+    /// triangles of an edge on the same side of it,
+    /// [`unfold_mesh::geometry::folded_edges`]; 0 for a locally injective
+    /// map).
+    pub folded_edges: usize,
     /// The relaxation ("sd" or "spring").
     pub relax: &'static str,
     /// The initial layout used per leaflet ("longitudes" or "tutte" for

@@ -297,6 +297,12 @@ impl Pipeline {
             .iter()
             .map(|&k| flipped_triangles(&valve.leaflets[k].mesh, &uv[k]))
             .sum();
+        let folded: usize = [ANTERIOR, POSTERIOR]
+            .iter()
+            .map(|&k| {
+                unfold_mesh::geometry::folded_edges(&uv[k], &valve.leaflets[k].mesh.triangles).len()
+            })
+            .sum();
         let mut carpentier = [0usize; 6];
         let (mut within, mut near) = (0, 0);
         for lm in &leaflet_maps {
@@ -323,6 +329,7 @@ impl Pipeline {
                 r#final: final_distortion,
             },
             flipped_triangles: flipped,
+            folded_edges: folded,
             relax: match config.relax {
                 RelaxMode::Spring => "spring",
                 RelaxMode::Sd => "sd",

@@ -133,6 +133,9 @@ pub struct Report {
     pub roundtrip_error_um: Summary,
     /// Disk triangles with the wrong orientation (0: `phi` is injective).
     pub flipped_disk_triangles: usize,
+    /// Interior edges of S folded in the disk map (the two triangles of an
+    /// edge on the same side of it, [`unfold_mesh::geometry::folded_edges`]).
+    pub folded_disk_edges: usize,
     /// Grid spacing of the Laplace field, mm.
     pub grid_mm: f64,
     /// Radius of H, mm.
@@ -370,6 +373,11 @@ fn outcome(
         anatomy_points: anatomy.positions.len(),
         roundtrip_error_um: Summary::of(&errors_um),
         flipped_disk_triangles: chart.disk().flipped_triangles,
+        folded_disk_edges: unfold_mesh::geometry::folded_edges(
+            &chart.disk().uv,
+            &chart.surface().triangles,
+        )
+        .len(),
         grid_mm: chart.field().grid_mm(),
         hemisphere_mm: chart.field().hemisphere_radius(),
         display_exponent: config.display_exponent,
