@@ -11,6 +11,7 @@
 //! - `predicates`: exact orientation tests [`orient3d_exact`],
 //!   [`orient2d_exact`];
 //! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
+//! - `intersect`: [`segment_crosses_triangle`];
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
 //! - `folds`: [`folded_faces`], [`folded_edges`] (local overlaps that
@@ -19,6 +20,7 @@
 mod aabb;
 mod folds;
 mod hull;
+mod intersect;
 mod measures;
 mod pca;
 mod predicates;
@@ -29,6 +31,7 @@ mod validation;
 pub use aabb::{Aabb, bounding_box};
 pub use folds::{FoldedEdge, FoldedFace, folded_edges, folded_faces};
 pub use hull::convex_hull_vertices;
+pub use intersect::segment_crosses_triangle;
 pub use measures::{
     area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,
     tet_vertex_volumes, tet_volumes, total_area, total_volume, triangle_area, triangle_area_vector,

@@ -2,6 +2,7 @@
 //! where it has them, plus checks it does not offer (vertex-fan
 //! manifoldness, winding numbers, triangle intersections, quality).
 
+use crate::geometry::segment_crosses_triangle;
 use nalgebra::{Point3, Vector3};
 use std::collections::{BTreeMap, HashMap};
 
@@ -183,39 +184,11 @@ pub fn min_angle_deg(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
     m
 }
 
-/// Whether segment `p q` crosses triangle `a b c` (proper crossing, with a
-/// tiny tolerance so touching at shared corners does not count).
-fn segment_hits_triangle(
-    p: &Point3<f64>,
-    q: &Point3<f64>,
-    a: &Point3<f64>,
-    b: &Point3<f64>,
-    c: &Point3<f64>,
-) -> bool {
-    // Moeller-Trumbore on the segment.
-    let d = q - p;
-    let e1 = b - a;
-    let e2 = c - a;
-    let h = d.cross(&e2);
-    let det = e1.dot(&h);
-    if det.abs() < 1e-14 {
-        return false;
-    }
-    let f = 1.0 / det;
-    let s = p - a;
-    let u = f * s.dot(&h);
-    let qv = s.cross(&e1);
-    let v = f * d.dot(&qv);
-    let t = f * e2.dot(&qv);
-    let eps = 1e-9;
-    u > eps && v > eps && u + v < 1.0 - eps && t > eps && t < 1.0 - eps
-}
-
 /// Whether two triangles intersect (one's edge crosses the other).
 pub fn triangles_intersect(t1: [Point3<f64>; 3], t2: [Point3<f64>; 3]) -> bool {
     for k in 0..3 {
-        if segment_hits_triangle(&t1[k], &t1[(k + 1) % 3], &t2[0], &t2[1], &t2[2])
-            || segment_hits_triangle(&t2[k], &t2[(k + 1) % 3], &t1[0], &t1[1], &t1[2])
+        if segment_crosses_triangle(&t1[k], &t1[(k + 1) % 3], &t2[0], &t2[1], &t2[2])
+            || segment_crosses_triangle(&t2[k], &t2[(k + 1) % 3], &t1[0], &t1[1], &t1[2])
         {
             return true;
         }

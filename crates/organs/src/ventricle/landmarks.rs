@@ -55,16 +55,7 @@ impl Landmarks {
     ) -> Result<Landmarks, OrganError> {
         OrganError::check_positive(&[("landmark snap distance (mm)", snap_mm)])?;
         let rim = disk_boundary_loop(surface).map_err(VentricleError::NotADisk)?;
-        let finite = |landmark: &'static str, p: &Point3<f64>| {
-            if p.coords.iter().all(|x| x.is_finite()) {
-                Ok(())
-            } else {
-                Err(VentricleError::LandmarkNotFinite {
-                    landmark,
-                    point: [p.x, p.y, p.z],
-                })
-            }
-        };
+        let finite = check_finite_landmark;
         let pos = &surface.positions;
         let nearest_on_rim =
             |landmark: &'static str, p: &Point3<f64>| -> Result<(usize, f64), VentricleError> {
@@ -168,6 +159,22 @@ impl Landmarks {
             });
         }
         Ok(())
+    }
+}
+
+/// `Ok` when every coordinate of the landmark `p` is finite, else
+/// [`VentricleError::LandmarkNotFinite`] naming it.
+pub(crate) fn check_finite_landmark(
+    landmark: &'static str,
+    p: &Point3<f64>,
+) -> Result<(), VentricleError> {
+    if p.coords.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(VentricleError::LandmarkNotFinite {
+            landmark,
+            point: [p.x, p.y, p.z],
+        })
     }
 }
 

@@ -33,9 +33,11 @@
 //! the missing wall lie outside S.
 
 use super::error::VentricleError;
+use super::landmarks::check_finite_landmark;
 use crate::OrganError;
 use serde::Serialize;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::segment_crosses_triangle;
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::boundary_loops;
 
@@ -176,16 +178,7 @@ pub fn cap_openings(
     }
     let pos = &surface.positions;
     let shape: Vec<(f64, Point3<f64>)> = loops.iter().map(|l| perimeter_centroid(pos, l)).collect();
-    let finite = |landmark: &'static str, p: &Point3<f64>| {
-        if p.coords.iter().all(|x| x.is_finite()) {
-            Ok(())
-        } else {
-            Err(VentricleError::LandmarkNotFinite {
-                landmark,
-                point: [p.x, p.y, p.z],
-            })
-        }
-    };
+    let finite = check_finite_landmark;
     let (chosen_by, distances) = if loops.len() == 1 {
         (RimChoice::Only, vec![0.0])
     } else if let Some(r) = rim_near {
@@ -296,34 +289,6 @@ fn fan(
     Ok(m)
 }
 
-/// Whether the segment `p q` crosses the triangle `a b c` inside both
-/// (Moller-Trumbore; touching within a relative `1e-9` and coplanar
-/// configurations do not count).
-fn segment_crosses(
-    p: &Point3<f64>,
-    q: &Point3<f64>,
-    a: &Point3<f64>,
-    b: &Point3<f64>,
-    c: &Point3<f64>,
-) -> bool {
-    const EPS: f64 = 1e-9;
-    let d = q - p;
-    let (e1, e2) = (b - a, c - a);
-    let h = d.cross(&e2);
-    let det = e1.dot(&h);
-    let scale = d.norm() * e1.norm() * e2.norm();
-    if det.abs() <= EPS * scale {
-        return false;
-    }
-    let f = 1.0 / det;
-    let s = p - a;
-    let u = f * s.dot(&h);
-    let qv = s.cross(&e1);
-    let v = f * d.dot(&qv);
-    let t = f * e2.dot(&qv);
-    u > EPS && v > EPS && u + v < 1.0 - EPS && t > EPS && t < 1.0 - EPS
-}
-
 /// Refuses the fan of loop `l` (number `index`) from `c` when it crosses a
 /// triangle of S that touches no loop vertex: every edge of such a triangle
 /// near the cap against every fan triangle, and every spoke `c b_k` against
@@ -357,10 +322,10 @@ fn check_crossing(
         }
         let crossing = (0..m).any(|k| {
             let (b0, b1) = (pos[l[k] as usize], pos[l[(k + 1) % m] as usize]);
-            segment_crosses(c, &b0, &a, &b, &d)
+            segment_crosses_triangle(c, &b0, &a, &b, &d)
                 || [(a, b), (b, d), (d, a)]
                     .iter()
-                    .any(|(p, q)| segment_crosses(p, q, &b1, &b0, c))
+                    .any(|(p, q)| segment_crosses_triangle(p, q, &b1, &b0, c))
         });
         if crossing {
             return Err(VentricleError::CapCrossesSurface {
