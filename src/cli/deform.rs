@@ -326,6 +326,18 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         SolverKind::Newton => pipeline.solver(ProjectedNewton::default()),
         SolverKind::Gd => pipeline.solver(GradientDescent),
     };
+    if a.solver == SolverKind::Newton {
+        let pmesh =
+            unfold::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(&a.mesh, e))?;
+        let estimate =
+            unfold::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(&a.mesh, e))?;
+        drop(pmesh);
+        super::memory::check(
+            "deforming the mesh",
+            &estimate,
+            "coarsen the mesh, or use --solver gd (no factor)",
+        )?;
+    }
     let outcome = pipeline
         .run(&repaired.mesh, &solve_pairs)
         .map_err(|e| deform_problem(a, e))?;

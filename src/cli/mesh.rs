@@ -11,7 +11,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use unfold::io::{WriteOptions, read_image, write_mesh};
 use unfold::mesh::mesher::{
-    IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, mask_from_image, mesh_mask,
+    IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, estimate_memory, mask_from_image, mesh_mask,
 };
 use unfold::mesh::{CellMesh, Volume};
 
@@ -99,6 +99,24 @@ impl MaskArgs {
         })
     }
 
+    /// Refuses meshing `mask` when the predicted peak passes the budget
+    /// ([`estimate_memory`]).
+    pub(crate) fn check_memory(
+        &self,
+        path: &Path,
+        mask: &Volume<bool>,
+        keep_all_components: bool,
+    ) -> Result<(), CliError> {
+        let opts = self.options(keep_all_components)?;
+        let estimate = estimate_memory(mask, &opts).map_err(|e| at(path, e))?;
+        super::memory::check(
+            "meshing the mask",
+            &estimate,
+            "raise --size-mm (the lattice and the tets grow as 1/size^3), lower --smooth-voxels, \
+             drop --grade, or crop the mask",
+        )
+    }
+
     /// Meshes the mask read from `path`; warns on stderr about dropped
     /// components.
     pub(crate) fn mesh(
@@ -107,6 +125,7 @@ impl MaskArgs {
         mask: &Volume<bool>,
         keep_all_components: bool,
     ) -> Result<MaskMesh, CliError> {
+        self.check_memory(path, mask, keep_all_components)?;
         let opts = self.options(keep_all_components)?;
         let out = mesh_mask(mask, &opts).map_err(|e| at(path, e))?;
         warn_dropped(path, &out, keep_all_components);

@@ -4,6 +4,7 @@ mod convert;
 mod deform;
 mod demo;
 mod info;
+mod memory;
 mod mesh;
 mod mitral;
 mod placenta;
@@ -57,6 +58,9 @@ pub enum CliError {
     /// A usage error not caught by the argument parser.
     #[error("{0}")]
     Usage(String),
+    /// A stage would take more memory than the run may use.
+    #[error(transparent)]
+    Memory(Box<memory::MemoryRefusal>),
 }
 
 /// unfold: map anatomical shapes (placenta, ventricle, mitral valve) onto
@@ -66,6 +70,10 @@ pub enum CliError {
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The most memory a run may use (e.g. 4G, 512M); a stage whose estimate would pass it is
+    /// refused before it allocates [default: the memory available on this machine]
+    #[arg(long, global = true, value_name = "SIZE", value_parser = memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -102,6 +110,7 @@ enum Command {
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    memory::init(cli.max_memory);
     match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Convert(a) => convert::run(&a),

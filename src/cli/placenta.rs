@@ -447,6 +447,8 @@ struct FullReport<'a> {
     displacement: Option<DisplacementReport>,
     #[serde(flatten)]
     report: &'a Report,
+    /// Predicted and measured peak memory of the run.
+    memory: super::memory::MemoryReport,
 }
 
 /// What a run produced, for the summary on stdout.
@@ -768,6 +770,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         segmentation: input.segmentation,
         displacement,
         report: &outcome.report,
+        memory: super::memory::report(),
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
@@ -969,6 +972,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         }
         Some(seg) => {
             let mask = m.read_mask(seg)?;
+            m.check_memory(seg, &mask, false)?;
             let spacing = mask.spacing();
             let segmented =
                 from_segmentation(&mask, &m.options(false)?).map_err(|e| organ(&label, e))?;
@@ -1013,6 +1017,12 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             image: read_image(p)?,
         });
     }
+    check_memory(
+        &prepared.mesh,
+        &images,
+        a.grid.as_ref(),
+        a.displacement.is_some(),
+    )?;
 
     let summary = run_pipeline(&PipelineInput {
         label: &label,
@@ -1028,6 +1038,45 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     })?;
     println!("{summary}");
     Ok(())
+}
+
+/// Refuses the optimization when the predicted peak passes the budget:
+/// the factor and per-tet buffers of the mesh
+/// ([`unfold::organs::placenta::memory::estimate_memory`]) and one
+/// pull-back table per image (and displacement field) on the template grid,
+/// `--grid` at the images' finest spacing, else about four times the
+/// mesh's volume in voxels (the box of the flattened mesh).
+fn check_memory(
+    mesh: &unfold::mesh::TetMesh,
+    images: &[ImageInput],
+    grid: Option<&[f64; 6]>,
+    displacement: bool,
+) -> Result<(), CliError> {
+    let voxel = images
+        .iter()
+        .map(|i| i.image.volume.spacing())
+        .fold([f64::INFINITY; 3], |m, s| {
+            std::array::from_fn(|a| m[a].min(s[a]))
+        });
+    let voxel = if voxel.iter().all(|x| x.is_finite() && *x > 0.0) {
+        voxel
+    } else {
+        [3.0; 3]
+    };
+    let template_voxels = match grid {
+        Some(g) => (0..3)
+            .map(|a| ((g[2 * a + 1] - g[2 * a]) / voxel[a]).ceil() + 1.0)
+            .product(),
+        None => 4.0 * unfold::mesh::geometry::total_volume(mesh) / (voxel[0] * voxel[1] * voxel[2]),
+    };
+    let tables = images.len() + usize::from(displacement);
+    let estimate = unfold::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
+        .map_err(|e| CliError::Usage(e.to_string()))?;
+    super::memory::check(
+        "flattening the placenta",
+        &estimate,
+        "coarsen the mesh (unfold mesh or --seg with a larger --size-mm, or --grade)",
+    )
 }
 
 #[cfg(test)]

@@ -345,6 +345,8 @@ struct FullReport<'a> {
     report: &'a Report,
     #[serde(skip_serializing_if = "Option::is_none")]
     transfer: Option<&'a TransferReport>,
+    /// Predicted and measured peak memory of the run.
+    memory: super::memory::MemoryReport,
 }
 
 /// The inputs named in `report.json`.
@@ -417,10 +419,15 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
             input.anatomy.positions.len()
         )
     });
-    let pipeline = Pipeline::new().config(input.config);
+    // The field checks its estimate against the room left (issue 18).
+    let mut config = input.config;
+    config.chart.field.max_memory_bytes = super::memory::room();
+    let pipeline = Pipeline::new().config(config);
+    let resident = super::memory::resident_bytes().unwrap_or(0.0);
     let outcome = pipeline
         .run(input.anatomy, input.surface, &input.landmarks)
         .map_err(|e| organ(&label, e))?;
+    super::memory::record(resident + outcome.report.field.estimated_bytes);
     let r = &outcome.report;
     progress(|| {
         format!(
@@ -510,6 +517,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         },
         report: &outcome.report,
         transfer: transfer.as_ref(),
+        memory: super::memory::report(),
     })
     .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_path, format!("{json}\n").as_bytes())?;

@@ -24,6 +24,7 @@ pub mod field;
 pub mod geodesic;
 pub mod geometry;
 pub mod mask;
+pub mod memory;
 pub mod mesher;
 pub mod reindex;
 pub mod repair;

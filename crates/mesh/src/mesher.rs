@@ -42,6 +42,7 @@
 //! unless all are asked for.
 
 use crate::geometry::{tet_dihedral_angles, total_volume};
+use crate::memory::MemoryEstimate;
 use crate::spatial::ClosestPointQuery;
 use crate::stuffing::{Implicit, Stuffed, stuff};
 use crate::{MeshError, TetMesh, Volume, mask};
@@ -319,15 +320,8 @@ pub const MAX_WORKING_VOXELS: usize = 512 * 512 * 512;
 /// the separable filter's buffer (8 each).
 const WORKING_BYTES_PER_VOXEL: f64 = 17.0;
 
-/// Meshes the mask (see the module doc).
-///
-/// # Errors
-/// `Image` for a 4D mask; `Empty` for a mask with no voxel set or one whose
-/// smoothed level set is empty (an object thinner than the smoothing
-/// removes); `InvalidArgument` for bad options; `WorkingGridTooLarge` when
-/// the cropped mask plus the smoothing margin would exceed
-/// [`MAX_WORKING_VOXELS`]; the errors of [`stuff`].
-pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh, MeshError> {
+/// The mask's checks and sizes (see [`mesh_mask`]'s errors).
+fn plan(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<Plan, MeshError> {
     let d = mask.dims();
     if d[3] != 1 {
         return Err(MeshError::Image(format!(
@@ -401,6 +395,129 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
             hint: "lower --smooth-voxels (the kernel reaches 3 sigma) or crop the mask",
         });
     }
+    Ok(Plan {
+        lo,
+        hi,
+        count,
+        size,
+        margin_f,
+        voxel_volume,
+    })
+}
+
+/// What [`plan`] finds before meshing: the voxels set and the sizes.
+struct Plan {
+    /// The voxels set span `lo ..= hi`.
+    lo: [usize; 3],
+    hi: [usize; 3],
+    /// Voxels set.
+    count: usize,
+    /// Lattice cube side, mm.
+    size: f64,
+    /// Crop margin, voxels.
+    margin_f: f64,
+    /// Volume of one voxel, mm^3.
+    voxel_volume: f64,
+}
+
+/// Bytes per BCC lattice vertex at the stuffing's peak: position, value
+/// and nearest cut (72 B) and the position copy of the output (24 B),
+/// with the allocator's slack (a least-squares fit of the peaks of
+/// `unfold mesh` at 0.5 .. 2 mm gave 160 B per vertex of the lattice
+/// without the smoothing's reach, which this box includes).
+const BYTES_PER_LATTICE_VERTEX: f64 = 130.0;
+/// Bytes per output tet at the peak (the filled tets, their compacted
+/// copy, components and the writer's buffers; fitted 79 B, kept above
+/// every measured run: the estimate is 1.1 to 1.6 times the measured
+/// peak from 3 mm to 0.5 mm on a 2 mm placenta mask).
+const BYTES_PER_TET: f64 = 160.0;
+/// Tets per lattice cube inside the domain (12 in the BCC fill, a few
+/// more along the boundary: 12.2 .. 12.6 measured).
+const TETS_PER_CUBE: f64 = 13.0;
+/// What the process holds besides (the binary, threads, buffers).
+const BASE_BYTES: f64 = 48.0 * 1024.0 * 1024.0;
+
+impl Plan {
+    /// The memory [`mesh_mask`] will allocate: the working grid (the
+    /// cropped mask, its smoothed copy, the filter's buffer:
+    /// 17 B per voxel), the BCC lattice over the box to mesh
+    /// (`(n+1)^3 + n^3` vertices for `n` cubes per axis, the box the
+    /// voxels set plus the smoothing's reach in the lattice frame) and the
+    /// tets (`13 V / h^3` for the mask's volume `V`).
+    fn estimate(&self, mask: &Volume<bool>, opts: &MaskMeshOptions) -> MemoryEstimate {
+        let crop: f64 = (0..3)
+            .map(|a| (self.hi[a] - self.lo[a] + 1) as f64 + 2.0 * self.margin_f)
+            .product();
+        let reach = (opts.dilate + 1) as f64 + (3.0 * opts.smooth_voxels).ceil();
+        let frame = voxel_frame(mask.affine()).unwrap_or_else(Rotation3::identity);
+        let (mut bmin, mut bmax) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for c in 0..8 {
+            let corner = |a: usize| {
+                if c & (1 << a) == 0 {
+                    self.lo[a] as f64 - reach
+                } else {
+                    self.hi[a] as f64 + reach
+                }
+            };
+            let w = mask.voxel_to_world(&Point3::new(corner(0), corner(1), corner(2)));
+            let q = frame.inverse() * w.coords;
+            for a in 0..3 {
+                bmin[a] = bmin[a].min(q[a]);
+                bmax[a] = bmax[a].max(q[a]);
+            }
+        }
+        let cubes: Vec<f64> = (0..3)
+            .map(|a| ((bmax[a] - bmin[a]) / self.size).ceil() + 4.0)
+            .collect();
+        let lattice =
+            cubes.iter().map(|n| n + 1.0).product::<f64>() + cubes.iter().product::<f64>();
+        let volume =
+            self.count as f64 * self.voxel_volume * f64::from(opts.dilate as u32 + 1).powi(3);
+        let tets = TETS_PER_CUBE * volume / self.size.powi(3);
+        let mut e = MemoryEstimate::new()
+            .with("base", 1.0, BASE_BYTES)
+            .with("working grid", crop, WORKING_BYTES_PER_VOXEL)
+            .with("lattice", lattice, BYTES_PER_LATTICE_VERTEX)
+            .with("tets", tets, BYTES_PER_TET);
+        if opts.grade {
+            // the closest-point tree of the boundary and the collapse
+            // queues: about as much again per tet
+            e.add("grading", tets * BYTES_PER_TET);
+        }
+        e
+    }
+}
+
+/// The memory [`mesh_mask`] will allocate on `mask` with `opts`, before
+/// it allocates anything (one pass over the mask for its voxels set): see
+/// `Plan::estimate`.
+///
+/// # Errors
+/// Those of [`mesh_mask`]'s checks of the mask and the options.
+pub fn estimate_memory(
+    mask: &Volume<bool>,
+    opts: &MaskMeshOptions,
+) -> Result<MemoryEstimate, MeshError> {
+    Ok(plan(mask, opts)?.estimate(mask, opts))
+}
+
+/// Meshes the mask (see the module doc).
+///
+/// # Errors
+/// `Image` for a 4D mask; `Empty` for a mask with no voxel set or one whose
+/// smoothed level set is empty (an object thinner than the smoothing
+/// removes); `InvalidArgument` for bad options; `WorkingGridTooLarge` when
+/// the cropped mask plus the smoothing margin would exceed
+/// [`MAX_WORKING_VOXELS`]; the errors of [`stuff`].
+pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh, MeshError> {
+    let Plan {
+        lo,
+        hi,
+        count,
+        size,
+        margin_f,
+        voxel_volume,
+    } = plan(mask, opts)?;
     let margin = margin_f as i64;
     let start = lo.map(|x| x as i64 - margin);
     let dims = [0, 1, 2].map(|a| hi[a] - lo[a] + 1 + 2 * margin as usize);

@@ -26,6 +26,7 @@ mod error;
 pub mod flips;
 pub mod initializer;
 pub mod linesearch;
+pub mod memory;
 pub mod metrics;
 pub mod objective;
 pub mod rest;

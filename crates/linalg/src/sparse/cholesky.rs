@@ -369,6 +369,12 @@ impl SpdPattern {
         self.cholesky.len_val()
     }
 
+    /// Bytes of the workspace a numeric factorization takes (the dense
+    /// update blocks of the supernodal factor).
+    pub fn factor_scratch_bytes(&self) -> usize {
+        self.factor_scratch.unaligned_bytes_required()
+    }
+
     /// The value slot of entry `(i, j)` of `A` (either order), if in the
     /// pattern: a binary search in one column of the ordered matrix.
     pub fn slot(&self, i: u32, j: u32) -> Option<usize> {

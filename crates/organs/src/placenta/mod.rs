@@ -34,6 +34,7 @@ pub mod estimate;
 pub mod evaluate;
 pub mod frame_check;
 pub mod images;
+pub mod memory;
 pub mod optimize;
 pub mod parcellation;
 mod pipeline;

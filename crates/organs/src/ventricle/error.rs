@@ -219,6 +219,24 @@ pub enum VentricleError {
         /// The largest grid accepted, nodes.
         limit: usize,
     },
+    /// The field would take more memory than the run may use.
+    #[error(
+        "the Laplace field at a {grid_mm} mm grid ({nodes:.3e} nodes) would need about \
+         {:.2} GiB, more than the {:.2} GiB the run may use (--max-memory, else what is \
+         available); raise --grid-mm (the grid grows as 1/h^3)",
+        estimate / 1073741824.0,
+        limit / 1073741824.0
+    )]
+    FieldMemory {
+        /// The grid spacing, mm.
+        grid_mm: f64,
+        /// Nodes of the grid (a real: it may not fit an integer).
+        nodes: f64,
+        /// The estimate, bytes.
+        estimate: f64,
+        /// The limit, bytes.
+        limit: f64,
+    },
     /// No grid node lies between S and H.
     #[error(
         "no grid node lies between S and the hemisphere H at a {grid_mm} mm grid; use a finer grid"

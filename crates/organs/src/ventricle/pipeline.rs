@@ -120,6 +120,8 @@ pub struct FieldReport {
     pub cg_iterations: usize,
     /// Relative residual reached.
     pub relative_residual: f64,
+    /// The field's memory predicted before it was allocated, bytes.
+    pub estimated_bytes: f64,
 }
 
 /// `report.json`.
@@ -395,6 +397,7 @@ fn outcome(
             multigrid_levels: stats.levels,
             cg_iterations: stats.iterations,
             relative_residual: stats.relative_residual,
+            estimated_bytes: stats.estimated_bytes,
         },
         seconds: Seconds {
             disk: t_disk,
