@@ -40,11 +40,12 @@ fn main() -> ExitCode {
             _ => {
                 let msg = one_line_usage_error(&e);
                 eprintln!("unfold: error: {}", cli::printable(&msg));
+                cli::write_peak_file();
                 return ExitCode::from(2);
             }
         },
     };
-    match cli::run(args) {
+    let code = match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line on stderr, so scripts and users see exactly what failed.
@@ -52,5 +53,7 @@ fn main() -> ExitCode {
             eprintln!("unfold: error: {}", cli::printable(&msg));
             ExitCode::FAILURE
         }
-    }
+    };
+    cli::write_peak_file();
+    code
 }

@@ -125,6 +125,20 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     }
 }
 
+/// With `UNFOLD_PEAK_FILE=PATH` in the environment, writes the process's
+/// peak resident size in bytes (the kernel's `VmHWM`) to `PATH` at exit: a
+/// diagnostic for measuring runs, also those that fail (their reports are
+/// not written). Nothing is written where the system does not tell it.
+pub fn write_peak_file() {
+    if let (Some(path), Some(peak)) = (
+        std::env::var_os("UNFOLD_PEAK_FILE"),
+        memory::peak_resident_bytes(),
+    ) {
+        // a diagnostic: failing to write it must not change the exit code
+        let _ = std::fs::write(path, format!("{}\n", peak as u64));
+    }
+}
+
 /// `text` safe to print on a terminal: control characters (C0, DEL, C1:
 /// ESC, BEL, OSC, ... as found in hostile files' names and tokens) shown as
 /// `\u{1b}` escapes, so a file cannot retitle, recolour or ring the

@@ -1072,11 +1072,14 @@ fn check_memory(
     let tables = images.len() + usize::from(displacement);
     let estimate = unfold::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
         .map_err(|e| CliError::Usage(e.to_string()))?;
-    super::memory::check(
-        "flattening the placenta",
-        &estimate,
-        "coarsen the mesh (unfold mesh or --seg with a larger --size-mm, or --grade)",
-    )
+    let hint = match estimate.largest() {
+        Some(p) if p.what == "pull-back tables" => {
+            "shrink the --grid box or raise --spacing-mm (the tables grow as the template grid's \
+             voxels)"
+        }
+        _ => "coarsen the mesh (unfold mesh or --seg with a larger --size-mm, or --grade)",
+    };
+    super::memory::check("flattening the placenta", &estimate, hint)
 }
 
 #[cfg(test)]

@@ -1,43 +1,32 @@
-//! Running the binary with its peak memory measured (Linux: `wait4`'s
-//! `ru_maxrss` of the child).
+//! Running the binary with its peak memory measured: the kernel's `VmHWM`
+//! of the unfold process itself, which it writes at exit to
+//! `UNFOLD_PEAK_FILE` (a child's `ru_maxrss` from `wait4` would also count
+//! the test process's memory, shared by the child until it executes).
 
-use std::io::Read;
-use std::os::unix::process::ExitStatusExt;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 /// Runs `unfold args` and returns its output and its peak resident size in
 /// bytes.
-#[allow(clippy::zombie_processes)] // reaped by wait4 below
 pub fn unfold_measured(args: &[&str]) -> (Output, u64) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_unfold"))
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let peak_file = dir.path().join("peak");
+    let output = Command::new(env!("CARGO_BIN_EXE_unfold"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
+        .env("UNFOLD_PEAK_FILE", &peak_file)
+        .output()
         .expect("the unfold binary runs");
-    let mut out = child.stdout.take().expect("piped stdout");
-    let mut err = child.stderr.take().expect("piped stderr");
-    let reader = std::thread::spawn(move || {
-        let mut v = Vec::new();
-        out.read_to_end(&mut v).map(|_| v)
-    });
-    let mut stderr = Vec::new();
-    err.read_to_end(&mut stderr).expect("stderr read");
-    let stdout = reader.join().expect("reader thread").expect("stdout read");
-    let mut status = 0i32;
-    // SAFETY: rusage is plain old data, zeroed is a valid value; wait4 on
-    // our own child's pid, which nothing else waits for.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let pid = child.id() as libc::pid_t;
-    let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    assert_eq!(r, pid, "wait4 failed");
-    let output = Output {
-        status: std::process::ExitStatus::from_raw(status),
-        stdout,
-        stderr,
-    };
-    (output, usage.ru_maxrss as u64 * 1024)
+    let peak = std::fs::read_to_string(&peak_file)
+        .unwrap_or_else(|e| {
+            panic!(
+                "no peak written ({e}): {}",
+                String::from_utf8_lossy(&output.stderr)
+            )
+        })
+        .trim()
+        .parse()
+        .expect("the peak in bytes");
+    (output, peak)
 }
 
 /// The predicted peak in a refusal `... a peak of 1.2 GiB: ...`, bytes.

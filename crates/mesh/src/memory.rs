@@ -68,11 +68,12 @@ impl MemoryEstimate {
     }
 }
 
-/// `bytes` for people: `"512 B"`, `"3.2 MiB"`, `"1.5 GiB"`, `"2.0e6 TiB"`.
+/// `bytes` for people: `"512 B"`, `"3.2 MiB"`, `"1.5 GiB"`, `"2.0e6 TiB"`;
+/// infinite: `"an unbounded amount"`.
 pub fn format_bytes(bytes: f64) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
     if !bytes.is_finite() {
-        return format!("{bytes} B");
+        return "an unbounded amount".to_string();
     }
     let mut v = bytes.max(0.0);
     let mut u = 0;
@@ -135,7 +136,7 @@ mod tests {
             "{}",
             format_bytes(1e30)
         );
-        assert_eq!(format_bytes(f64::INFINITY), "inf B");
+        assert_eq!(format_bytes(f64::INFINITY), "an unbounded amount");
     }
 
     proptest! {

@@ -1,0 +1,65 @@
+//! Compression bombs: files whose compressed blocks announce far more than
+//! the arrays they belong to can hold.
+
+use crate::harness::{Case, args, run, s};
+
+/// A VTK XML file of 27 points whose appended zlib header announces 16
+/// blocks of 256 MiB (4 GiB) for an array of 324 bytes; 4.3 MB on disk.
+fn vtu_bomb(path: &std::path::Path) {
+    let (blocks, block_size, compressed) = (16u64, 256u64 << 20, 270_000u64);
+    let mut bytes = br#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="27" NumberOfCells="0">
+<Points><DataArray type="Float32" NumberOfComponents="3" format="appended" offset="0"/></Points>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+ _"#
+    .to_vec();
+    for w in [blocks, block_size, 0]
+        .into_iter()
+        .chain(std::iter::repeat_n(compressed, blocks as usize))
+    {
+        bytes.extend_from_slice(&w.to_le_bytes());
+    }
+    // a zlib stream of zeros, repeated: what a real bomb holds
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut z, &vec![0u8; 1 << 20]).unwrap();
+    let chunk = z.finish().unwrap();
+    let mut data = Vec::with_capacity((blocks * compressed) as usize);
+    while data.len() < (blocks * compressed) as usize {
+        data.extend_from_slice(&chunk);
+    }
+    data.truncate((blocks * compressed) as usize);
+    bytes.extend_from_slice(&data);
+    bytes.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_vtu_announcing_gigabytes_is_refused_before_inflating() {
+    let dir = tempfile::tempdir().unwrap();
+    let bomb = dir.path().join("bomb.vtu");
+    vtu_bomb(&bomb);
+    for (name, a, out) in [
+        ("vtu bomb: info", args(&["info", &s(&bomb)]), None),
+        (
+            "vtu bomb: convert",
+            args(&["convert", &s(&bomb), &s(&dir.path().join("b.vtk"))]),
+            Some(dir.path().join("b.vtk")),
+        ),
+        (
+            "vtu bomb: placenta",
+            args(&["placenta", &s(&bomb), "-o", &s(&dir.path().join("p"))]),
+            Some(dir.path().join("p")),
+        ),
+    ] {
+        run(&Case {
+            name,
+            args: a,
+            expect: "more than the 324 bytes",
+            max_peak_mib: 100.0,
+            inputs: vec![bomb.clone()],
+            output: out,
+        });
+    }
+}
