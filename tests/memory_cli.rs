@@ -17,7 +17,7 @@ mod common;
 #[path = "common/measured.rs"]
 mod measured;
 use common::*;
-use measured::{predicted_peak, unfold_measured};
+use measured::unfold_measured;
 
 const MIB: f64 = 1024.0 * 1024.0;
 
@@ -244,4 +244,24 @@ fn bad_memory_limits_are_usage_errors() {
         assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
         assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
     }
+}
+
+/// The predicted peak in a refusal `... a peak of 1.2 GiB: ...`, bytes.
+pub fn predicted_peak(message: &str) -> f64 {
+    let rest = message
+        .split("a peak of ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no predicted peak in {message:?}"));
+    let mut words = rest.split_whitespace();
+    let value: f64 = words.next().and_then(|w| w.parse().ok()).expect("a number");
+    let unit = words.next().expect("a unit").trim_end_matches(':');
+    let scale = match unit {
+        "B" => 1.0,
+        "KiB" => 1024.0,
+        "MiB" => 1024.0 * 1024.0,
+        "GiB" => 1024.0 * 1024.0 * 1024.0,
+        "TiB" => 1024.0f64.powi(4),
+        u => panic!("unit {u}"),
+    };
+    value * scale
 }

@@ -28,23 +28,3 @@ pub fn unfold_measured(args: &[&str]) -> (Output, u64) {
         .expect("the peak in bytes");
     (output, peak)
 }
-
-/// The predicted peak in a refusal `... a peak of 1.2 GiB: ...`, bytes.
-pub fn predicted_peak(message: &str) -> f64 {
-    let rest = message
-        .split("a peak of ")
-        .nth(1)
-        .unwrap_or_else(|| panic!("no predicted peak in {message:?}"));
-    let mut words = rest.split_whitespace();
-    let value: f64 = words.next().and_then(|w| w.parse().ok()).expect("a number");
-    let unit = words.next().expect("a unit").trim_end_matches(':');
-    let scale = match unit {
-        "B" => 1.0,
-        "KiB" => 1024.0,
-        "MiB" => 1024.0 * 1024.0,
-        "GiB" => 1024.0 * 1024.0 * 1024.0,
-        "TiB" => 1024.0f64.powi(4),
-        u => panic!("unit {u}"),
-    };
-    value * scale
-}

@@ -28,17 +28,6 @@ pub struct Case<'a> {
     pub output: Option<PathBuf>,
 }
 
-/// What a case did, for the log.
-#[derive(Debug)]
-pub struct Outcome {
-    /// The exit code.
-    pub code: i32,
-    /// The peak resident size, MiB.
-    pub peak_mib: f64,
-    /// The one line on stderr.
-    pub message: String,
-}
-
 fn snapshot(paths: &[PathBuf]) -> Vec<Option<Vec<u8>>> {
     paths.iter().map(|p| std::fs::read(p).ok()).collect()
 }
@@ -61,7 +50,7 @@ fn leftovers(output: &Path) -> Vec<String> {
 }
 
 /// Runs `case` and asserts what every hostile case must hold.
-pub fn run(case: &Case<'_>) -> Outcome {
+pub fn run(case: &Case<'_>) {
     let before = snapshot(&case.inputs);
     let args: Vec<&str> = case.args.iter().map(String::as_str).collect();
     let (o, peak): (Output, u64) = measured::unfold_measured(&args);
@@ -106,17 +95,10 @@ pub fn run(case: &Case<'_>) -> Outcome {
         let left = leftovers(out);
         assert!(left.is_empty(), "{name}: temporaries left: {left:?}");
     }
-    let outcome = Outcome {
-        code,
-        peak_mib,
-        message: line.to_string(),
-    };
     eprintln!(
-        "hostile {name}: unfold {} -> exit {code}, peak {peak_mib:.1} MiB: {}",
-        case.args.join(" "),
-        outcome.message
+        "hostile {name}: unfold {} -> exit {code}, peak {peak_mib:.1} MiB: {line}",
+        case.args.join(" ")
     );
-    outcome
 }
 
 /// `p` as an argument.
