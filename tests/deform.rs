@@ -116,6 +116,7 @@ fn deform_flattens_the_7k_bowl_to_the_true_minimum() {
     let r = report(&out);
     assert_eq!(r["converged"], true, "{r}");
     assert_eq!(r["inverted_tets"], 0, "{r}");
+    assert_eq!(r["folded_faces"], 0, "{r}");
     assert_eq!(r["solver"], "newton");
     assert_eq!(r["energy"], "symmetric-dirichlet");
     assert_eq!(r["weight"], 1000.0);

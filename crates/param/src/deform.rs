@@ -25,7 +25,7 @@
 use crate::energy::SymmetricDirichlet;
 use crate::initializer::{Constraints, Identity, Initializer};
 use crate::linesearch::LineSearch;
-use crate::metrics::{inverted_count, min_det_j};
+use crate::metrics::{folded_count, inverted_count, min_det_j};
 use crate::solver::{Executor, Observer, ProjectedNewton, Solver, StopReason, Stopping};
 use crate::template::PointTargets;
 use crate::{DistortionEnergy, Objective, ParamError, ParamMesh, TemplateTerm};
@@ -77,6 +77,9 @@ pub struct DeformReport {
     pub converged: bool,
     /// Tets with `det J <= 0` at the result (0 for a valid map).
     pub inverted_tets: usize,
+    /// Interior faces of the result whose two tets lie on the same side
+    /// ([`crate::metrics::folded_count`]; 0 for an injective map).
+    pub folded_faces: usize,
     /// The solver's name.
     pub solver: &'static str,
     /// The distortion energy's name.
@@ -253,6 +256,7 @@ impl Deform {
             seconds,
             converged: solved.converged,
             inverted_tets: inverted_count(&rest, &x),
+            folded_faces: folded_count(&rest, &x),
             solver: self.solver.name(),
             energy: self.energy.name(),
             initializer: self.initializer.name(),
