@@ -74,6 +74,26 @@ fn mesher_flags() {
             output: Some(out.clone()),
         });
     }
+    // the case: --size-mm 0.1 on a 42 mm mask (about 32 GiB)
+    let big = dir.path().join("big.nii.gz");
+    mask(&big, [2.1; 3]);
+    run(&Case {
+        name: "mesh --size-mm 0.1 on a 42 mm mask",
+        args: args(&[
+            "mesh",
+            &s(&big),
+            "-o",
+            &s(&out),
+            "--size-mm",
+            "0.1",
+            "--max-memory",
+            "8G",
+        ]),
+        expect: "raise --size-mm",
+        max_peak_mib: 150.0,
+        inputs: vec![big.clone()],
+        output: Some(out.clone()),
+    });
     // a mask of 1000 x 1 x 1 mm voxels: the default element size is 1 mm
     let wide = dir.path().join("wide.nii.gz");
     mask(&wide, [1000.0, 1.0, 1.0]);
