@@ -63,6 +63,7 @@ pub(crate) fn init(max_memory: Option<u64>) {
         },
     };
     let _ = BUDGET.set(budget);
+    unfold::io::set_decode_limit(room().map(|r| r as u64));
 }
 
 /// The run's budget (no limit before [`init`]).

@@ -63,3 +63,60 @@ fn a_vtu_announcing_gigabytes_is_refused_before_inflating() {
         });
     }
 }
+
+/// A VTK XML file of 178,956,970 points (2 GiB of Float32 coordinates, as
+/// its array may hold) in 2048 zlib blocks of 1 MiB of zeros: 2 MB on disk.
+fn vtu_honest_bomb(path: &std::path::Path) {
+    let points: u64 = (2u64 << 30) / 12;
+    let total = points * 12;
+    let block = 1u64 << 20;
+    let blocks = total.div_ceil(block);
+    let last = total - (blocks - 1) * block;
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut z, &vec![0u8; block as usize]).unwrap();
+    let full = z.finish().unwrap();
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut z, &vec![0u8; last as usize]).unwrap();
+    let tail = z.finish().unwrap();
+    let mut bytes = format!(
+        r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="{points}" NumberOfCells="0">
+<Points><DataArray type="Float32" NumberOfComponents="3" format="appended" offset="0"/></Points>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+ _"#
+    )
+    .into_bytes();
+    let mut header = vec![blocks, block, last];
+    header.extend(std::iter::repeat_n(
+        full.len() as u64,
+        (blocks - 1) as usize,
+    ));
+    header.push(tail.len() as u64);
+    for w in header {
+        bytes.extend_from_slice(&w.to_le_bytes());
+    }
+    for _ in 0..blocks - 1 {
+        bytes.extend_from_slice(&full);
+    }
+    bytes.extend_from_slice(&tail);
+    bytes.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_vtu_holding_gigabytes_honestly_is_capped_by_the_memory_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let bomb = dir.path().join("honest.vtu");
+    vtu_honest_bomb(&bomb);
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 8 << 20);
+    run(&Case {
+        name: "vtu holding 2 GiB: info --max-memory 512M",
+        args: args(&["info", &s(&bomb), "--max-memory", "512M"]),
+        expect: "would pass the",
+        max_peak_mib: 100.0,
+        inputs: vec![bomb.clone()],
+        output: None,
+    });
+}

@@ -12,6 +12,7 @@
 //! the same directory, then rename), so a crash never leaves half a file and
 //! an input is never modified in place.
 
+mod decode_limit;
 mod error;
 mod format;
 pub mod frame;
@@ -28,6 +29,7 @@ pub mod stl;
 pub mod vtk_legacy;
 pub mod vtk_xml;
 
+pub use decode_limit::set_decode_limit;
 pub use error::{FilePath, IoError, Location};
 pub use format::{
     FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,

@@ -934,6 +934,7 @@ fn inflate(
              values can take"
         ));
     }
+    crate::decode_limit::claim(total as u64)?;
     // Grown block by block, so a corrupt block fails before the memory its
     // successors announce is allocated.
     let mut out = Vec::with_capacity(total.min(payload.len().saturating_mul(4) + 4096));
