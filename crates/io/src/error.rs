@@ -119,19 +119,33 @@ impl IoError {
         }
     }
 
-    /// Sets the file path of the error (only where it is still empty).
-    pub fn with_path(mut self, p: impl Into<PathBuf>) -> Self {
-        let slot = match &mut self {
+    /// The file path of the error.
+    fn path_slot(&mut self) -> &mut FilePath {
+        match self {
             IoError::Io { path, .. }
             | IoError::UnknownFormat { path, .. }
             | IoError::Malformed { path, .. }
             | IoError::Unsupported { path, .. }
             | IoError::Mesh { path, .. }
             | IoError::Markups { path, .. } => path,
-        };
+        }
+    }
+
+    /// Sets the file path of the error (only where it is still empty).
+    pub fn with_path(mut self, p: impl Into<PathBuf>) -> Self {
+        let slot = self.path_slot();
         if slot.0.as_os_str().is_empty() {
             slot.0 = p.into();
         }
+        self
+    }
+
+    /// The error with its file path replaced by `f(path)` (for a file
+    /// written at one place that the user knows by another, as a staged
+    /// output).
+    pub fn map_path(mut self, f: impl FnOnce(&std::path::Path) -> PathBuf) -> Self {
+        let slot = self.path_slot();
+        slot.0 = f(&slot.0);
         self
     }
 }

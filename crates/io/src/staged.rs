@@ -30,7 +30,7 @@
 //! the second old; each target on its own is always whole.
 
 use crate::stale::{MANIFEST, clean_stale, remove_listed};
-use crate::{FilePath, OutputError};
+use crate::{FilePath, IoError, OutputError};
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -429,19 +429,44 @@ impl StagedOutputs {
         path.to_path_buf()
     }
 
+    /// `text` (a message) with every staging path replaced by the path it
+    /// will have after the commit. Staging names are unique
+    /// (`.NAME.unfold-<pid>-<rand>.partial`), so nothing else is touched.
+    pub fn shown_text(&self, text: &str) -> String {
+        let mut out = text.to_string();
+        for e in &self.entries {
+            let (from, to) = match e.kind {
+                Kind::File => (e.staging.join(&e.name), e.shown.clone()),
+                Kind::Dir => (e.staging.clone(), e.shown.clone()),
+            };
+            out = out.replace(&from.display().to_string(), &to.display().to_string());
+        }
+        out
+    }
+
+    /// An error about a staged path, naming the path it will have after
+    /// the commit instead.
+    pub fn shown_error(&self, e: IoError) -> IoError {
+        e.map_path(|p| self.shown(p))
+    }
+
     /// Puts every staged output in place, in the order they were staged
     /// (see the module documentation). The output directories are checked
     /// again first (a file added to one meanwhile refuses the commit, and
     /// nothing moves). On an error the targets not yet replaced keep their
-    /// previous contents.
-    pub fn commit(mut self) -> Result<(), OutputError> {
-        for e in &self.entries {
+    /// previous contents. [`shown`](StagedOutputs::shown) still maps
+    /// afterwards; a second commit does nothing.
+    pub fn commit(&mut self) -> Result<(), OutputError> {
+        for e in self.entries.iter().filter(|e| !e.done) {
             if e.kind == Kind::Dir && e.target.is_dir() {
                 check_set(&e.target, &e.shown)?;
             }
         }
         for i in 0..self.entries.len() {
             let e = &self.entries[i];
+            if e.done {
+                continue;
+            }
             match e.kind {
                 Kind::Dir => put_dir(e, true)?,
                 Kind::File => put_file(e)?,
@@ -784,6 +809,17 @@ mod tests {
             std::fs::canonicalize(tmp.path()).unwrap()
         );
         assert_eq!(s.shown(&staged), lone);
+        let msg = format!("{}: disk full; see {}", staged.display(), inner.display());
+        assert_eq!(
+            s.shown_text(&msg),
+            format!(
+                "{}: disk full; see {}",
+                lone.display(),
+                out.join("sub/d.nii.gz").display()
+            )
+        );
+        let e = s.shown_error(crate::IoError::unsupported("no").with_path(&staged));
+        assert_eq!(e.to_string(), format!("{}: no", lone.display()));
         assert_eq!(s.shown(&inner), out.join("sub/d.nii.gz"));
         std::fs::write(&inner, "inner").unwrap();
         std::fs::write(&staged, "new").unwrap();
