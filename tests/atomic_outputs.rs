@@ -261,6 +261,11 @@ fn output_paths_are_checked_before_any_input_is_read() {
             vec!["demo".into(), "-o".into(), s(&foreign)],
             "choose a new or empty directory".into(),
         ),
+        // (The binary runs in the package root.)
+        (
+            vec!["demo".into(), "-o".into(), ".".into()],
+            ".: is the current directory".into(),
+        ),
         (
             vec![
                 "deform".into(),

@@ -191,6 +191,16 @@ pub enum OutputError {
         /// The path.
         path: FilePath,
     },
+    /// An output directory is (or holds) the current directory: replacing
+    /// it would leave the shell in a deleted directory.
+    #[error(
+        "{path}: is the current directory (or holds it), which a run replaces as a whole; \
+         give a new subdirectory such as -o out"
+    )]
+    CurrentDirectory {
+        /// The path.
+        path: FilePath,
+    },
     /// The path has no last component to name a staging area after (`/`,
     /// `..`).
     #[error("{path}: cannot be written as a whole; give a path ending in a file or directory name")]

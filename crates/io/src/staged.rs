@@ -4,7 +4,9 @@
 //! one), never a mix of two, and a run that fails leaves nothing.
 //!
 //! * [`StagedOutputs::dir`] checks an output directory before any work: not
-//!   a file, not a mount point, no input inside it, and if it exists and is
+//!   a file, not a mount point, not the current directory or one holding it
+//!   (a shell there would be left in a deleted directory), no input inside
+//!   it, and if it exists and is
 //!   not empty, a previous unfold output (its hidden manifest
 //!   [`MANIFEST`] lists every file in it; anything else is somebody's file
 //!   and the run is refused, never deleted). It removes the leftovers of
@@ -315,6 +317,7 @@ impl StagedOutputs {
     /// Checks the output directory `target` and returns the staging
     /// directory to write the set into (created; missing parents of
     /// `target` are created too). Refused: an existing file, a mount point,
+    /// the current directory or one holding it,
     /// an input inside it, a non-empty directory that is not a previous
     /// unfold output (files not in its manifest). Removes dead runs'
     /// leftovers beside it.
@@ -333,6 +336,13 @@ impl StagedOutputs {
             return Err(OutputError::InputIsOutput {
                 input: FilePath(input.clone()),
                 output: FilePath(shown.to_path_buf()),
+            });
+        }
+        if let Ok(cwd) = std::env::current_dir().and_then(std::fs::canonicalize)
+            && cwd.starts_with(&abs)
+        {
+            return Err(OutputError::CurrentDirectory {
+                path: FilePath(shown.to_path_buf()),
             });
         }
         if abs.is_dir() {
@@ -785,6 +795,10 @@ mod tests {
         assert!(e.to_string().contains("missing"), "{e}");
         let e = s.dir("/").unwrap_err();
         assert!(matches!(e, OutputError::NoName { .. }), "{e}");
+        // The current directory (the package root, under `cargo test`).
+        let e = s.dir(".").unwrap_err();
+        assert!(matches!(e, OutputError::CurrentDirectory { .. }), "{e}");
+        assert!(e.to_string().contains("-o out"), "{e}");
         assert_eq!(names(tmp.path()), ["file", "in"]);
         assert_eq!(names(&tmp.path().join("in")), ["mesh.vtu"]);
     }
