@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use unfold::io::{MANIFEST, NiftiImage, WriteOptions, write_image, write_mesh};
 use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
-use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
-use unfold::mesh::{CellMesh, TetMesh, Volume};
+use unfold::mesh::shapes::{PlacentaParams, ValveParams, mitral_valve, placenta_slab};
+use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
 
 mod common;
 use common::*;
@@ -508,4 +508,59 @@ fn the_demo_is_one_set_whose_reports_name_final_paths() {
         "{inputs}"
     );
     assert_eq!(names(dir.path()), ["demo"]);
+}
+
+#[test]
+fn a_mitral_series_with_a_failing_step_leaves_the_previous_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = dir.path().join("series");
+    std::fs::create_dir(&series).unwrap();
+    let v = mitral_valve(&ValveParams {
+        annulus_segments: 32,
+        depth_segments: 6,
+        ..ValveParams::default()
+    })
+    .unwrap();
+    let opts = WriteOptions::default();
+    let write_step = |prefix: &str, shift: f64| {
+        let mut posterior = v.posterior.clone();
+        for p in &mut posterior.positions {
+            *p -= v.atrium_direction * shift;
+        }
+        let mut ring = CellMesh::from_points(v.annulus.clone());
+        let n = v.annulus.len() as u32;
+        for i in 0..n {
+            ring.push_cell(CellType::Line, &[i, (i + 1) % n]);
+        }
+        let file = |what: &str| series.join(format!("{prefix}_{what}.vtp"));
+        write_mesh(file("anterior"), &CellMesh::from(&v.anterior), &opts).unwrap();
+        write_mesh(file("posterior"), &CellMesh::from(&posterior), &opts).unwrap();
+        write_mesh(file("annulus"), &ring, &opts).unwrap();
+    };
+    write_step("t00", 0.0);
+    let out = dir.path().join("out");
+    let run = || {
+        unfold(&[
+            "mitral",
+            "--series",
+            &s(&series),
+            "-o",
+            &s(&out),
+            "--no-figures",
+        ])
+    };
+    let o = run();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = snapshot(&out);
+    assert!(first.contains_key(Path::new("step_000/report.json")));
+    assert!(first.contains_key(Path::new("series.csv")));
+
+    // Two steps, the second's posterior leaflet away from the ring: the
+    // run fails after step 0 is solved, and writes nothing at all.
+    write_step("t01", 6.0);
+    let o = run();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_one_line_error(&o, "does not touch the annulus ring");
+    assert!(snapshot(&out) == first, "the previous series changed");
+    assert_eq!(names(dir.path()), ["out", "series"]);
 }
