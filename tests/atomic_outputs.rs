@@ -211,7 +211,7 @@ fn output_paths_are_checked_before_any_input_is_read() {
         ),
         (
             vec!["placenta".into(), j.clone(), "-o".into(), s(&foreign)],
-            "holds 1 file(s) unfold did not write (notes.txt)".into(),
+            "holds 1 file(s) not written by an earlier unfold run into it (notes.txt)".into(),
         ),
         (
             vec!["placenta".into(), s(&inner), "-o".into(), s(&inputs_dir)],
@@ -241,7 +241,7 @@ fn output_paths_are_checked_before_any_input_is_read() {
                 "-o".into(),
                 s(&foreign),
             ],
-            "did not write (notes.txt)".into(),
+            "unfold run into it (notes.txt)".into(),
         ),
         (
             vec![
@@ -255,7 +255,7 @@ fn output_paths_are_checked_before_any_input_is_read() {
                 "-o".into(),
                 s(&foreign),
             ],
-            "did not write (notes.txt)".into(),
+            "unfold run into it (notes.txt)".into(),
         ),
         (
             vec!["demo".into(), "-o".into(), s(&foreign)],

@@ -212,7 +212,8 @@ pub enum OutputError {
     /// (not listed in its `.unfold-run.json`); a run replaces its directory
     /// as a whole, so it is refused rather than deleting them.
     #[error(
-        "{path}: holds {count} file(s) unfold did not write ({examples}); a run replaces its \
+        "{path}: holds {count} file(s) not written by an earlier unfold run into it \
+         ({examples}); a run replaces its \
          output directory as a whole: choose a new or empty directory"
     )]
     ForeignFiles {
