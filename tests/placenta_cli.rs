@@ -205,7 +205,8 @@ fn planes_writes_meshes_and_a_full_report() {
         assert!(text.contains(needle), "summary lacks {needle:?}:\n{text}");
     }
     assert!(!text.contains("reoriented"), "{text}");
-    // Nothing else in the directory, and no temporary files left behind.
+    // Nothing else in the directory (but the manifest of the set), and no
+    // temporary files left behind.
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -213,7 +214,13 @@ fn planes_writes_meshes_and_a_full_report() {
     names.sort();
     assert_eq!(
         names,
-        ["figures", "flattened.vtu", "original.vtu", "report.json"]
+        [
+            unfold::io::MANIFEST,
+            "figures",
+            "flattened.vtu",
+            "original.vtu",
+            "report.json"
+        ]
     );
     // the figures (no image given: no depth slices), PNG of the asked size
     let mut figs: Vec<String> = std::fs::read_dir(out.join("figures"))

@@ -7,8 +7,8 @@ use super::CliError;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use unfold::io::{
-    Datatype, FileKind, LegacyVersion, NiftiImage, WriteOptions, XmlEncoding, read_image,
-    read_mesh, write_image, write_mesh,
+    Datatype, FileKind, LegacyVersion, NiftiImage, StagedOutputs, WriteOptions, XmlEncoding,
+    read_image, read_mesh, write_image, write_mesh,
 };
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -64,7 +64,12 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
     let image_in = FileKind::from_path(&a.input)?.is_image();
     let image_out = FileKind::from_path(&a.output)?.is_image();
     match (image_in, image_out) {
-        (true, true) => return convert_image(a),
+        (true, true) => {
+            let mut staged = StagedOutputs::new([&a.input]);
+            let target = staged.file(&a.output)?;
+            convert_image(a, &target).map_err(|e| super::shown(&staged, e))?;
+            return Ok(staged.commit()?);
+        }
         (true, false) | (false, true) => {
             return Err(CliError::Usage(format!(
                 "{} -> {}: convert goes between meshes or between images, not from one to \
@@ -75,6 +80,9 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
         }
         (false, false) => {}
     }
+    // The output checked (and staged) before the input is read.
+    let mut staged = StagedOutputs::new([&a.input]);
+    let target = staged.file(&a.output)?;
     let mesh = read_mesh(&a.input)?;
     let opts = WriteOptions {
         ascii: a.ascii,
@@ -91,7 +99,8 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
         },
         big_endian: a.big_endian,
     };
-    write_mesh(&a.output, &mesh, &opts)?;
+    write_mesh(&target, &mesh, &opts).map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
     if let FileKind::Mesh(f) = FileKind::from_path(&a.output)?
         && !f.holds_arrays()
     {
@@ -138,11 +147,12 @@ fn kept_datatype(image: &NiftiImage) -> Datatype {
 /// `unfold convert` between images (NIfTI, NRRD): the values, data type and
 /// affine kept, and the header fields the output format holds (NIfTI: codes,
 /// units, intent, description; NRRD: description as `content`).
-fn convert_image(a: &ConvertArgs) -> Result<(), CliError> {
+/// The image is written at `target` (staged, put in place by the caller).
+fn convert_image(a: &ConvertArgs, target: &std::path::Path) -> Result<(), CliError> {
     let image = read_image(&a.input)?;
     let datatype = kept_datatype(&image);
     let dims = image.volume.dims();
-    write_image(&a.output, &image.with_datatype(datatype))?;
+    write_image(target, &image.with_datatype(datatype))?;
     println!(
         "{} -> {}: {} x {} x {} voxels, {} frame{}, {}",
         a.input.display(),

@@ -45,7 +45,7 @@ use super::{CliError, at};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use unfold::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
+use unfold::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::MeshError;
 use unfold::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use unfold::param::energy::{Arap, SymmetricDirichlet};
@@ -274,6 +274,10 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         }
     }
 
+    // Both outputs checked (and staged) before the inputs are read, and put
+    // in place together at the end.
+    let mut staged = StagedOutputs::new([&a.mesh, &a.targets]);
+    let (mesh_target, report_target) = (staged.file(&a.output)?, staged.file(&report_file)?);
     let cells = read_mesh(&a.mesh)?;
     let tet_mesh = cells.to_tet_mesh().map_err(|e| match e {
         MeshError::WrongCellType { cell, found, .. } => at(
@@ -354,7 +358,8 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
             deformed.positions[v] = t.into();
         }
     }
-    write_mesh(&a.output, &deformed, &WriteOptions::default())?;
+    write_mesh(&mesh_target, &deformed, &WriteOptions::default())
+        .map_err(|e| staged.shown_error(e))?;
     let full = Report {
         mesh: a.mesh.display().to_string(),
         targets_file: a.targets.display().to_string(),
@@ -364,7 +369,9 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_file, format!("cannot serialize the report: {e}")))?;
-    atomic_write(&report_file, format!("{json}\n").as_bytes())?;
+    atomic_write(&report_target, format!("{json}\n").as_bytes())
+        .map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
 
     let status = if report.converged {
         "converged".to_string()

@@ -9,7 +9,7 @@ use super::CliError;
 use super::placenta::{ImageInput, PipelineInput, run_pipeline};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use unfold::io::{NiftiImage, WriteOptions, atomic_write, write_image, write_mesh};
+use unfold::io::{NiftiImage, StagedOutputs, WriteOptions, atomic_write, write_image, write_mesh};
 use unfold::mesh::geometry::bounding_box;
 use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
 use unfold::mesh::shapes::{
@@ -48,8 +48,17 @@ fn ring_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
 
 /// Runs `unfold demo`.
 pub fn run(a: &DemoArgs) -> Result<(), CliError> {
-    let dir = a.output.as_path();
-    super::ensure_dir(dir)?;
+    // Everything is written into a staging directory and put in place at
+    // the end (`StagedOutputs`); messages name the final paths.
+    let mut staged = StagedOutputs::new(Vec::<PathBuf>::new());
+    let staging = staged.dir(&a.output)?;
+    write_demo(&staging, &staged).map_err(|e| super::shown(&staged, e))?;
+    Ok(staged.commit()?)
+}
+
+/// Writes the demo's shapes and pipeline outputs into `dir`, the staging
+/// directory of `staged`.
+fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
     let opts = WriteOptions::default();
     let mut written: Vec<(PathBuf, String)> = Vec::new();
     let mut put = |name: &str, mesh: CellMesh, what: &str| -> Result<(), CliError> {
@@ -137,7 +146,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         infos.push(format!("\"{}\": {json}", file_name(p)));
         println!(
             "wrote {} ({what}){}",
-            p.display(),
+            staged.shown(p).display(),
             if valid {
                 ""
             } else {
@@ -148,7 +157,10 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
     let json = format!("{{\n{}\n}}\n", infos.join(",\n"));
     let info_path = dir.join("info.json");
     atomic_write(&info_path, json.as_bytes())?;
-    println!("wrote {} (info of every file above)", info_path.display());
+    println!(
+        "wrote {} (info of every file above)",
+        staged.shown(&info_path).display()
+    );
 
     let label = format!(
         "built-in placenta slab ({PIPELINE_CELLS_RADIAL} radial cells, {} tets)",
@@ -169,6 +181,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         images: &images,
         pipeline: &Pipeline::new(),
         dir: &dir.join("placenta"),
+        out: staged,
         progress: true,
         segmentation: None,
         figures: true,
@@ -189,6 +202,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
         &unfold::organs::mitral::Pipeline::new(),
         &mitral_dir,
         true,
+        staged,
     )?;
     println!(
         "built-in mitral valve: {}",
@@ -196,7 +210,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
     );
     println!(
         "wrote {} (valve3d.vtu, valve2d.vtu, report.json)",
-        mitral_dir.display()
+        staged.shown(&mitral_dir).display()
     );
 
     // The ventricle pipeline on the built-in cup, its inner cup the anatomy.
@@ -227,7 +241,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
     );
     println!(
         "wrote {} (normalized.vtu, anatomy.vtu, disk.vtu, report.json)",
-        ventricle_dir.display()
+        staged.shown(&ventricle_dir).display()
     );
     Ok(())
 }

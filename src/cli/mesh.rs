@@ -9,7 +9,7 @@
 use super::{CliError, at, positive};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use unfold::io::{WriteOptions, read_image, write_mesh};
+use unfold::io::{StagedOutputs, WriteOptions, read_image, write_mesh};
 use unfold::mesh::mesher::{
     IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, estimate_memory, mask_from_image, mesh_mask,
 };
@@ -218,14 +218,19 @@ pub fn run(a: &MeshArgs) -> Result<(), CliError> {
         ));
     }
     a.how.options(a.keep_all_components)?;
+    // The output checked (and staged) before the mask is read.
+    let mut staged = StagedOutputs::new([&a.mask]);
+    let target = staged.file(&a.output)?;
     let mask = a.how.read_mask(&a.mask)?;
     let out = a.how.mesh(&a.mask, &mask, a.keep_all_components)?;
     let q = MeshQuality::of(&out.mesh)?;
     write_mesh(
-        &a.output,
+        &target,
         &CellMesh::from(&out.mesh),
         &WriteOptions::default(),
-    )?;
+    )
+    .map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
     println!("{}: {}", a.output.display(), describe(&out, &q));
     Ok(())
 }

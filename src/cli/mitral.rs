@@ -24,7 +24,7 @@ use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use unfold::figures::FigureOptions;
-use unfold::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
+use unfold::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 use unfold::organs::mitral::{
@@ -319,17 +319,24 @@ impl ValveFiles {
 
 /// Reads one valve and runs the pipeline; writes `valve3d.vtu`,
 /// `valve2d.vtu`, `report.json` and (with `figures`) `figures/*.png` into
-/// `dir`.
+/// `dir`; the report names the inputs as they will be after `out`'s
+/// commit.
 pub(crate) fn run_valve(
     files: &ValveFiles,
     pipeline: &Pipeline,
     dir: &Path,
     figures: bool,
+    out: &StagedOutputs,
 ) -> Result<Outcome, CliError> {
     let anterior = read_leaflet(&files.anterior)?;
     let posterior = read_leaflet(&files.posterior)?;
     let ring = read_ring(&files.annulus)?;
-    let label = files.label();
+    let label = ValveFiles {
+        anterior: out.shown(&files.anterior),
+        posterior: out.shown(&files.posterior),
+        annulus: out.shown(&files.annulus),
+    }
+    .label();
     let outcome = pipeline
         .run(&ValveInput {
             anterior: &anterior,
@@ -528,7 +535,11 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
             annulus: annulus.clone(),
         };
         check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
-        let outcome = run_valve(&files, &pipeline, out, !a.no_figures)?;
+        let mut staged = StagedOutputs::new([&files.anterior, &files.posterior, &files.annulus]);
+        let dir = staged.dir(out)?;
+        let outcome = run_valve(&files, &pipeline, &dir, !a.no_figures, &staged)
+            .map_err(|e| super::shown(&staged, e))?;
+        staged.commit()?;
         println!("{}", summary(&outcome.report));
         for f in ["valve3d.vtu", "valve2d.vtu", "report.json"] {
             println!("wrote {}", out.join(f).display());
@@ -536,6 +547,13 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         return Ok(());
     };
     let steps = series_files(series)?;
+    // The whole series is staged: `out` holds all its steps or none.
+    let mut staged = StagedOutputs::new(
+        steps
+            .iter()
+            .flat_map(|(_, f)| [&f.anterior, &f.posterior, &f.annulus]),
+    );
+    let staging = staged.dir(out)?;
     // Every step read first (the first unreadable file is the error), then
     // the steps run in parallel sharing their Newton layouts
     // (`run_series`), then written in order, stopping at the first failed
@@ -563,10 +581,11 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     let outcomes = pipeline.run_series(&inputs);
     let mut rows = Vec::with_capacity(steps.len());
     for ((name, files), outcome) in steps.iter().zip(outcomes) {
-        let dir = out.join(name);
+        let dir = staging.join(name);
         let label = files.label();
         let outcome = outcome.map_err(|e| organ(&label, e))?;
-        write_outcome(&outcome, &dir, &label, !a.no_figures)?;
+        write_outcome(&outcome, &dir, &label, !a.no_figures)
+            .map_err(|e| super::shown(&staged, e))?;
         let r = &outcome.report;
         println!("{name}: {}", summary(r));
         rows.push(SeriesRow {
@@ -610,10 +629,12 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
             r.seconds
         ));
     }
-    atomic_write(out.join("series.csv"), csv.as_bytes())?;
+    atomic_write(staging.join("series.csv"), csv.as_bytes()).map_err(|e| staged.shown_error(e))?;
     let json = serde_json::to_string_pretty(&rows)
         .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
-    atomic_write(out.join("series.json"), format!("{json}\n").as_bytes())?;
+    atomic_write(staging.join("series.json"), format!("{json}\n").as_bytes())
+        .map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
     println!(
         "wrote {} steps into {} and the table {}",
         rows.len(),

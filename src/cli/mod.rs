@@ -28,6 +28,9 @@ pub enum CliError {
     /// A mesh was unusable.
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// An output path cannot be written, or the outputs not put in place.
+    #[error(transparent)]
+    Output(#[from] unfold::io::OutputError),
     /// `info --strict` found validity problems.
     #[error("{path}: {count} validity problem(s), first: {first}")]
     Invalid {
@@ -169,6 +172,24 @@ pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
 /// Canonical form of a path for comparisons (falls back to the path itself).
 pub(crate) fn canonical(p: &std::path::Path) -> PathBuf {
     std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+/// `e` naming the paths a staged output will have after the commit
+/// instead of its staging paths (errors of a run that failed while writing).
+pub(crate) fn shown(staged: &unfold::io::StagedOutputs, e: CliError) -> CliError {
+    match e {
+        CliError::Io(e) => CliError::Io(staged.shown_error(e)),
+        CliError::Fs { path, source } => CliError::Fs {
+            path: staged.shown_text(&path),
+            source,
+        },
+        CliError::Organ { path, source } => CliError::Organ {
+            path: staged.shown_text(&path),
+            source,
+        },
+        CliError::Usage(m) => CliError::Usage(staged.shown_text(&m)),
+        e => e,
+    }
 }
 
 /// `value` if it is finite and positive, else a usage error naming `flag`.

@@ -47,8 +47,8 @@ use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::Frame;
 use unfold::io::nifti::INTENT_VECTOR;
 use unfold::io::{
-    Datatype, NiftiImage, WriteOptions, atomic_write, read_image, read_mesh, write_image,
-    write_mesh,
+    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_image, read_mesh,
+    write_image, write_mesh,
 };
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
@@ -378,8 +378,11 @@ pub(crate) struct PipelineInput<'a> {
     pub images: &'a [ImageInput],
     /// The pipeline (settings already validated).
     pub pipeline: &'a Pipeline,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing): in a staging area of `out`.
     pub dir: &'a Path,
+    /// The run's staged outputs: where the paths written will be after the
+    /// commit, for the report and messages.
+    pub out: &'a StagedOutputs,
     /// Show a progress spinner on stderr (only if stderr is a terminal).
     pub progress: bool,
     /// How the mesh was made from a segmentation (`--seg`), for the report.
@@ -703,8 +706,8 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         }
         let out_path = dir.join(flat_name(&img.name));
         write_image(&out_path, &out)?;
-        entry.input = Some(img.path.display().to_string());
-        entry.output = Some(out_path.display().to_string());
+        entry.input = Some(input.out.shown(&img.path).display().to_string());
+        entry.output = Some(input.out.shown(&out_path).display().to_string());
         written.push(out_path);
     }
 
@@ -737,7 +740,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
             write_image(path, &img)?;
             written.push(path.to_path_buf());
             Some(DisplacementReport {
-                path: path.display().to_string(),
+                path: input.out.shown(path).display().to_string(),
                 convention: "ITK/ANTs displacement field on the template grid: the template \
                              voxel at p (RAS affine) comes from the scanner point p + d(p); \
                              components in LPS",
@@ -781,7 +784,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     Ok(Summary {
         label: label.to_string(),
         report: outcome.report,
-        written,
+        written: written.iter().map(|p| input.out.shown(p)).collect(),
     })
 }
 
@@ -950,6 +953,15 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         }
     }
 
+    // Every output checked (and staged) before any input is read.
+    let mut staged = StagedOutputs::new(std::iter::once(input).chain(&a.images));
+    let staging = staged.dir(dir)?;
+    let displacement = a
+        .displacement
+        .as_ref()
+        .map(|d| staged.file(d))
+        .transpose()?;
+
     let label = input.display().to_string();
     // A mask's mesh is made in the mask's world frame, RAS.
     let frame = match &a.seg {
@@ -981,16 +993,16 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             warn_dropped(seg, &out, false);
             let quality = MeshQuality::of(&out.mesh)?;
             println!("{}: {}", seg.display(), describe(&out, &quality));
-            super::ensure_dir(dir)?;
-            let mesh_path = dir.join(SEG_MESH);
+            let mesh_path = staging.join(SEG_MESH);
             write_mesh(
                 &mesh_path,
                 &CellMesh::from(&out.mesh),
                 &WriteOptions::default(),
-            )?;
+            )
+            .map_err(|e| staged.shown_error(e))?;
             let report = SegReport {
                 mask: label.clone(),
-                mesh: mesh_path.display().to_string(),
+                mesh: staged.shown(&mesh_path).display().to_string(),
                 mask_voxels: out.mask_voxels,
                 mask_volume_mm3: out.mask_volume_mm3,
                 size_mm: out.size_mm,
@@ -1029,13 +1041,16 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         mesh: &prepared,
         images: &images,
         pipeline: &a.pipeline(config),
-        dir,
+        dir: &staging,
+        out: &staged,
         progress: true,
         segmentation: seg.as_ref(),
         figures: !a.no_figures,
-        displacement: a.displacement.as_deref(),
+        displacement: displacement.as_deref(),
         frame,
-    })?;
+    })
+    .map_err(|e| super::shown(&staged, e))?;
+    staged.commit()?;
     println!("{summary}");
     Ok(())
 }

@@ -16,7 +16,7 @@ use super::placenta::{InterpArg, nearest_datatype};
 use super::{CliError, at};
 use clap::Args;
 use std::path::PathBuf;
-use unfold::io::{FileKind, NiftiImage, read_image, read_tet_mesh, write_image};
+use unfold::io::{FileKind, NiftiImage, StagedOutputs, read_image, read_tet_mesh, write_image};
 use unfold::organs::placenta::pushback::push_back;
 use unfold::organs::placenta::{Interpolation, PullbackError};
 
@@ -80,6 +80,9 @@ pub fn run(a: &PushbackArgs) -> Result<(), CliError> {
             ));
         }
     }
+    // The output checked (and staged) before the inputs are read.
+    let mut staged = StagedOutputs::new([&a.image, &a.reference, &original_path, &flattened_path]);
+    let target = staged.file(out)?;
     let original = read_tet_mesh(&original_path)?;
     let flattened = read_tet_mesh(&flattened_path)?;
     if original.num_vertices() != flattened.num_vertices() || original.tets != flattened.tets {
@@ -129,7 +132,8 @@ pub fn run(a: &PushbackArgs) -> Result<(), CliError> {
     if interpolation == Interpolation::Nearest {
         img = img.with_datatype(nearest_datatype(&image));
     }
-    write_image(out, &img)?;
+    write_image(&target, &img).map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
     println!(
         "{} -> {}: {} voxels of {} inside the placenta, {} sampled, {} outside the template image",
         a.image.display(),

@@ -8,7 +8,7 @@ use super::{CliError, at};
 use clap::Args;
 use serde::Serialize;
 use std::path::PathBuf;
-use unfold::io::{WriteOptions, read_mesh, write_mesh};
+use unfold::io::{StagedOutputs, WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::CellMesh;
 use unfold::mesh::repair::{
     RepairOptions, RepairReport, Weld, repair_tet_mesh_with, repair_tri_mesh_with,
@@ -85,6 +85,9 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
             a.output.display()
         )));
     }
+    // The output checked (and staged) before the input is read.
+    let mut staged = StagedOutputs::new([&a.input]);
+    let target = staged.file(&a.output)?;
     let cells = read_mesh(&a.input)?;
     let options = RepairOptions {
         weld,
@@ -101,7 +104,8 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
         let (m, r) = repair_tri_mesh_with(&tris, &options).map_err(|e| at(&a.input, e))?;
         (CellMesh::from(&m), r, "triangles")
     };
-    write_mesh(&a.output, &out, &WriteOptions::default())?;
+    write_mesh(&target, &out, &WriteOptions::default()).map_err(|e| staged.shown_error(e))?;
+    staged.commit()?;
     if a.json {
         let s = Summary {
             input: a.input.display().to_string(),

@@ -48,8 +48,8 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use unfold::io::{
-    FilePath, IoError, MarkupsError, WriteOptions, atomic_write, read_markups, read_mesh,
-    read_tri_mesh, write_mesh,
+    FilePath, IoError, MarkupsError, StagedOutputs, WriteOptions, atomic_write, read_markups,
+    read_mesh, read_tri_mesh, write_mesh,
 };
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
@@ -663,6 +663,9 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     inputs.extend(&a.landmarks);
     inputs.extend(&a.to_landmarks);
     check_not_inputs(out, &inputs)?;
+    // Every output checked (and staged) before any input is read.
+    let mut staged = StagedOutputs::new(&inputs);
+    let staging = staged.dir(out)?;
 
     let mut anatomy = read_mesh(&a.anatomy)?;
     super::to_ras(
@@ -767,10 +770,12 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         landmarks,
         config,
         transfer,
-        dir: out,
+        dir: &staging,
         figures: !a.no_figures,
         bullseye_array: a.bullseye_array.as_deref(),
-    })?;
+    })
+    .map_err(|e| super::shown(&staged, e))?;
+    staged.commit()?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
     let o = &result.outcome.report.openings;
     if o.loops.len() > 1 {
@@ -794,7 +799,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         );
     }
     for p in &result.written {
-        println!("wrote {}", p.display());
+        println!("wrote {}", staged.shown(p).display());
     }
     progress(|| format!("done in {:.2} s", start.elapsed().as_secs_f64()));
     Ok(())

@@ -268,8 +268,9 @@ pub fn write_image(path: impl AsRef<Path>, image: &NiftiImage) -> Result<(), IoE
     atomic_write(path, &bytes)
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same
-/// directory is written, flushed to disk, then renamed over `path`. A new
+/// Writes `bytes` to `path` atomically: a temporary file
+/// `.unfold-<pid>-<rand>.tmp` in the same directory is written, flushed to
+/// disk, then renamed over `path`. A new
 /// file gets the permissions of any new file (`0666` less the umask); a
 /// replaced file keeps its own.
 pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError> {
@@ -283,7 +284,10 @@ pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError>
         _ => Path::new("."),
     };
     let mut builder = tempfile::Builder::new();
-    builder.prefix(".unfold-").suffix(".tmp");
+    // `.unfold-<pid>-<rand>.tmp`: the pid tells the next run whether the
+    // writer is gone (`clean_stale`).
+    let prefix = format!(".unfold-{}-", std::process::id());
+    builder.prefix(&prefix).suffix(".tmp");
     // Created like any new file, 0666 less the process umask (so a umask of
     // 077 keeps patient data private), not tempfile's private 0600.
     #[cfg(unix)]
