@@ -26,13 +26,17 @@ pub struct PreparedMesh {
 /// [`unfold_mesh::geometry::folded_faces`]: a mirrored mesh has none),
 /// orients its tets positively (a repair that is reported, not an error)
 /// and checks that it is a usable placenta mesh: it must have tets, finite
-/// coordinates, no degenerate tets, one connected component and a manifold
-/// boundary. The vertices are then those of the repaired mesh.
+/// coordinates, no degenerate tets, one connected component, a manifold
+/// boundary, and a boundary that does not meet itself (with every tet
+/// positive, the test of a global overlap,
+/// [`unfold_mesh::geometry::tet_boundary_self_intersections`]). The
+/// vertices are then those of the repaired mesh.
 ///
 /// # Errors
 /// [`PlacentaError::NoTetrahedra`] for a mesh without tets (a surface
-/// mesh); [`PlacentaError::Tangled`] for folded faces; `Mesh` with the
-/// first validation problem otherwise.
+/// mesh); [`PlacentaError::Tangled`] for folded faces;
+/// [`PlacentaError::SelfOverlapping`] for a boundary meeting itself; `Mesh`
+/// with the first validation problem otherwise.
 pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
     if mesh.tets.is_empty() {
         return Err(PlacentaError::NoTetrahedra.into());
@@ -62,6 +66,19 @@ pub fn prepare_mesh(mesh: &TetMesh) -> Result<PreparedMesh, OrganError> {
     }
     let reoriented_tets = m.orient()?;
     m.validate()?;
+    // Every tet positive now and no face folded, so the mesh overlaps
+    // itself exactly when its boundary meets itself.
+    let overlaps = unfold_mesh::geometry::tet_boundary_self_intersections(&m)?;
+    if let Some(first) = overlaps.intersections.pairs.first() {
+        let tet = |f: usize| overlaps.face_tet[f] as usize;
+        return Err(PlacentaError::SelfOverlapping {
+            faces: overlaps.intersections.triangles_involved,
+            vertices: first.vertices,
+            tets: [tet(first.triangles[0]), tet(first.triangles[1])],
+            position: first.position.coords.into(),
+        }
+        .into());
+    }
     Ok(PreparedMesh {
         mesh: m,
         reoriented_tets,
