@@ -103,3 +103,62 @@ pub fn boundary_weights(parcellation: &Parcellation) -> Vec<f64> {
     }
     w
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use unfold_mesh::nalgebra::Point3;
+    use unfold_mesh::shapes::kuhn_grid;
+
+    /// A slab of `n` x 2 x 3 cells of 1.5 mm wound round the z axis
+    /// through `turns` turns at radius 30 mm, climbing and moving in
+    /// 0.5 mm per turn.
+    fn wound_slab(n: usize, turns: f64) -> TetMesh {
+        let mut m = kuhn_grid([n, 2, 3], [1.5; 3]);
+        let len = 1.5 * n as f64;
+        for p in &mut m.positions {
+            let f = turns * p.x / len;
+            let th = 2.0 * std::f64::consts::PI * f;
+            let r = 30.0 - p.y - 0.5 * f;
+            *p = Point3::new(r * th.cos(), r * th.sin(), p.z + 0.5 * f);
+        }
+        m
+    }
+
+    /// An open ring is prepared; a ring whose ends pass through each other
+    /// (no tet inverted, no face folded) is refused, naming two boundary
+    /// faces of the tets it names, near the point it names.
+    #[test]
+    fn a_boundary_meeting_itself_is_refused() {
+        let open = wound_slab(120, 0.8);
+        let prepared = prepare_mesh(&open).expect("an open ring is a valid domain");
+        assert_eq!(prepared.reoriented_tets, 0);
+        let wound = wound_slab(150, 1.25);
+        match prepare_mesh(&wound) {
+            Err(OrganError::Placenta(PlacentaError::SelfOverlapping {
+                faces,
+                vertices,
+                tets,
+                position,
+            })) => {
+                assert!(faces >= 2, "{faces}");
+                assert_ne!(tets[0], tets[1]);
+                let p = Point3::from(position);
+                for k in 0..2 {
+                    let tet = wound.tets[tets[k]];
+                    for &v in &vertices[k] {
+                        assert!(tet.contains(&v), "face {:?} of tet {tet:?}", vertices[k]);
+                        assert!((wound.positions[v as usize] - p).norm() < 5.0);
+                    }
+                }
+                // the two faces lie about a full turn (150 / 1.25 = 120
+                // cells) apart along the slab: vertex i + 151 (j + 3 k) is
+                // in column i
+                let column = |k: usize| vertices[k][0] % 151;
+                let gap = column(0).abs_diff(column(1));
+                assert!((115..=125).contains(&gap), "{vertices:?}");
+            }
+            other => panic!("expected SelfOverlapping, got {other:?}"),
+        }
+    }
+}
