@@ -7,6 +7,9 @@
 //! `h` is the mean longest side of the boxes, raised until the grid has at
 //! most `4 n + 64` cells (`n` boxes), so a mesh of evenly sized elements
 //! costs `O(n log n)` (the sort of the cell entries) whatever its shape.
+//! A box over more than 64 cells (a sliver across the mesh) is compared
+//! with every box instead, so that a few of them cost `O(n)` each rather
+//! than filling the grid.
 
 use super::Aabb;
 use rayon::prelude::*;
@@ -42,11 +45,18 @@ pub(crate) fn filter_box_pairs<T: Send>(
         .fold(Aabb::empty(), |acc, &i| acc.union(&boxes[i as usize]));
     let grid = Grid::new(&total, boxes, &usable);
 
-    // (cell, box) entries, grouped by cell.
+    // (cell, box) entries, grouped by cell; boxes over more than
+    // LARGE_CELLS cells are compared with every box instead (a few slivers
+    // across the mesh must not fill the grid).
     let mut entries: Vec<(u64, u32)> = Vec::with_capacity(2 * usable.len());
+    let mut large: Vec<u32> = Vec::new();
     for &i in &usable {
         let b = &boxes[i as usize];
         let (lo, hi) = (grid.cell(&b.min), grid.cell(&b.max));
+        if (0..3).map(|a| hi[a] - lo[a] + 1).product::<u64>() > LARGE_CELLS {
+            large.push(i);
+            continue;
+        }
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
@@ -83,7 +93,7 @@ pub(crate) fn filter_box_pairs<T: Send>(
                     let bi = &boxes[i as usize];
                     for &(_, j) in &group[k + 1..] {
                         let bj = &boxes[j as usize];
-                        if !(0..3).all(|a| bi.min[a] <= bj.max[a] && bj.min[a] <= bi.max[a]) {
+                        if !meet(bi, bj) {
                             continue;
                         }
                         let corner = nalgebra::Point3::new(
@@ -101,7 +111,27 @@ pub(crate) fn filter_box_pairs<T: Send>(
             }
             found
         })
+        .chain(large.par_iter().flat_map_iter(|&l| {
+            let bl = &boxes[l as usize];
+            let is_large = |j: u32| large.binary_search(&j).is_ok();
+            usable
+                .iter()
+                .filter(move |&&j| {
+                    j != l && !(is_large(j) && j < l) && meet(bl, &boxes[j as usize])
+                })
+                .filter_map(|&j| keep(l.min(j), l.max(j)))
+                .collect::<Vec<_>>()
+        }))
         .collect()
+}
+
+/// Boxes over more cells than this are compared with every box.
+const LARGE_CELLS: u64 = 64;
+
+/// Whether two closed boxes meet.
+#[inline]
+fn meet(a: &Aabb, b: &Aabb) -> bool {
+    (0..3).all(|k| a.min[k] <= b.max[k] && b.min[k] <= a.max[k])
 }
 
 /// A uniform grid of cubic cells of side `h` from `origin`, `dims` cells
@@ -217,6 +247,33 @@ mod tests {
                 .collect();
             prop_assert_eq!(overlapping_box_pairs(&boxes), brute(&boxes));
         }
+    }
+
+    /// Slivers across the whole domain (each over far more than 64 cells,
+    /// compared with every box) among a thousand unit boxes: the same
+    /// pairs as comparing every pair, a sliver meeting another sliver
+    /// once.
+    #[test]
+    fn slivers_across_the_grid() {
+        let mut boxes: Vec<Aabb> = (0..1000)
+            .map(|k| {
+                let f = k as f64;
+                let c = Point3::new(
+                    (f * 7.31).sin() * 50.0 + 50.0,
+                    (f * 3.17).cos() * 50.0 + 50.0,
+                    (f * 1.93).sin() * 50.0 + 50.0,
+                );
+                Aabb::from_points(&[c, c + nalgebra::Vector3::repeat(1.0)])
+            })
+            .collect();
+        for k in [3, 500, 501, 998] {
+            let o = k as f64 * 0.01;
+            boxes[k] =
+                Aabb::from_points(&[Point3::new(o, 0.0, o), Point3::new(100.0, 100.0 - o, 100.0)]);
+        }
+        let pairs = overlapping_box_pairs(&boxes);
+        assert_eq!(pairs, brute(&boxes));
+        assert!(pairs.contains(&[3, 500]) && pairs.contains(&[501, 998]));
     }
 
     #[test]
