@@ -314,6 +314,7 @@ fn the_demo_runs_the_mitral_pipeline() {
     .unwrap();
     assert_eq!(r["flipped_triangles"], 0);
     assert_eq!(r["folded_edges"], 0);
+    assert_eq!(r["overlapping_boundary_edges"], 0);
 }
 
 /// An annulus given as separate 2-point line segments (as meshio and many

@@ -889,6 +889,7 @@ fn demo_runs_the_placenta_pipeline() {
     assert_eq!(r["template"], "planes");
     assert_eq!(r["converged"], true);
     assert_eq!(r["inverted_tets"], 0);
+    assert_eq!(r["overlapping_boundary_faces"], 0);
     let tets = r["input"]["tets"].as_u64().unwrap_or(0);
     assert!((9_000..12_000).contains(&tets), "{tets}");
     let img = &r["images"][0];

@@ -1,8 +1,10 @@
 //! Injectivity, not just orientation, through the binary: a tangled
 //! placenta mesh (a vertex dragged past its neighbour; a strong jitter) is
-//! refused with the first folded face named, a mirrored one (every tet
-//! negative, nothing overlapping) is mapped, and the report counts the
-//! output's folded faces as well as its inverted tets; a full mask is
+//! refused with the first folded face named, a slab wound through itself
+//! (locally injective, overlapping globally) with the two boundary faces
+//! that meet named, a mirrored one (every tet negative, nothing
+//! overlapping) is mapped, and the report counts the output's folded and
+//! overlapping boundary faces as well as its inverted tets; a full mask is
 //! refused for what it is.
 
 use unfold::io::{WriteOptions, write_mesh};
@@ -92,7 +94,59 @@ fn tangled_meshes_are_refused_and_mirrored_ones_mapped() {
     .unwrap();
     assert_eq!(r["input"]["reoriented_tets"], clean.tets.len());
     assert_eq!(r["folded_faces"], 0);
+    assert_eq!(r["overlapping_boundary_faces"], 0);
     assert_eq!(r["inverted_tets"], 0);
+}
+
+/// A long slab (`n` x 2 x 3 cells of 1.5 mm) wound round the z axis
+/// through `turns` turns at radius 30 mm, climbing 0.5 mm and moving in
+/// 0.5 mm per turn: every tet positive, no folded face; with more than
+/// one turn its ends pass through each other.
+fn wound_slab(n: usize, turns: f64) -> TetMesh {
+    let mut m = unfold::mesh::shapes::kuhn_grid([n, 2, 3], [1.5; 3]);
+    let len = 1.5 * n as f64;
+    for p in &mut m.positions {
+        let f = turns * p.x / len;
+        let th = 2.0 * std::f64::consts::PI * f;
+        let r = 30.0 - p.y - 0.5 * f;
+        *p = Point3::new(r * th.cos(), r * th.sin(), p.z + 0.5 * f);
+    }
+    m
+}
+
+/// Locally injective but overlapping globally: refused naming the two
+/// boundary faces that meet and where, before any optimization.
+#[test]
+fn a_slab_wound_through_itself_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let wound = wound_slab(150, 1.25);
+    assert!(unfold::mesh::geometry::folded_faces(&wound).is_empty());
+    let pos = &wound.positions;
+    assert!(wound.tets.iter().all(|t| {
+        let [a, b, c, d] = t.map(|v| pos[v as usize]);
+        unfold::mesh::geometry::tet_signed_volume(&a, &b, &c, &d) > 0.0
+    }));
+    let o = run(dir.path(), "wound", &wound);
+    assert_one_line_error(
+        &o,
+        "the mesh overlaps itself: its boundary meets itself at (",
+    );
+    let e = stderr(&o);
+    assert!(e.contains("remesh it"), "{e}");
+    assert!(
+        e.contains("boundary face [") && e.contains(" of tet "),
+        "{e}"
+    );
+    assert!(!e.contains("tangled"), "{e}");
+    // the point named lies in the overlapping stretch of the ring
+    let at = &e[e.find("at (").unwrap() + 4..];
+    let xyz: Vec<f64> = at[..at.find(')').unwrap()]
+        .split(", ")
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let r = xyz[0].hypot(xyz[1]);
+    assert!((26.0..=30.5).contains(&r), "{xyz:?}");
+    assert!(!dir.path().join("wound").exists(), "nothing written");
 }
 
 /// A mask with every voxel set (an inverted mask) is refused for what it

@@ -108,6 +108,7 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
     assert_eq!(r["anatomy_points"], n);
     assert_eq!(r["flipped_disk_triangles"], 0);
     assert_eq!(r["folded_disk_edges"], 0);
+    assert_eq!(r["overlapping_disk_boundary_edges"], 0);
     let max = r["roundtrip_error_um"]["max"].as_f64().unwrap();
     assert!(max < 5.0, "round trip max {max} um");
     assert_eq!(r["grid_mm"], 1.5);

@@ -193,6 +193,7 @@ fn holes_in_the_wall_are_capped_and_far_points_keep_their_coordinates() {
     assert_eq!(o1["cap_triangles"], caps);
     assert_eq!(r1["flipped_disk_triangles"], 0);
     assert_eq!(r1["folded_disk_edges"], 0);
+    assert_eq!(r1["overlapping_disk_boundary_edges"], 0);
     // the exact inverse still holds
     let max = f(&r1["roundtrip_error_um"]["max"]);
     assert!(max < 5.0, "round trip max {max} um");

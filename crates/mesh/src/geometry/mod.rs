@@ -15,20 +15,31 @@
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
 //! - `folds`: [`folded_faces`], [`folded_edges`] (local overlaps that
-//!   orientation does not show).
+//!   orientation does not show);
+//! - `broad_phase`: [`overlapping_box_pairs`] (meeting boxes on a grid);
+//! - `self_intersections`: [`triangle_self_intersections`],
+//!   [`tet_boundary_self_intersections`] (a surface, or a tet mesh's
+//!   boundary, meeting itself: the global overlaps);
+//! - `boundary_crossings`: [`boundary_edge_crossings`] (the boundary of a
+//!   planar triangle map crossing itself).
 
 mod aabb;
+mod boundary_crossings;
+mod broad_phase;
 mod folds;
 mod hull;
 mod intersect;
 mod measures;
 mod pca;
 mod predicates;
+mod self_intersections;
 #[cfg(test)]
 mod strategies;
 mod validation;
 
 pub use aabb::{Aabb, bounding_box};
+pub use boundary_crossings::{BoundaryCrossings, EdgeCrossing, boundary_edge_crossings};
+pub use broad_phase::overlapping_box_pairs;
 pub use folds::{FoldedEdge, FoldedFace, folded_edges, folded_faces};
 pub use hull::convex_hull_vertices;
 pub use intersect::segment_crosses_triangle;
@@ -39,4 +50,8 @@ pub use measures::{
 };
 pub use pca::{PcaFrame, pca_frame};
 pub use predicates::{orient2d_exact, orient3d_exact};
+pub use self_intersections::{
+    BoundaryOverlaps, SelfIntersections, TriangleOverlap, tet_boundary_self_intersections,
+    triangle_self_intersections,
+};
 pub use validation::{check_finite, check_indices};

@@ -299,6 +299,11 @@ pub struct Report {
     /// [`unfold_mesh::geometry::folded_edges`]; 0 for a locally injective
     /// map).
     pub folded_edges: usize,
+    /// Boundary edges of the final 2D map that cross another boundary edge
+    /// of the same leaflet's map (the leaflet's outline overlapping itself,
+    /// [`unfold_mesh::geometry::boundary_edge_crossings`]), both leaflets;
+    /// 0 for an injective map.
+    pub overlapping_boundary_edges: usize,
     /// The relaxation ("sd" or "spring").
     pub relax: &'static str,
     /// The initial layout used per leaflet ("longitudes" or "tutte" for

@@ -303,6 +303,16 @@ impl Pipeline {
                 unfold_mesh::geometry::folded_edges(&uv[k], &valve.leaflets[k].mesh.triangles).len()
             })
             .sum();
+        let overlapping: usize = [ANTERIOR, POSTERIOR]
+            .iter()
+            .map(|&k| {
+                unfold_mesh::geometry::boundary_edge_crossings(
+                    &uv[k],
+                    &valve.leaflets[k].mesh.triangles,
+                )
+                .edges_involved
+            })
+            .sum();
         let mut carpentier = [0usize; 6];
         let (mut within, mut near) = (0, 0);
         for lm in &leaflet_maps {
@@ -330,6 +340,7 @@ impl Pipeline {
             },
             flipped_triangles: flipped,
             folded_edges: folded,
+            overlapping_boundary_edges: overlapping,
             relax: match config.relax {
                 RelaxMode::Spring => "spring",
                 RelaxMode::Sd => "sd",

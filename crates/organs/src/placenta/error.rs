@@ -44,6 +44,27 @@ pub enum PlacentaError {
         /// Its centroid, mm.
         position: [f64; 3],
     },
+    /// The mesh overlaps itself globally: no tet is inverted and no face
+    /// folded, but its boundary surface meets itself (say a slab bent round
+    /// so that one end passes through the other,
+    /// [`unfold_mesh::geometry::tet_boundary_self_intersections`]). Such a
+    /// mesh is no valid domain, so it is refused rather than mapped.
+    #[error(
+        "the mesh overlaps itself: its boundary meets itself at ({:.2}, {:.2}, {:.2}) mm, where \
+         boundary face {:?} of tet {} and boundary face {:?} of tet {} intersect ({faces} \
+         boundary face(s) involved); remesh it",
+        .position[0], .position[1], .position[2], .vertices[0], .tets[0], .vertices[1], .tets[1]
+    )]
+    SelfOverlapping {
+        /// Boundary faces in at least one intersecting pair.
+        faces: usize,
+        /// The first intersecting pair's vertices (volume vertex ids).
+        vertices: [[u32; 3]; 2],
+        /// The tets of those two faces.
+        tets: [usize; 2],
+        /// A point where they meet, mm.
+        position: [f64; 3],
+    },
     /// The mesh encloses no volume (flat, or empty).
     #[error("the mesh has no volume")]
     NoVolume {

@@ -22,6 +22,9 @@ pub struct Evaluation {
     /// Interior faces whose two tets lie on the same side of the face in
     /// the map (an overlap that orientation alone does not show).
     pub folded_faces: usize,
+    /// Boundary faces that meet another boundary face in the map (a global
+    /// overlap, [`unfold_mesh::geometry::triangle_self_intersections`]).
+    pub overlapping_boundary_faces: usize,
     /// Per tet `log2 det J`.
     pub log2_det_j: Vec<f64>,
     /// Per tet `D(J)` (symmetric Dirichlet).
@@ -65,6 +68,10 @@ pub fn evaluate(
         min_det_j: min_det_j(mesh, x),
         inverted_tets: inverted_count(mesh, x),
         folded_faces: folded_count(mesh, x),
+        overlapping_boundary_faces: unfold_mesh::geometry::triangle_self_intersections(
+            &mapped, &tris,
+        )
+        .triangles_involved,
         log2_det_j: log2_det_j(mesh, x),
         sym_dirichlet: symmetric_dirichlet(mesh, x),
         log2_edge_ratio: log2_edge_ratio(mesh, x),

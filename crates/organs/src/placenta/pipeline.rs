@@ -363,6 +363,7 @@ impl Pipeline {
             min_det_j: eval.min_det_j,
             inverted_tets: eval.inverted_tets,
             folded_faces: eval.folded_faces,
+            overlapping_boundary_faces: eval.overlapping_boundary_faces,
             theta: named(&names, &opt.theta),
             theta_initial: named(&names, &opt.theta_initial),
             estimates,

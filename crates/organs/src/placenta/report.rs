@@ -92,6 +92,9 @@ pub struct Report {
     /// Interior faces folded in the map (the two tets on the same side of
     /// the face; 0 for an injective map).
     pub folded_faces: usize,
+    /// Boundary faces of the map that meet another boundary face (the
+    /// boundary surface overlapping itself; 0 for an injective map).
+    pub overlapping_boundary_faces: usize,
     /// Final template parameters, mm (`h`, or `rx`, `ry`, `rz`).
     pub theta: BTreeMap<&'static str, f64>,
     /// Initial template parameters (ALGORITHMS 2.4), mm.

@@ -138,6 +138,11 @@ pub struct Report {
     /// Interior edges of S folded in the disk map (the two triangles of an
     /// edge on the same side of it, [`unfold_mesh::geometry::folded_edges`]).
     pub folded_disk_edges: usize,
+    /// Boundary edges of S that cross another boundary edge in the disk map
+    /// (the outline overlapping itself,
+    /// [`unfold_mesh::geometry::boundary_edge_crossings`]; 0 for an
+    /// injective map).
+    pub overlapping_disk_boundary_edges: usize,
     /// Grid spacing of the Laplace field, mm.
     pub grid_mm: f64,
     /// Radius of H, mm.
@@ -380,6 +385,11 @@ fn outcome(
             &chart.surface().triangles,
         )
         .len(),
+        overlapping_disk_boundary_edges: unfold_mesh::geometry::boundary_edge_crossings(
+            &chart.disk().uv,
+            &chart.surface().triangles,
+        )
+        .edges_involved,
         grid_mm: chart.field().grid_mm(),
         hemisphere_mm: chart.field().hemisphere_radius(),
         display_exponent: config.display_exponent,
