@@ -16,6 +16,8 @@ mod error;
 mod format;
 pub mod frame;
 pub mod gmsh;
+mod image_header;
+mod image_values;
 pub mod markups;
 pub mod medit;
 pub mod nifti;
@@ -34,6 +36,8 @@ pub use format::{
     write_image, write_mesh,
 };
 pub use frame::{Frame, mesh_frame_hint};
+pub use image_header::{ImageHeader, read_image_header};
+pub use image_values::{ValueSummary, image_value_summary, scan_image_values};
 pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};
