@@ -34,15 +34,25 @@ impl ValueSummary {
     /// Adds values to the summary.
     pub fn add(&mut self, values: &[f32]) {
         self.count += values.len() as u64;
+        // One plain loop (this runs over every voxel): comparisons with NaN
+        // are false, so NaN never moves (lo, hi), left at (inf, -inf) when
+        // every value is NaN (or there are none), and lo <= hi otherwise.
+        let (mut lo, mut hi, mut nan) = (f32::INFINITY, f32::NEG_INFINITY, 0u64);
         for &x in values {
-            if x.is_nan() {
-                self.nan += 1;
-                continue;
+            if x < lo {
+                lo = x;
             }
-            let x = f64::from(x);
+            if x > hi {
+                hi = x;
+            }
+            nan += u64::from(x.is_nan());
+        }
+        self.nan += nan;
+        if lo <= hi {
+            let (lo, hi) = (f64::from(lo), f64::from(hi));
             self.range = Some(match self.range {
-                None => (x, x),
-                Some((lo, hi)) => (lo.min(x), hi.max(x)),
+                None => (lo, hi),
+                Some((a, b)) => (a.min(lo), b.max(hi)),
             });
         }
     }

@@ -647,6 +647,23 @@ pub(crate) fn decode_into(
     scale: Option<(f64, f64)>,
     out: &mut Vec<f32>,
 ) {
+    out.reserve(raw.len() / datatype.size());
+    match (datatype, scale) {
+        // Bytes need no reassembly (the common label-map case, kept cheap).
+        (Datatype::Uint8, None) => out.extend(raw.iter().map(|&v| f32::from(v))),
+        (Datatype::Int8, None) => out.extend(raw.iter().map(|&v| f32::from(v as i8))),
+        _ => decode_multibyte(raw, datatype, be, scale, out),
+    }
+}
+
+/// [`decode_into`] for every type and scaling.
+fn decode_multibyte(
+    raw: &[u8],
+    datatype: Datatype,
+    be: bool,
+    scale: Option<(f64, f64)>,
+    out: &mut Vec<f32>,
+) {
     macro_rules! values {
         ($t:ty) => {{
             const N: usize = std::mem::size_of::<$t>();
