@@ -81,6 +81,10 @@ fn gzip_of_header_and_zeros(path: &Path, header: &[u8], zero_mib: usize) {
 
 /// Runs `unfold args`, stdout to a file, and returns (exit success, stdout,
 /// peak resident memory of the child in bytes from `wait4`).
+#[expect(
+    clippy::zombie_processes,
+    reason = "the child is reaped by libc::wait4, which also gives its rusage"
+)]
 fn run_measured(args: &[&str], out: &Path) -> (bool, String, u64) {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_unfold"))
         .args(args)
@@ -186,6 +190,18 @@ fn info_strict_fails_on_an_infinite_volume() {
     let o = unfold(&["info", &s(&m), "--strict"]);
     assert_one_line_error(&o, "the volume of element 0 is");
     assert!(common::stderr(&o).contains("scale the mesh down"));
+    // Infinite or NaN coordinates are refused by the readers themselves.
+    let inf = dir.path().join("inf.vtk");
+    std::fs::write(
+        &inf,
+        "# vtk DataFile Version 4.2\ninf\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n\
+         0 0 0 inf 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n",
+    )
+    .unwrap();
+    assert_one_line_error(
+        &unfold(&["info", &s(&inf)]),
+        "vertex 1 has a non-finite coordinate",
+    );
     // Without --strict it is reported, not fatal.
     let o = unfold(&["info", &s(&m)]);
     assert!(o.status.success());

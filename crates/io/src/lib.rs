@@ -5,7 +5,9 @@
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
 //! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`.
 //! Landmarks: 3D Slicer markups `.mrk.json` and `.fcsv` ([`markups`]). The
-//! format is chosen by file extension.
+//! format is chosen by file extension. An image's header can be read alone
+//! ([`read_image_header`]) and its values streamed in bounded memory
+//! ([`scan_image_values`], [`image_value_summary`]).
 //!
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
