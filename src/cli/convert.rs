@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use unfold::io::{
     Datatype, FileKind, LegacyVersion, NiftiImage, StagedOutputs, WriteOptions, XmlEncoding,
-    read_image, read_mesh, write_image, write_mesh,
+    read_mesh, write_image, write_mesh,
 };
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -149,7 +149,7 @@ fn kept_datatype(image: &NiftiImage) -> Datatype {
 /// units, intent, description; NRRD: description as `content`).
 /// The image is written at `target` (staged, put in place by the caller).
 fn convert_image(a: &ConvertArgs, target: &std::path::Path) -> Result<(), CliError> {
-    let image = read_image(&a.input)?;
+    let image = super::read_image_checked(&a.input, 8.0)?;
     let datatype = kept_datatype(&image);
     let dims = image.volume.dims();
     write_image(target, &image.with_datatype(datatype))?;

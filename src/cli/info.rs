@@ -1,12 +1,18 @@
 //! `unfold info FILE [--json]`: what a mesh or image contains, and whether
 //! it is valid.
+//!
+//! An image is read header first ([`unfold::io::read_image_header`] fields)
+//! and its values are streamed once for the range
+//! ([`unfold::io::image_value_summary`]): memory stays about 1 MiB whatever
+//! the image's size, and a `.nii.gz` is never inflated past what its header
+//! declares.
 
 use super::{CliError, printable};
 use clap::Args;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use unfold::io::{FileKind, NiftiImage, read_image, read_mesh};
+use unfold::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
 use unfold::mesh::geometry::{bounding_box, total_area, total_volume};
 use unfold::mesh::topology::{
     boundary_loops, connected_components, euler_characteristic, tet_boundary,
@@ -199,20 +205,25 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
     info
 }
 
-/// Builds the report of an image already read.
-pub fn image_info(path: &Path, img: &NiftiImage) -> ImageInfo {
-    let v = &img.volume;
-    let a = v.affine();
+/// Builds the report of an image from its header and a pass over its values.
+pub fn image_info(path: &Path, header: &ImageHeader, values: &ValueSummary) -> ImageInfo {
+    let a = &header.affine;
     ImageInfo {
         file: path.display().to_string(),
         kind: "image",
-        dims: v.dims(),
-        spacing_mm: v.spacing(),
+        dims: header.dims,
+        spacing_mm: header.spacing(),
         affine: std::array::from_fn(|i| std::array::from_fn(|j| a[(i, j)])),
-        affine_source: format!("{:?}", img.affine_source).to_lowercase(),
-        datatype: format!("{:?}", img.datatype).to_lowercase(),
-        value_range: v.value_range().map(|(lo, hi)| [lo, hi]),
+        affine_source: format!("{:?}", header.affine_source).to_lowercase(),
+        datatype: format!("{:?}", header.datatype).to_lowercase(),
+        value_range: values.range.map(|(lo, hi)| [lo, hi]),
     }
+}
+
+/// Reads an image's header and streams its values once (bounded memory).
+fn read_image_info(path: &Path) -> Result<ImageInfo, CliError> {
+    let (header, values) = image_value_summary(path)?;
+    Ok(image_info(path, &header, &values))
 }
 
 fn print_mesh(i: &MeshInfo) {
@@ -330,7 +341,7 @@ fn to_json<T: Serialize>(v: &T) -> String {
 pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
     match FileKind::from_path(path)? {
         FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
-            Ok((to_json(&image_info(path, &read_image(path)?)), true))
+            Ok((to_json(&read_image_info(path)?), true))
         }
         FileKind::Mesh(_) => {
             let i = mesh_info(path, &read_mesh(path)?);
@@ -344,7 +355,7 @@ pub fn run(a: &InfoArgs) -> Result<(), CliError> {
     let path = a.file.as_path();
     match FileKind::from_path(path)? {
         FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
-            let i = image_info(path, &read_image(path)?);
+            let i = read_image_info(path)?;
             if a.json {
                 println!("{}", to_json(&i));
             } else {

@@ -9,7 +9,7 @@
 use super::{CliError, at, positive};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use unfold::io::{StagedOutputs, WriteOptions, read_image, write_mesh};
+use unfold::io::{StagedOutputs, WriteOptions, write_mesh};
 use unfold::mesh::mesher::{
     IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, estimate_memory, mask_from_image, mesh_mask,
 };
@@ -90,7 +90,7 @@ impl MaskArgs {
 
     /// Reads the mask image at `path` (3D, binary or thresholded).
     pub(crate) fn read_mask(&self, path: &Path) -> Result<Volume<bool>, CliError> {
-        let image = read_image(path)?;
+        let image = super::read_image_checked(path, 1.0)?;
         mask_from_image(&image.volume, self.threshold).map_err(|e| {
             let msg = e
                 .to_string()

@@ -161,6 +161,33 @@ pub(crate) fn printable(text: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(out)
 }
 
+/// Reads an image after checking that its values fit the run's memory:
+/// the header alone first ([`unfold::io::read_image_header`]), then
+/// `voxels x 4` bytes (the values as `f32`, decoded as they are read) plus
+/// `voxels x extra_per_voxel` for what the caller derives from them (a
+/// mask: 1 byte per voxel) and a 1 MiB read buffer, checked before the
+/// values are read.
+///
+/// # Errors
+/// The readers' errors; [`CliError::Memory`] when the values do not fit.
+pub(crate) fn read_image_checked(
+    path: &std::path::Path,
+    extra_per_voxel: f64,
+) -> Result<unfold::io::NiftiImage, CliError> {
+    let header = unfold::io::read_image_header(path)?;
+    let voxels = header.value_count() as f64;
+    let estimate = unfold::mesh::memory::MemoryEstimate::new()
+        .with("image values", voxels, 4.0 + extra_per_voxel)
+        .with("read buffer", 1.0, 1024.0 * 1024.0);
+    memory::check(
+        "reading the image",
+        &estimate,
+        "crop or resample the image (its header declares more voxels than fit), or raise \
+         --max-memory",
+    )?;
+    Ok(unfold::io::read_image(path)?)
+}
+
 /// Creates `dir` (and parents) if needed.
 pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
     std::fs::create_dir_all(dir).map_err(|source| CliError::Fs {

@@ -47,8 +47,8 @@ use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
 use unfold::io::Frame;
 use unfold::io::nifti::INTENT_VECTOR;
 use unfold::io::{
-    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_image, read_mesh,
-    write_image, write_mesh,
+    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
+    write_mesh,
 };
 use unfold::mesh::mesher::MeshQuality;
 use unfold::mesh::{CellMesh, MeshError};
@@ -1026,7 +1026,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         images.push(ImageInput {
             path: p.clone(),
             name,
-            image: read_image(p)?,
+            image: super::read_image_checked(p, 0.0)?,
         });
     }
     check_memory(

@@ -16,7 +16,7 @@ use super::placenta::{InterpArg, nearest_datatype};
 use super::{CliError, at};
 use clap::Args;
 use std::path::PathBuf;
-use unfold::io::{FileKind, NiftiImage, StagedOutputs, read_image, read_tet_mesh, write_image};
+use unfold::io::{FileKind, NiftiImage, StagedOutputs, read_tet_mesh, write_image};
 use unfold::organs::placenta::pushback::push_back;
 use unfold::organs::placenta::{Interpolation, PullbackError};
 
@@ -99,8 +99,8 @@ pub fn run(a: &PushbackArgs) -> Result<(), CliError> {
             ),
         ));
     }
-    let image = read_image(&a.image)?;
-    let reference = read_image(&a.reference)?;
+    let image = super::read_image_checked(&a.image, 0.0)?;
+    let reference = super::read_image_checked(&a.reference, 48.0)?;
     let interpolation = Interpolation::from(a.interp);
     let (volume, stats) = push_back(
         &original.positions,

@@ -120,3 +120,31 @@ fn a_vtu_holding_gigabytes_honestly_is_capped_by_the_memory_limit() {
         output: None,
     });
 }
+
+#[path = "../common/gzip_zeros.rs"]
+mod gzip_zeros;
+
+#[test]
+fn a_gigabyte_of_gzipped_zeros_is_read_only_if_it_fits() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("zeros.nii.gz");
+    gzip_zeros::gzip_of_header_and_zeros(&img, &gzip_zeros::nifti_header([1024, 1024, 1024]), 1024);
+    let out = dir.path().join("m.vtu");
+    run(&Case {
+        name: "1 MB .nii.gz of 1024^3 zeros: mesh --max-memory 2G",
+        args: args(&["mesh", &s(&img), "-o", &s(&out), "--max-memory", "2G"]),
+        expect: "reading the image would need about 5.0 GiB",
+        max_peak_mib: 100.0,
+        inputs: vec![img.clone()],
+        output: Some(out),
+    });
+    let out = dir.path().join("z.nrrd");
+    run(&Case {
+        name: "1 MB .nii.gz of 1024^3 zeros: convert --max-memory 2G",
+        args: args(&["convert", &s(&img), &s(&out), "--max-memory", "2G"]),
+        expect: "reading the image would need about",
+        max_peak_mib: 100.0,
+        inputs: vec![img.clone()],
+        output: Some(out),
+    });
+}

@@ -91,6 +91,20 @@ pub enum IoError {
         /// The mesh problem.
         source: MeshError,
     },
+    /// A compressed stream (a `.nii.gz`, a NRRD file's gzip data)
+    /// decompresses to a size other than the header declares. Inflation
+    /// stops one byte past the declared size, so `found` is at most
+    /// `declared + 1`, which means "more than declared".
+    #[error("{path}: {}", decompressed_size_message(*.declared, *.found))]
+    DecompressedSize {
+        /// The file.
+        path: FilePath,
+        /// Decompressed bytes the header declares (for NIfTI `vox_offset` +
+        /// voxels × type size; for NRRD `byte skip` + values × type size).
+        declared: u64,
+        /// Decompressed bytes found (at most `declared + 1`).
+        found: u64,
+    },
     /// The file is not a usable markups (landmarks) file.
     #[error("{path}: {source}")]
     Markups {
@@ -127,6 +141,7 @@ impl IoError {
             | IoError::Malformed { path, .. }
             | IoError::Unsupported { path, .. }
             | IoError::Mesh { path, .. }
+            | IoError::DecompressedSize { path, .. }
             | IoError::Markups { path, .. } => path,
         }
     }
@@ -147,6 +162,21 @@ impl IoError {
         let slot = self.path_slot();
         slot.0 = f(&slot.0);
         self
+    }
+}
+
+/// The message of [`IoError::DecompressedSize`].
+fn decompressed_size_message(declared: u64, found: u64) -> String {
+    if found > declared {
+        format!(
+            "the compressed data decompresses to more than {declared} bytes, the size the \
+             header declares: the header's dimensions or type are wrong"
+        )
+    } else {
+        format!(
+            "the compressed data decompresses to only {found} bytes, but the header declares \
+             {declared}: the file is truncated or the header's dimensions or type are wrong"
+        )
     }
 }
 

@@ -227,25 +227,37 @@ pub fn write_mesh(
 }
 
 /// Reads an image: NIfTI-1 (`.nii`, `.nii.gz`) or NRRD (`.nrrd`,
-/// `.seg.nrrd`, `.nhdr` with its data file beside it).
+/// `.seg.nrrd`, `.nhdr` with its data file beside it). The header is read
+/// first and the values are decoded as they are read (or inflated), so the
+/// memory used is the values' (`4 ×` voxels bytes) plus about 1 MiB.
 pub fn read_image(path: impl AsRef<Path>) -> Result<NiftiImage, IoError> {
     let path = path.as_ref();
-    let kind = FileKind::from_path(path)?;
-    if let FileKind::Mesh(_) = kind {
-        return Err(IoError::unsupported("this is a mesh, not an image").with_path(path));
-    }
-    let bytes = read_file(path)?;
-    match kind {
-        FileKind::Nrrd { .. } => {
-            let dir = match path.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d,
-                _ => Path::new("."),
-            };
-            crate::nrrd::read(&bytes, Some(dir))
-        }
-        _ => crate::nifti::read(&bytes),
+    match image_kind(path)? {
+        FileKind::Nrrd { .. } => crate::nrrd::read_file(path),
+        _ => crate::nifti::read_file(path),
     }
     .map_err(|e| e.with_path(path))
+}
+
+/// The kind of an image path; a mesh path is refused.
+pub(crate) fn image_kind(path: &Path) -> Result<FileKind, IoError> {
+    match FileKind::from_path(path)? {
+        FileKind::Mesh(_) => {
+            Err(IoError::unsupported("this is a mesh, not an image").with_path(path))
+        }
+        kind => Ok(kind),
+    }
+}
+
+/// Opens a file for reading, with its length.
+pub(crate) fn open(path: &Path) -> Result<(std::fs::File, u64), IoError> {
+    let err = |source| IoError::Io {
+        path: crate::FilePath(path.to_path_buf()),
+        source,
+    };
+    let f = std::fs::File::open(path).map_err(err)?;
+    let len = f.metadata().map_err(err)?.len();
+    Ok((f, len))
 }
 
 /// Writes an image atomically: NIfTI-1 (gzip-compressed for `.nii.gz`) or

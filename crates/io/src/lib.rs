@@ -5,7 +5,9 @@
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
 //! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`.
 //! Landmarks: 3D Slicer markups `.mrk.json` and `.fcsv` ([`markups`]). The
-//! format is chosen by file extension.
+//! format is chosen by file extension. An image's header can be read alone
+//! ([`read_image_header`]) and its values streamed in bounded memory
+//! ([`scan_image_values`], [`image_value_summary`]).
 //!
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
@@ -20,6 +22,8 @@ mod error;
 mod format;
 pub mod frame;
 pub mod gmsh;
+mod image_header;
+mod image_values;
 pub mod markups;
 pub mod medit;
 pub mod nifti;
@@ -41,6 +45,8 @@ pub use format::{
     write_image, write_mesh,
 };
 pub use frame::{Frame, mesh_frame_hint};
+pub use image_header::{ImageHeader, read_image_header};
+pub use image_values::{ValueSummary, image_value_summary, scan_image_values};
 pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};

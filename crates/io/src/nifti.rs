@@ -10,11 +10,15 @@
 //!
 //! Both byte orders are read (the order is the one in which `sizeof_hdr`
 //! reads 348). gzip input (magic `1f 8b`) is decompressed with
-//! [`flate2::read::MultiGzDecoder`]; only the bytes the header declares
-//! (`vox_offset + data`) are kept, the size the header declares is checked
-//! against the most a gzip stream of that length can expand to before
-//! decompressing, and at most [`MAX_GZ_TRAILING`] bytes after the image are
-//! decompressed (to reach the end of the stream and check its CRC).
+//! [`flate2::read::MultiGzDecoder`] as it is read: the header's 348 bytes
+//! first; the size the header declares (`vox_offset + voxels × type size`)
+//! is checked against the most a gzip stream of that length can expand to
+//! before anything more is inflated, and the stream is never inflated more
+//! than one byte past that size: a stream holding more or less is refused
+//! with [`IoError::DecompressedSize`]. Values are decoded [`CHUNK`] bytes at
+//! a time, so reading costs the `f32` values and 1 MiB; the header alone is
+//! read by [`crate::read_image_header`] and the values streamed by
+//! [`crate::scan_image_values`].
 //!
 //! Values are scaled, `value = scl_slope * stored + scl_inter`, when
 //! `scl_slope` is finite and non-zero (slope 0 means "no scaling"), computed in
@@ -37,7 +41,7 @@
 //! (intent [`INTENT_VECTOR`] or [`INTENT_DISPVECT`], `dim[4] = 1`): their
 //! components along `dim[5]` become the volume's frames. Extensions between byte 352
 //! and `vox_offset` are skipped; bytes after the data are ignored (`.nii`) or
-//! limited as above (`.nii.gz`). A `vox_offset` of 0 is taken as 352.
+//! refused as above (`.nii.gz`). A `vox_offset` of 0 is taken as 352.
 //!
 //! # Writing
 //!
@@ -56,20 +60,18 @@
 //! fields), and `xyzt_units` is millimetres (plus
 //! seconds, or the temporal unit read, for 4D).
 
-use crate::{IoError, Location};
+use crate::{ImageHeader, IoError, Location};
 use flate2::read::MultiGzDecoder;
 use flate2::write::GzEncoder;
 use nalgebra::{Matrix3, Matrix4, Vector3};
-use std::io::{Read, Write};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::Path;
 use unfold_mesh::Volume;
 
 /// Size of a NIfTI-1 header (`sizeof_hdr`).
 const HEADER_LEN: usize = 348;
 /// Offset of the voxel data in files written here (header + 4 extension bytes).
 const WRITE_VOX_OFFSET: usize = 352;
-/// At most this many decompressed bytes may follow the image in a `.nii.gz`
-/// (they are decompressed, to verify the stream's CRC, then discarded).
-pub const MAX_GZ_TRAILING: u64 = 1 << 16;
 /// Largest expansion of a deflate stream (the format's limit is about 1032:1).
 pub(crate) const GZ_MAX_RATIO: u64 = 1100;
 
@@ -409,25 +411,33 @@ impl Fields<'_> {
 }
 
 /// What the header says, checked.
-struct Header {
+pub(crate) struct Header {
     big_endian: bool,
-    dims: [usize; 4],
-    datatype: Datatype,
     /// Offset of the data.
     offset: u64,
     /// Bytes of data.
     data_len: u64,
     /// `(slope, inter)` when values are scaled.
     scale: Option<(f64, f64)>,
-    image: NiftiImage,
+    /// The header fields.
+    pub(crate) meta: ImageHeader,
+}
+
+impl Header {
+    /// Bytes the file holds up to the end of the data, `vox_offset + data`.
+    fn total(&self) -> Result<u64, IoError> {
+        self.offset
+            .checked_add(self.data_len)
+            .ok_or_else(|| malformed(108, "vox_offset plus data size overflows"))
+    }
 }
 
 fn malformed(off: u64, msg: impl Into<String>) -> IoError {
     IoError::malformed(Location::Byte(off), msg)
 }
 
-/// Parses and checks the header (`h` holds at least 348 bytes). The returned
-/// `image` holds a placeholder volume; the caller replaces it.
+/// Parses and checks the header (the first 348 bytes of `h`; fewer is an
+/// error).
 fn parse_header(h: &[u8]) -> Result<Header, IoError> {
     if h.len() < HEADER_LEN {
         return Err(malformed(
@@ -596,13 +606,10 @@ fn parse_header(h: &[u8]) -> Result<Header, IoError> {
     } else {
         1.0
     };
-    // Checking the affine now (cheap) fails a bad one before any data is read;
-    // the 1-voxel volume is replaced once the data is read.
-    let volume = Volume::new([1, 1, 1, 1], affine, vec![0.0])?;
-    let image = NiftiImage {
-        volume,
+    let meta = ImageHeader {
+        dims,
+        affine,
         datatype,
-        write_datatype: Datatype::Float32,
         scl_slope: slope,
         scl_inter: inter,
         affine_source,
@@ -615,31 +622,48 @@ fn parse_header(h: &[u8]) -> Result<Header, IoError> {
         intent_params: [f.f32(56), f.f32(60), f.f32(64)],
         intent_name: f.text(328, 16),
     };
+    // Checking the affine now (cheap) fails a bad one before any data is read.
+    meta.check_affine()?;
     Ok(Header {
         big_endian,
-        dims,
-        datatype,
         offset,
         data_len,
         scale,
-        image,
+        meta,
     })
 }
+/// Bytes of stored values decoded at a time when streaming (1 MiB, a
+/// multiple of every type size).
+pub(crate) const CHUNK: usize = 1 << 20;
 
-/// Converts the raw data (exactly `header.data_len` bytes) to scaled `f32`.
-fn decode(header: &Header, raw: &[u8]) -> Vec<f32> {
-    decode_values(raw, header.datatype, header.big_endian, header.scale)
-}
-
-/// Converts packed values of type `datatype` (in the given byte order) to
-/// `f32`, as `value = slope * stored + inter` (computed in `f64`) when `scale`
-/// is `Some((slope, inter))`. A trailing partial value is ignored.
-pub(crate) fn decode_values(
+/// Appends packed values of type `datatype` (in the given byte order) to
+/// `out` as `f32`, as `value = slope * stored + inter` (computed in `f64`)
+/// when `scale` is `Some((slope, inter))`. A trailing partial value is
+/// ignored.
+pub(crate) fn decode_into(
     raw: &[u8],
     datatype: Datatype,
     be: bool,
     scale: Option<(f64, f64)>,
-) -> Vec<f32> {
+    out: &mut Vec<f32>,
+) {
+    out.reserve(raw.len() / datatype.size());
+    match (datatype, scale) {
+        // Bytes need no reassembly (the common label-map case, kept cheap).
+        (Datatype::Uint8, None) => out.extend(raw.iter().map(|&v| f32::from(v))),
+        (Datatype::Int8, None) => out.extend(raw.iter().map(|&v| f32::from(v as i8))),
+        _ => decode_multibyte(raw, datatype, be, scale, out),
+    }
+}
+
+/// [`decode_into`] for every type and scaling.
+fn decode_multibyte(
+    raw: &[u8],
+    datatype: Datatype,
+    be: bool,
+    scale: Option<(f64, f64)>,
+    out: &mut Vec<f32>,
+) {
     macro_rules! values {
         ($t:ty) => {{
             const N: usize = std::mem::size_of::<$t>();
@@ -657,8 +681,8 @@ pub(crate) fn decode_values(
     macro_rules! convert {
         ($t:ty) => {{
             match scale {
-                Some((s, i)) => values!($t).map(|v| (v as f64 * s + i) as f32).collect(),
-                None => values!($t).map(|v| v as f32).collect(),
+                Some((s, i)) => out.extend(values!($t).map(|v| (v as f64 * s + i) as f32)),
+                None => out.extend(values!($t).map(|v| v as f32)),
             }
         }};
     }
@@ -676,42 +700,49 @@ pub(crate) fn decode_values(
     }
 }
 
-/// Builds the image from a checked header and the bytes of the whole
-/// (decompressed) file.
-fn finish(mut header: Header, bytes: &[u8]) -> Result<NiftiImage, IoError> {
-    let start = header.offset;
-    let end = start.checked_add(header.data_len);
-    let raw = match end {
-        Some(end) if end <= bytes.len() as u64 => &bytes[start as usize..end as usize],
-        _ => {
-            return Err(malformed(
-                bytes.len() as u64,
-                format!(
-                    "the file ends after {} bytes, but the header declares {} bytes of {} \
-                     data for dimensions {:?} at offset {start}",
-                    bytes.len(),
-                    header.data_len,
-                    header.datatype.name(),
-                    header.dims
-                ),
-            ));
+/// Reads until `buf` is full or the stream ends; returns the bytes read.
+pub(crate) fn fill(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
         }
-    };
-    let data = decode(&header, raw);
-    let affine = *header.image.volume.affine();
-    header.image.volume = Volume::new(header.dims, affine, data)?;
-    Ok(header.image)
+    }
+    Ok(n)
 }
 
-/// Parses a `.nii` or `.nii.gz` file's bytes (gzip is recognized by its magic
-/// bytes `1f 8b`). See the [module documentation](self) for what is read.
-pub fn read(bytes: &[u8]) -> Result<NiftiImage, IoError> {
-    if bytes.starts_with(&[0x1f, 0x8b]) {
-        read_gz(bytes)
-    } else {
-        let header = parse_header(bytes)?;
-        finish(header, bytes)
+/// Reads up to `len` bytes of packed values from `r`, [`CHUNK`] bytes at a
+/// time, and hands each chunk, decoded (see [`decode_into`]), to `sink`.
+/// Returns the bytes read: fewer than `len` when the stream ended early.
+/// Read errors are mapped by `err` (with the offset, from the first byte,
+/// of the failed read).
+pub(crate) fn stream_packed(
+    r: &mut impl Read,
+    len: u64,
+    (datatype, be, scale): (Datatype, bool, Option<(f64, f64)>),
+    sink: &mut dyn FnMut(&[f32]),
+    err: &dyn Fn(std::io::Error, u64) -> IoError,
+) -> Result<u64, IoError> {
+    let mut buf = vec![0u8; len.min(CHUNK as u64) as usize];
+    let mut values = Vec::new();
+    let mut done = 0u64;
+    while done < len {
+        let want = (len - done).min(CHUNK as u64) as usize;
+        let n = fill(r, &mut buf[..want]).map_err(|e| err(e, done))?;
+        values.clear();
+        decode_into(&buf[..n], datatype, be, scale, &mut values);
+        if !values.is_empty() {
+            sink(&values);
+        }
+        done += n as u64;
+        if n < want {
+            break;
+        }
     }
+    Ok(done)
 }
 
 fn gz_error(e: std::io::Error, at: u64) -> IoError {
@@ -721,75 +752,204 @@ fn gz_error(e: std::io::Error, at: u64) -> IoError {
     )
 }
 
-/// Reads `limit` bytes (or up to the end of the stream) from `r`, appending to
-/// `out`; the buffer grows only as data actually arrives.
-fn read_up_to(r: &mut impl Read, limit: u64, out: &mut Vec<u8>) -> Result<(), IoError> {
-    let at = out.len() as u64;
-    r.take(limit)
-        .read_to_end(out)
-        .map(|_| ())
-        .map_err(|e| gz_error(e, at))
+/// The error of a read failing at `at` (decompressed offset for gzip).
+fn read_error(gzip: bool) -> impl Fn(std::io::Error, u64) -> IoError {
+    move |e, at| {
+        if gzip {
+            gz_error(e, at)
+        } else {
+            IoError::Io {
+                path: crate::FilePath::default(),
+                source: e,
+            }
+        }
+    }
 }
 
-fn read_gz(compressed: &[u8]) -> Result<NiftiImage, IoError> {
-    let mut dec = MultiGzDecoder::new(compressed);
-    let mut buf = Vec::with_capacity(WRITE_VOX_OFFSET);
-    read_up_to(&mut dec, HEADER_LEN as u64, &mut buf)?;
-    let header = parse_header(&buf)?;
-    let total = header
-        .offset
-        .checked_add(header.data_len)
-        .ok_or_else(|| malformed(108, "vox_offset plus data size overflows"))?;
-    let most = (compressed.len() as u64)
-        .saturating_mul(GZ_MAX_RATIO)
-        .saturating_add(4096);
+/// Reads and checks the header: the first 348 bytes of `r`, no more.
+fn read_header(r: &mut impl Read, gzip: bool) -> Result<Header, IoError> {
+    let mut buf = [0u8; HEADER_LEN];
+    let n = fill(r, &mut buf).map_err(|e| read_error(gzip)(e, 0))?;
+    parse_header(&buf[..n])
+}
+
+/// Fails unless an uncompressed file of `len` bytes holds the data.
+fn check_file_len(h: &Header, len: u64) -> Result<(), IoError> {
+    if h.total()? <= len {
+        return Ok(());
+    }
+    Err(malformed(
+        len,
+        format!(
+            "the file ends after {len} bytes, but the header declares {} bytes of {} \
+             data for dimensions {:?} at offset {}",
+            h.data_len,
+            h.datatype().name(),
+            h.meta.dims,
+            h.offset
+        ),
+    ))
+}
+
+/// Fails when `compressed` gzip bytes cannot hold what the header declares
+/// (checked before anything more is inflated).
+fn check_gz_capacity(h: &Header, compressed: u64) -> Result<(), IoError> {
+    let total = h.total()?;
+    let most = compressed.saturating_mul(GZ_MAX_RATIO).saturating_add(4096);
     if total > most {
         return Err(malformed(
             0,
             format!(
-                "the header declares {total} bytes, more than {} compressed bytes can hold",
-                compressed.len()
+                "the header declares {total} bytes, more than {compressed} compressed bytes can \
+                 hold: the file is truncated or the header is wrong"
             ),
         ));
     }
-    read_up_to(&mut dec, total - HEADER_LEN as u64, &mut buf)?;
-    if (buf.len() as u64) < total {
-        return Err(malformed(
-            buf.len() as u64,
-            format!(
-                "the decompressed file ends after {} bytes, but the header declares {total} \
-                 (offset {} + {} bytes of {} data for dimensions {:?})",
-                buf.len(),
-                header.offset,
-                header.data_len,
-                header.datatype.name(),
-                header.dims
-            ),
-        ));
+    Ok(())
+}
+
+impl Header {
+    fn datatype(&self) -> Datatype {
+        self.meta.datatype
     }
-    // Reach the end of the stream (this checks the CRC), without keeping or
-    // decompressing more than MAX_GZ_TRAILING bytes.
-    let mut scratch = [0u8; 4096];
-    let mut extra = 0u64;
-    loop {
-        let n = dec
-            .read(&mut scratch)
-            .map_err(|e| gz_error(e, total + extra))?;
-        if n == 0 {
-            break;
-        }
-        extra += n as u64;
-        if extra > MAX_GZ_TRAILING {
-            return Err(malformed(
-                total,
+
+    /// The error of a file or stream ending after `found` bytes.
+    fn short(&self, found: u64, gzip: bool) -> IoError {
+        let total = self.offset.saturating_add(self.data_len);
+        if gzip {
+            IoError::DecompressedSize {
+                path: crate::FilePath::default(),
+                declared: total,
+                found,
+            }
+        } else {
+            malformed(
+                found,
                 format!(
-                    "more than {MAX_GZ_TRAILING} decompressed bytes follow the {total} bytes \
-                     the header declares"
+                    "the file ends after {found} bytes, but the header declares {} bytes of {} \
+                     data for dimensions {:?} at offset {}",
+                    self.data_len,
+                    self.datatype().name(),
+                    self.meta.dims,
+                    self.offset
                 ),
-            ));
+            )
         }
     }
-    finish(header, &buf)
+}
+
+/// Streams the values after the header (`r` is positioned at byte 348 of
+/// the decompressed file), [`CHUNK`] bytes at a time, scaled, to `sink`.
+/// Extensions are skipped. For gzip (`gzip`), the stream must end right after
+/// the data: it is never inflated further than one byte past it
+/// ([`IoError::DecompressedSize`] otherwise), and reaching its end checks its
+/// CRC.
+pub(crate) fn stream_values(
+    h: &Header,
+    r: &mut impl Read,
+    gzip: bool,
+    sink: &mut dyn FnMut(&[f32]),
+) -> Result<(), IoError> {
+    let err = read_error(gzip);
+    let pos = HEADER_LEN as u64;
+    let skip = h.offset - pos;
+    let skipped =
+        std::io::copy(&mut r.take(skip), &mut std::io::sink()).map_err(|e| err(e, pos))?;
+    if skipped < skip {
+        return Err(h.short(pos + skipped, gzip));
+    }
+    let layout = (h.datatype(), h.big_endian, h.scale);
+    let at = h.offset;
+    let got = stream_packed(r, h.data_len, layout, sink, &|e, n| err(e, at + n))?;
+    if got < h.data_len {
+        return Err(h.short(h.offset + got, gzip));
+    }
+    if gzip {
+        let total = h.offset + h.data_len;
+        let extra = fill(r, &mut [0u8; 1]).map_err(|e| err(e, total))?;
+        if extra > 0 {
+            return Err(IoError::DecompressedSize {
+                path: crate::FilePath::default(),
+                declared: total,
+                found: total + 1,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Reads all values after the header into the image.
+fn collect(h: Header, r: &mut impl Read, gzip: bool) -> Result<NiftiImage, IoError> {
+    // The size is checked against the file (or what its gzip stream can
+    // hold) before this allocation.
+    let mut data = Vec::with_capacity((h.data_len / h.datatype().size() as u64) as usize);
+    stream_values(&h, r, gzip, &mut |v| data.extend_from_slice(v))?;
+    h.meta.into_image(data)
+}
+
+/// Parses a `.nii` or `.nii.gz` file's bytes (gzip is recognized by its magic
+/// bytes `1f 8b`). See the [module documentation](self) for what is read.
+pub fn read(bytes: &[u8]) -> Result<NiftiImage, IoError> {
+    if bytes.starts_with(&[0x1f, 0x8b]) {
+        let mut dec = MultiGzDecoder::new(bytes);
+        let h = read_header(&mut dec, true)?;
+        check_gz_capacity(&h, bytes.len() as u64)?;
+        collect(h, &mut dec, true)
+    } else {
+        let h = parse_header(bytes)?;
+        check_file_len(&h, bytes.len() as u64)?;
+        collect(h, &mut &bytes[HEADER_LEN..], false)
+    }
+}
+
+/// An open image file, positioned after its header (decompressing when it
+/// is gzip).
+pub(crate) struct Opened {
+    reader: Box<dyn Read>,
+    gzip: bool,
+}
+
+/// Opens a `.nii` / `.nii.gz` file (gzip recognized by its magic bytes) and
+/// reads and checks its header: only the first 348 (decompressed) bytes are
+/// read, and the file's size is checked against the data the header declares.
+pub(crate) fn open_file(path: &Path) -> Result<(Header, Opened), IoError> {
+    let (file, len) = crate::format::open(path)?;
+    let mut file = BufReader::new(file);
+    let io = |source| IoError::Io {
+        path: crate::FilePath(path.to_path_buf()),
+        source,
+    };
+    let gzip = file.fill_buf().map_err(io)?.starts_with(&[0x1f, 0x8b]);
+    let mut reader: Box<dyn Read> = if gzip {
+        Box::new(flate2::bufread::MultiGzDecoder::new(file))
+    } else {
+        Box::new(file)
+    };
+    let h = read_header(&mut reader, gzip)?;
+    if gzip {
+        check_gz_capacity(&h, len)?;
+    } else {
+        check_file_len(&h, len)?;
+    }
+    Ok((h, Opened { reader, gzip }))
+}
+
+/// Streams the values of a `.nii` / `.nii.gz` file to `sink` (see
+/// [`stream_values`]); returns its header.
+pub(crate) fn stream_file(
+    path: &Path,
+    sink: &mut dyn FnMut(&[f32]),
+) -> Result<ImageHeader, IoError> {
+    let (h, mut o) = open_file(path)?;
+    stream_values(&h, &mut o.reader, o.gzip, sink)?;
+    Ok(h.meta)
+}
+
+/// Reads a `.nii` / `.nii.gz` file, header first, decoding the values as they
+/// are read (see [`stream_values`]).
+pub(crate) fn read_file(path: &Path) -> Result<NiftiImage, IoError> {
+    let (h, mut o) = open_file(path)?;
+    collect(h, &mut o.reader, o.gzip)
 }
 
 /// Writes header fields little-endian.
@@ -1363,12 +1523,46 @@ mod tests {
         two.extend_from_slice(&gz(&file[200..]));
         assert_eq!(read(&two).unwrap().volume.data(), &[3.0, 4.0]);
 
-        // A little trailing data is tolerated, a lot is not.
+        // A stream holding more or less than the header declares (354
+        // bytes) is refused with both sizes; more is inflated one byte past.
         let mut padded = file.clone();
         padded.extend_from_slice(&[0u8; 1000]);
-        assert!(read(&gz(&padded)).is_ok());
-        padded.resize(file.len() + MAX_GZ_TRAILING as usize + 1, 0);
-        assert!(read(&gz(&padded)).is_err());
+        assert!(matches!(
+            read(&gz(&padded)),
+            Err(IoError::DecompressedSize {
+                declared: 354,
+                found: 355,
+                ..
+            })
+        ));
+        let e = read(&gz(&file[..353])).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IoError::DecompressedSize {
+                    declared: 354,
+                    found: 353,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("only 353 bytes"), "{e}");
+        // Extensions cut short count as well.
+        let mut r = Raw::new(false, &[2, 1, 1], 2, 8);
+        r.f32(108, 400.0);
+        let e = read(&gz(&r.with_data(&[0; 10]))).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IoError::DecompressedSize {
+                    declared: 402,
+                    found: 362,
+                    ..
+                }
+            ),
+            "{e}"
+        );
 
         // A header declaring far more than the stream can hold fails before
         // decompressing.

@@ -216,6 +216,33 @@ pub enum MeshError {
         /// What to change.
         hint: &'static str,
     },
+    /// An element's area (triangles) or volume (tets) is not finite although
+    /// its corners' coordinates are: they are too large for the products of
+    /// the measure (e.g. `1e308`) in `f64`.
+    #[error(
+        "the {what} of element {element} is {value} although its coordinates are finite: \
+         they are too large; scale the mesh down (e.g. to millimetres)"
+    )]
+    NonFiniteMeasure {
+        /// "area" or "volume".
+        what: &'static str,
+        /// Element index.
+        element: usize,
+        /// The measure computed (infinite or NaN).
+        value: f64,
+    },
+    /// The total area or volume, `Σ |measure|` over the elements, overflows
+    /// although every element's is finite.
+    #[error(
+        "the total {what} of the mesh is {value}: its coordinates are too large; scale the \
+         mesh down (e.g. to millimetres)"
+    )]
+    NonFiniteTotalMeasure {
+        /// "area" or "volume".
+        what: &'static str,
+        /// The sum (infinite).
+        value: f64,
+    },
     /// A volume's data length or dimensions are inconsistent.
     #[error("image: {0}")]
     Image(String),
@@ -249,6 +276,8 @@ impl MeshError {
             MeshError::CellSize { .. } => "cell_size",
             MeshError::WeldTolerance { .. } => "weld_tolerance",
             MeshError::WorkingGridTooLarge { .. } => "working_grid_too_large",
+            MeshError::NonFiniteMeasure { .. } => "non_finite_measure",
+            MeshError::NonFiniteTotalMeasure { .. } => "non_finite_total_measure",
             MeshError::Image(_) => "image",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }

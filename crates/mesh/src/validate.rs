@@ -100,6 +100,14 @@ enum Measure {
 }
 
 impl Measure {
+    /// "area" or "volume".
+    fn name(self) -> &'static str {
+        match self {
+            Measure::Area => "area",
+            Measure::SignedVolume => "volume",
+        }
+    }
+
     fn of(self, p: &[Point3<f64>]) -> f64 {
         match self {
             Measure::Area => triangle_area(&p[0], &p[1], &p[2]),
@@ -116,6 +124,9 @@ impl Measure {
 /// [`NonManifoldEdge`](MeshError::NonManifoldEdge) (an edge with more than two
 /// triangles), [`InconsistentOrientation`](MeshError::InconsistentOrientation)
 /// (two triangles traversing their shared edge in the same direction),
+/// [`NonFiniteMeasure`](MeshError::NonFiniteMeasure) (an element whose
+/// measure overflows although its coordinates are finite),
+/// [`NonFiniteTotalMeasure`](MeshError::NonFiniteTotalMeasure),
 /// [`DegenerateElement`](MeshError::DegenerateElement),
 /// [`MultipleComponents`](MeshError::MultipleComponents),
 /// [`UnusedVertices`](MeshError::UnusedVertices). At most one [`Problem`] per
@@ -145,8 +156,11 @@ pub fn check_tri_mesh(mesh: &TriMesh, opts: &ValidationOptions) -> Vec<Problem> 
 /// [`FieldLength`](MeshError::FieldLength),
 /// [`RepeatedVertex`](MeshError::RepeatedVertex),
 /// [`NonManifoldFace`](MeshError::NonManifoldFace) (a face with more than two
-/// tets), [`InvertedElement`](MeshError::InvertedElement) (signed volume
-/// `(b-a)·((c-a)×(d-a))/6 < 0`, degenerate tets excluded),
+/// tets), [`NonFiniteMeasure`](MeshError::NonFiniteMeasure) (an element
+/// whose measure overflows although its coordinates are finite),
+/// [`NonFiniteTotalMeasure`](MeshError::NonFiniteTotalMeasure),
+/// [`InvertedElement`](MeshError::InvertedElement) (signed volume
+/// `(b-a)·((c-a)×(d-a))/6 < 0`, degenerate and overflowing tets excluded),
 /// [`DegenerateElement`](MeshError::DegenerateElement),
 /// [`MultipleComponents`](MeshError::MultipleComponents),
 /// [`UnusedVertices`](MeshError::UnusedVertices). At most one [`Problem`] per
@@ -278,16 +292,40 @@ fn check<const K: usize>(
 
     topology(&good, &mut out);
 
-    // Measures of the good elements whose corners are all finite.
+    // Measures of the good elements whose corners are all finite; a measure
+    // that overflows (coordinates near f64::MAX) is a problem of its own and
+    // left out of the degenerate / inverted checks.
+    let mut overflow = Acc::default();
     let measured: Vec<(usize, f64)> = good
         .iter()
         .filter(|&&e| elements[e].iter().all(|&v| finite[v as usize]))
         .map(|&e| (e, measure.of(&elements[e].map(|v| positions[v as usize]))))
+        .filter(|&(e, m)| {
+            if !m.is_finite() {
+                overflow.add(|| MeshError::NonFiniteMeasure {
+                    what: measure.name(),
+                    element: e,
+                    value: m,
+                });
+            }
+            m.is_finite()
+        })
         .collect();
-    let mean = if measured.is_empty() {
+    overflow.push_into(&mut out);
+    let total: f64 = measured.iter().map(|(_, m)| m.abs()).sum();
+    if !total.is_finite() {
+        out.push(Problem {
+            error: MeshError::NonFiniteTotalMeasure {
+                what: measure.name(),
+                value: total,
+            },
+            count: 1,
+        });
+    }
+    let mean = if measured.is_empty() || !total.is_finite() {
         0.0
     } else {
-        measured.iter().map(|(_, m)| m.abs()).sum::<f64>() / measured.len() as f64
+        total / measured.len() as f64
     };
     let threshold = opts.degenerate_rel * mean;
     let is_degenerate = |m: f64| m.abs() < threshold || m == 0.0;
@@ -547,6 +585,68 @@ mod tests {
             t.validate(),
             Err(MeshError::NonFiniteCoordinate { vertex: 3, .. })
         ));
+    }
+
+    #[test]
+    fn overflowing_measures() {
+        // Finite coordinates whose volume overflows: one problem, not a
+        // degenerate or inverted one.
+        let mut t = unit_tet();
+        for v in &mut t.positions {
+            v.coords *= 1e308;
+        }
+        let problems = check_tet_mesh(&t, &ValidationOptions::default());
+        assert!(
+            matches!(
+                problems[0].error,
+                MeshError::NonFiniteMeasure {
+                    what: "volume",
+                    element: 0,
+                    ..
+                }
+            ),
+            "{problems:?}"
+        );
+        assert_eq!(problems.len(), 1, "{problems:?}");
+        assert!(
+            problems[0]
+                .error
+                .to_string()
+                .contains("scale the mesh down")
+        );
+        // Ten disjoint tets of finite volume (s³/6 = 2e307 each) whose sum
+        // overflows.
+        let s = 5e102;
+        let mut positions = Vec::new();
+        let mut tets = Vec::new();
+        for k in 0..10u32 {
+            let x = 2.0 * s * f64::from(k);
+            positions.extend([
+                p(x, 0.0, 0.0),
+                p(x + s, 0.0, 0.0),
+                p(x, s, 0.0),
+                p(x, 0.0, s),
+            ]);
+            tets.push([4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3]);
+        }
+        let m = TetMesh::new(positions, tets);
+        let opts = ValidationOptions {
+            require_single_component: false,
+            ..ValidationOptions::default()
+        };
+        let problems = check_tet_mesh(&m, &opts);
+        assert!(
+            matches!(
+                problems.as_slice(),
+                [Problem {
+                    error: MeshError::NonFiniteTotalMeasure { what: "volume", .. },
+                    count: 1
+                }]
+            ),
+            "{problems:?}"
+        );
+        // A mesh of ordinary size has neither.
+        assert!(check_tet_mesh(&unit_tet(), &ValidationOptions::default()).is_empty());
     }
 
     #[test]

@@ -5,15 +5,17 @@
 //! bytes are then skipped in the decoded stream (after decompression for
 //! gzip, as teem does); `byte skip: -1` (raw only) means the data is the last
 //! bytes of the file. The data must be exactly `product(sizes) × type size`
-//! bytes (raw, and gzip after decompression: it is inflated through
-//! `Read::take(expected + 1)`, so a compression bomb allocates at most one
-//! byte more than declared), or exactly `product(sizes)` numbers (ascii).
+//! bytes (raw, and gzip after decompression: it is inflated about 1 MiB at a
+//! time and never more than one byte past the declared size, so a compression
+//! bomb costs no more than the declared data; a stream holding more or less
+//! is refused with [`IoError::DecompressedSize`]), or exactly
+//! `product(sizes)` numbers (ascii).
 
 use super::header::{Encoding, Header};
-use crate::nifti::{GZ_MAX_RATIO, decode_values};
-use crate::{IoError, Location};
-use flate2::read::MultiGzDecoder;
-use std::io::Read;
+use crate::nifti::{GZ_MAX_RATIO, fill, stream_packed};
+use crate::{FilePath, IoError, Location};
+use flate2::bufread::MultiGzDecoder;
+use std::io::{BufRead, Read};
 
 fn bad(at: u64, msg: impl Into<String>) -> IoError {
     IoError::malformed(Location::Byte(at), msg)
@@ -23,14 +25,66 @@ fn bad(at: u64, msg: impl Into<String>) -> IoError {
 /// or a detached data file), in file order (axis 0 fastest). `base` is the
 /// offset of `source` in its file, for error locations.
 pub(super) fn values(h: &Header, source: &[u8], base: u64) -> Result<Vec<f32>, IoError> {
-    // line skip
-    let mut start = 0usize;
-    for skipped in 0..h.line_skip {
-        match source[start..].iter().position(|&c| c == b'\n') {
-            Some(e) => start += e + 1,
+    // The raw and gzip sizes are checked before anything is handed over, so
+    // the vector grows only to what the header declares.
+    let mut out = Vec::new();
+    stream(
+        h,
+        &mut &source[..],
+        source.len() as u64,
+        base,
+        &mut |v: &[f32]| out.extend_from_slice(v),
+    )?;
+    Ok(out)
+}
+
+/// Skips one line (through its `\n`) of `r`; false when the data ends first.
+/// Returns the bytes skipped.
+fn skip_line(r: &mut impl BufRead) -> std::io::Result<(bool, u64)> {
+    let mut n = 0u64;
+    loop {
+        let buf = r.fill_buf()?;
+        if buf.is_empty() {
+            return Ok((false, n));
+        }
+        match buf.iter().position(|&c| c == b'\n') {
+            Some(i) => {
+                r.consume(i + 1);
+                return Ok((true, n + i as u64 + 1));
+            }
             None => {
+                let k = buf.len();
+                r.consume(k);
+                n += k as u64;
+            }
+        }
+    }
+}
+
+/// Streams the values of the data in `r` (`len` bytes: the bytes after an
+/// attached header, or a detached data file) to `sink` in chunks of about
+/// 1 MiB of stored data, in file order (axis 0 fastest). `base` is the
+/// offset of `r` in its file, for error locations. See the [module
+/// documentation](self) for the checks.
+pub(super) fn stream(
+    h: &Header,
+    r: &mut impl BufRead,
+    len: u64,
+    base: u64,
+    sink: &mut dyn FnMut(&[f32]),
+) -> Result<(), IoError> {
+    let io = |source| IoError::Io {
+        path: FilePath::default(),
+        source,
+    };
+    // line skip
+    let mut start = 0u64;
+    for skipped in 0..h.line_skip {
+        match skip_line(r).map_err(io)? {
+            (true, n) => start += n,
+            (false, _) => {
                 return Err(bad(
-                    base + source.len() as u64,
+                    base + len,
                     format!(
                         "line skip is {}, but the data has only {skipped} lines",
                         h.line_skip
@@ -39,8 +93,8 @@ pub(super) fn values(h: &Header, source: &[u8], base: u64) -> Result<Vec<f32>, I
             }
         }
     }
-    let rest = &source[start..];
-    let at = base + start as u64;
+    let rest = len.saturating_sub(start);
+    let at = base + start;
     let expected = h.data_len();
     let skip = match (h.byte_skip, h.encoding) {
         (-1, Encoding::Raw) => None,
@@ -52,104 +106,105 @@ pub(super) fn values(h: &Header, source: &[u8], base: u64) -> Result<Vec<f32>, I
         }
         (b, _) => Some(b as u64),
     };
+    let layout = (h.datatype, h.big_endian, None);
     match h.encoding {
         Encoding::Raw => {
-            let len = rest.len() as u64;
             let from = match skip {
-                None if len >= expected => len - expected,
-                Some(b) if b.checked_add(expected) == Some(len) => b,
-                Some(b) if b.checked_add(expected).is_some_and(|e| e < len) => {
+                None if rest >= expected => rest - expected,
+                Some(b) if b.checked_add(expected) == Some(rest) => b,
+                Some(b) if b.checked_add(expected).is_some_and(|e| e < rest) => {
                     return Err(bad(
                         at + b + expected,
                         format!(
                             "{} bytes follow the {expected} bytes of data the header declares \
                              (sizes {:?}); the sizes or type are wrong",
-                            len - b - expected,
+                            rest - b - expected,
                             h.sizes
                         ),
                     ));
                 }
                 _ => {
-                    return Err(bad(
-                        at + len,
-                        format!(
-                            "the data ends after {} bytes, but the header declares {expected} \
-                             (sizes {:?} of {}-byte values, byte skip {}): the file is truncated",
-                            len.saturating_sub(skip.unwrap_or(0)),
-                            h.sizes,
-                            h.datatype.size(),
-                            h.byte_skip
-                        ),
+                    return Err(raw_short(
+                        h,
+                        at + rest,
+                        rest.saturating_sub(skip.unwrap_or(0)),
                     ));
                 }
             };
-            let raw = &rest[from as usize..(from + expected) as usize];
-            Ok(decode_values(raw, h.datatype, h.big_endian, None))
+            let skipped = std::io::copy(&mut r.take(from), &mut std::io::sink()).map_err(io)?;
+            let got = stream_packed(r, expected, layout, sink, &|e, _| io(e))?;
+            if skipped < from || got < expected {
+                // The file shrank while it was read.
+                return Err(raw_short(h, at + skipped + got, got));
+            }
+            Ok(())
         }
         Encoding::Gzip => {
-            let raw = inflate(rest, skip.unwrap_or(0), expected, at)?;
-            Ok(decode_values(&raw, h.datatype, h.big_endian, None))
+            let skip = skip.unwrap_or(0);
+            let total = skip.saturating_add(expected);
+            let most = rest.saturating_mul(GZ_MAX_RATIO).saturating_add(4096);
+            if total > most {
+                return Err(bad(
+                    at,
+                    format!(
+                        "the header declares {total} bytes of data, more than {rest} \
+                         gzip-compressed bytes can hold: the file is truncated or the sizes \
+                         are wrong"
+                    ),
+                ));
+            }
+            let gz = |e: std::io::Error| bad(at, format!("gzip decompression failed: {e}"));
+            let size = |found| IoError::DecompressedSize {
+                path: FilePath::default(),
+                declared: total,
+                found,
+            };
+            let mut dec = MultiGzDecoder::new(r);
+            let skipped =
+                std::io::copy(&mut (&mut dec).take(skip), &mut std::io::sink()).map_err(gz)?;
+            if skipped < skip {
+                return Err(size(skipped));
+            }
+            let got = stream_packed(&mut dec, expected, layout, sink, &|e, _| gz(e))?;
+            if got < expected {
+                return Err(size(skip + got));
+            }
+            // Never more than one byte past the declared size.
+            if fill(&mut dec, &mut [0u8; 1]).map_err(gz)? > 0 {
+                return Err(size(total + 1));
+            }
+            Ok(())
         }
         Encoding::Ascii => {
+            // Text is at least as long as its values: read it whole.
+            let mut text = Vec::new();
+            r.take(rest).read_to_end(&mut text).map_err(io)?;
             let b = skip.unwrap_or(0);
-            if b > rest.len() as u64 {
+            if b > text.len() as u64 {
                 return Err(bad(
-                    at + rest.len() as u64,
+                    at + text.len() as u64,
                     format!("byte skip {b} is past the end of the data"),
                 ));
             }
-            ascii(&rest[b as usize..], h.count(), at + b)
+            sink(&ascii(&text[b as usize..], h.count(), at + b)?);
+            Ok(())
         }
     }
 }
 
-/// Decompresses gzip data (several members allowed): skips `skip` bytes,
-/// then returns exactly `expected` bytes, failing when the stream holds
-/// fewer or more, or cannot hold that many.
-fn inflate(compressed: &[u8], skip: u64, expected: u64, at: u64) -> Result<Vec<u8>, IoError> {
-    let total = skip.saturating_add(expected);
-    let most = (compressed.len() as u64)
-        .saturating_mul(GZ_MAX_RATIO)
-        .saturating_add(4096);
-    if total > most {
-        return Err(bad(
-            at,
-            format!(
-                "the header declares {total} bytes of data, more than {} gzip-compressed bytes \
-                 can hold: the file is truncated or the sizes are wrong",
-                compressed.len()
-            ),
-        ));
-    }
-    let gz = |e: std::io::Error| bad(at, format!("gzip decompression failed: {e}"));
-    let mut dec = MultiGzDecoder::new(compressed);
-    let skipped = std::io::copy(&mut (&mut dec).take(skip), &mut std::io::sink()).map_err(gz)?;
-    if skipped < skip {
-        return Err(bad(
-            at,
-            format!("byte skip is {skip}, but the data decompresses to {skipped} bytes"),
-        ));
-    }
-    let mut out = Vec::new();
-    (&mut dec)
-        .take(expected + 1)
-        .read_to_end(&mut out)
-        .map_err(gz)?;
-    let got = out.len() as u64;
-    if got != expected {
-        let (what, n) = if got > expected {
-            ("more than", expected)
-        } else {
-            ("only", got)
-        };
-        return Err(bad(
-            at,
-            format!(
-                "the data decompresses to {what} {n} bytes, but the header declares {expected}"
-            ),
-        ));
-    }
-    Ok(out)
+/// The error of raw data ending after `found` bytes of data at `end`.
+fn raw_short(h: &Header, end: u64, found: u64) -> IoError {
+    bad(
+        end,
+        format!(
+            "the data ends after {found} bytes, but the header declares {} \
+             (sizes {:?} of {}-byte values, byte skip {}): the file is truncated",
+            h.data_len(),
+            h.sizes,
+            h.datatype.size(),
+            h.byte_skip
+        ),
+    )
 }
 
 /// Parses `count` numbers separated by white space or commas.

@@ -70,11 +70,12 @@ mod write;
 pub use write::write;
 
 use crate::nifti::{AffineSource, UNITS_MM};
-use crate::{IoError, Location, NiftiImage};
+use crate::{ImageHeader, IoError, Location, NiftiImage};
 use header::{Header, Space};
 use nalgebra::Matrix4;
-use std::path::Path;
-use unfold_mesh::Volume;
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
 
 /// Largest header read, in bytes (1 MiB): a file whose header does not end
 /// by then is refused.
@@ -85,47 +86,27 @@ pub const MAX_SIZE: usize = i16::MAX as usize;
 /// Kinds of a spatial (resampleable) axis.
 const SPATIAL_KINDS: [&str; 4] = ["domain", "space", "???", "none"];
 
-/// Parses a NRRD file's bytes. `dir` is the directory of the file, where a
-/// detached `data file` is looked for (`None`: detached data is refused).
-/// See the [module documentation](self).
-pub fn read(bytes: &[u8], dir: Option<&Path>) -> Result<NiftiImage, IoError> {
-    let h = header::parse(bytes)?;
+/// A checked header, its axes and the image header fields.
+pub(crate) struct Prepared {
+    h: Header,
+    frame: Option<usize>,
+    spatial: [usize; 3],
+    meta: ImageHeader,
+}
+
+/// Where the data of a header is.
+enum DataAt {
+    /// Attached, from this byte of the file.
+    Attached(usize),
+    /// In the file `data file` names (path resolved), on this header line.
+    Detached(PathBuf, usize),
+}
+
+/// Checks a parsed header and computes the image header fields.
+fn prepare(h: Header) -> Result<Prepared, IoError> {
     let (frame, spatial) = axes(&h)?;
     check_segmentation(&h, frame)?;
     let (affine, source) = affine(&h, &spatial);
-    // Checking the affine now fails a bad one before the data is decoded.
-    Volume::new([1, 1, 1, 1], affine, vec![0.0f32])?;
-    let values = match &h.data_file {
-        None => {
-            let Some(start) = h.data_offset else {
-                return Err(IoError::malformed(
-                    Location::Byte(bytes.len() as u64),
-                    "the header has no 'data file' and no empty line before attached data: \
-                     the file is truncated",
-                ));
-            };
-            data::values(&h, &bytes[start..], start as u64)?
-        }
-        Some(f) => {
-            let Some(dir) = dir else {
-                return Err(IoError::unsupported(format!(
-                    "line {}: detached data ('data file: {}') needs the header's directory",
-                    f.line, f.name
-                )));
-            };
-            let path = dir.join(&f.name);
-            let raw = std::fs::read(&path).map_err(|e| {
-                IoError::malformed(
-                    Location::Line(f.line),
-                    format!(
-                        "data file {} cannot be read ({e}); it must be beside the header",
-                        path.display()
-                    ),
-                )
-            })?;
-            data::values(&h, &raw, 0).map_err(|e| e.with_path(&path))?
-        }
-    };
     let mut dims = [1usize; 4];
     for (d, &a) in dims.iter_mut().zip(&spatial) {
         *d = h.sizes[a];
@@ -133,22 +114,168 @@ pub fn read(bytes: &[u8], dir: Option<&Path>) -> Result<NiftiImage, IoError> {
     if let Some(f) = frame {
         dims[3] = h.sizes[f];
     }
-    let data = reorder(values, &h.sizes, &spatial, frame);
-    let volume = Volume::new(dims, affine, data)?;
     let time_step = frame
         .and_then(|f| h.spacings.as_ref().map(|s| s[f]))
         .filter(|s| s.is_finite() && *s > 0.0)
         .map_or(1.0, |s| s as f32);
-    Ok(NiftiImage {
+    let meta = ImageHeader {
+        dims,
+        affine,
         datatype: h.datatype,
+        scl_slope: 1.0,
+        scl_inter: 0.0,
         affine_source: source,
         sform_code: 1,
         qform_code: 0,
         xyzt_units: UNITS_MM,
         time_step,
         description: h.content.clone().unwrap_or_default(),
-        ..NiftiImage::new(volume)
+        intent_code: 0,
+        intent_params: [0.0; 3],
+        intent_name: String::new(),
+    };
+    // Checking the affine now fails a bad one before the data is decoded.
+    meta.check_affine()?;
+    Ok(Prepared {
+        h,
+        frame,
+        spatial,
+        meta,
     })
+}
+
+/// Where the data is: attached after the header (of a file of `len`
+/// bytes), or in a detached file in `dir` (`None`: refused).
+fn locate(h: &Header, dir: Option<&Path>, len: u64) -> Result<DataAt, IoError> {
+    match &h.data_file {
+        None => match h.data_offset {
+            Some(start) => Ok(DataAt::Attached(start)),
+            None => Err(IoError::malformed(
+                Location::Byte(len),
+                "the header has no 'data file' and no empty line before attached data: \
+                 the file is truncated",
+            )),
+        },
+        Some(f) => match dir {
+            Some(dir) => Ok(DataAt::Detached(dir.join(&f.name), f.line)),
+            None => Err(IoError::unsupported(format!(
+                "line {}: detached data ('data file: {}') needs the header's directory",
+                f.line, f.name
+            ))),
+        },
+    }
+}
+
+/// Streams a detached data file to `sink` (errors name the data file).
+fn stream_detached(
+    h: &Header,
+    path: &Path,
+    line: usize,
+    sink: &mut dyn FnMut(&[f32]),
+) -> Result<(), IoError> {
+    let cannot = |e: std::io::Error| {
+        IoError::malformed(
+            Location::Line(line),
+            format!(
+                "data file {} cannot be read ({e}); it must be beside the header",
+                path.display()
+            ),
+        )
+    };
+    let file = File::open(path).map_err(cannot)?;
+    let len = file.metadata().map_err(cannot)?.len();
+    data::stream(h, &mut BufReader::new(file), len, 0, sink).map_err(|e| e.with_path(path))
+}
+
+/// The image of prepared header fields and values in file order.
+fn finish(p: Prepared, values: Vec<f32>) -> Result<NiftiImage, IoError> {
+    let data = reorder(values, &p.h.sizes, &p.spatial, p.frame);
+    p.meta.into_image(data)
+}
+
+/// Parses a NRRD file's bytes. `dir` is the directory of the file, where a
+/// detached `data file` is looked for (`None`: detached data is refused).
+/// See the [module documentation](self).
+pub fn read(bytes: &[u8], dir: Option<&Path>) -> Result<NiftiImage, IoError> {
+    let p = prepare(header::parse(bytes)?)?;
+    let values = match locate(&p.h, dir, bytes.len() as u64)? {
+        DataAt::Attached(start) => data::values(&p.h, &bytes[start..], start as u64)?,
+        DataAt::Detached(path, line) => {
+            let mut out = Vec::new();
+            stream_detached(&p.h, &path, line, &mut |v| out.extend_from_slice(v))?;
+            out
+        }
+    };
+    finish(p, values)
+}
+
+/// The directory of a file's path (`.` for a bare file name).
+fn parent(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Reads and checks the header of a NRRD file: at most [`MAX_HEADER`] + 2
+/// bytes are read (enough to see whether the header ends within
+/// [`MAX_HEADER`] bytes), not the data. A detached data file is not opened.
+pub(crate) fn read_header_file(path: &Path) -> Result<(Prepared, ImageHeader), IoError> {
+    let (file, len) = crate::format::open(path)?;
+    let mut prefix = Vec::new();
+    file.take(MAX_HEADER as u64 + 2)
+        .read_to_end(&mut prefix)
+        .map_err(|source| IoError::Io {
+            path: crate::FilePath(path.to_path_buf()),
+            source,
+        })?;
+    let p = prepare(header::parse(&prefix)?)?;
+    locate(&p.h, Some(parent(path)), len)?;
+    let meta = p.meta.clone();
+    Ok((p, meta))
+}
+
+/// Streams the values of a NRRD file (attached or detached data) to `sink`,
+/// in file order; returns the prepared header.
+fn stream_prepared(path: &Path, sink: &mut dyn FnMut(&[f32])) -> Result<Prepared, IoError> {
+    let (p, _) = read_header_file(path)?;
+    match locate(&p.h, Some(parent(path)), 0)? {
+        DataAt::Attached(start) => {
+            let (file, len) = crate::format::open(path)?;
+            let mut r = BufReader::new(file);
+            r.seek(SeekFrom::Start(start as u64))
+                .map_err(|source| IoError::Io {
+                    path: crate::FilePath(path.to_path_buf()),
+                    source,
+                })?;
+            data::stream(
+                &p.h,
+                &mut r,
+                len.saturating_sub(start as u64),
+                start as u64,
+                sink,
+            )?;
+        }
+        DataAt::Detached(data, line) => stream_detached(&p.h, &data, line, sink)?,
+    }
+    Ok(p)
+}
+
+/// Streams the values of a NRRD file to `sink` in file order (axis 0
+/// fastest; see [`crate::scan_image_values`]); returns its header.
+pub(crate) fn stream_file(
+    path: &Path,
+    sink: &mut dyn FnMut(&[f32]),
+) -> Result<ImageHeader, IoError> {
+    stream_prepared(path, sink).map(|p| p.meta)
+}
+
+/// Reads a NRRD file, header first, decoding the data as it is read (or
+/// inflated).
+pub(crate) fn read_file(path: &Path) -> Result<NiftiImage, IoError> {
+    let mut values = Vec::new();
+    let p = stream_prepared(path, &mut |v| values.extend_from_slice(v))?;
+    finish(p, values)
 }
 
 /// The frame axis (4D) and the three spatial axes, in file order.

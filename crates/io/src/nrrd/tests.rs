@@ -7,6 +7,7 @@ use flate2::write::GzEncoder;
 use nalgebra::{Point3, Rotation3, Vector3};
 use proptest::prelude::*;
 use std::io::Write;
+use unfold_mesh::Volume;
 
 /// A hand-written header (lines joined, empty line added) followed by `data`.
 fn file(lines: &[&str], data: &[u8]) -> Vec<u8> {
