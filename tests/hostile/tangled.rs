@@ -71,4 +71,15 @@ fn folded_slabs_are_refused() {
         &jittered,
         "the mesh is tangled",
     );
+    // no local fold, but the ends pass through each other
+    let wound = wound::wound_slab(150, 1.25);
+    refused(
+        dir.path(),
+        "slab wound through itself",
+        &wound,
+        "the mesh overlaps itself",
+    );
 }
+
+#[path = "../common/wound.rs"]
+mod wound;
