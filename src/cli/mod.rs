@@ -184,7 +184,8 @@ pub(crate) fn read_image_checked(
         &estimate,
         "crop or resample the image (its header declares more voxels than fit), or raise \
          --max-memory",
-    )?;
+    )
+    .map_err(|e| at(path, e))?;
     Ok(unfold::io::read_image(path)?)
 }
 
