@@ -9,11 +9,13 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use unfold::io::{MANIFEST, NiftiImage, WriteOptions, write_image, write_mesh};
-use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
+use unfold::mesh::nalgebra::{Matrix4, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, ValveParams, mitral_valve, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
 
 mod common;
+#[path = "common/scan.rs"]
+mod scan;
 use common::*;
 
 /// A placenta slab of `18 n^2 m` tets.
@@ -34,34 +36,9 @@ fn write_tets(path: &Path, mesh: &TetMesh) {
 /// A 2 mm image covering `mesh` with a 6 mm margin, shifted by `offset`
 /// mm in x, intensity affine in position.
 fn image_around(mesh: &TetMesh, offset: f64) -> NiftiImage {
-    let spacing = 2.0;
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(-f64::INFINITY),
-    );
-    for p in &mesh.positions {
-        lo = lo.inf(&p.coords);
-        hi = hi.sup(&p.coords);
-    }
-    lo -= Vector3::repeat(6.0);
-    hi += Vector3::repeat(6.0);
-    let dims: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / spacing).ceil() as usize + 1);
-    let mut affine = Matrix4::identity() * spacing;
-    affine[(3, 3)] = 1.0;
-    for a in 0..3 {
-        affine[(a, 3)] = lo[a] + if a == 0 { offset } else { 0.0 };
-    }
-    let mut data = Vec::with_capacity(dims.iter().product());
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
-                data.push((300.0 + p.x - 0.5 * p.y + 2.0 * p.z) as f32);
-            }
-        }
-    }
-    let vol = Volume::new([dims[0], dims[1], dims[2], 1], affine, data).expect("volume");
-    NiftiImage::new(vol)
+    scan::image_around(mesh, [2.0; 3], 1, Vector3::new(offset, 0.0, 0.0), |p, _| {
+        300.0 + p.x - 0.5 * p.y + 2.0 * p.z
+    })
 }
 
 /// Every file below `dir` (hidden ones too) with its bytes; directories as

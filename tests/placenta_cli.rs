@@ -9,11 +9,13 @@ use std::path::{Path, PathBuf};
 use unfold::io::{
     Datatype, NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh,
 };
-use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
+use unfold::mesh::nalgebra::{Point3, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
 
 mod common;
+#[path = "common/scan.rs"]
+mod scan;
 use common::*;
 
 /// A small placenta slab (`18 n^2 m` tets).
@@ -58,36 +60,9 @@ fn intensity(p: &Point3<f64>) -> f64 {
 /// voxel spacing `spacing`, axis-aligned, covering `mesh` with a 6 mm margin
 /// and shifted by `offset`.
 fn image_around(mesh: &TetMesh, spacing: [f64; 3], frames: usize, offset: f64) -> NiftiImage {
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(-f64::INFINITY),
-    );
-    for p in &mesh.positions {
-        lo = lo.inf(&p.coords);
-        hi = hi.sup(&p.coords);
-    }
-    lo -= Vector3::repeat(6.0);
-    hi += Vector3::repeat(6.0);
-    let dims: [usize; 3] =
-        std::array::from_fn(|a| ((hi[a] - lo[a]) / spacing[a]).ceil() as usize + 1);
-    let mut affine = Matrix4::identity();
-    for a in 0..3 {
-        affine[(a, a)] = spacing[a];
-        affine[(a, 3)] = lo[a] + offset;
-    }
-    let mut data = Vec::new();
-    for t in 0..frames {
-        for k in 0..dims[2] {
-            for j in 0..dims[1] {
-                for i in 0..dims[0] {
-                    let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
-                    data.push((intensity(&p) + 100.0 * t as f64) as f32);
-                }
-            }
-        }
-    }
-    let vol = Volume::new([dims[0], dims[1], dims[2], frames], affine, data).expect("volume");
-    NiftiImage::new(vol)
+    scan::image_around(mesh, spacing, frames, Vector3::repeat(offset), |p, t| {
+        intensity(p) + 100.0 * t as f64
+    })
 }
 
 fn field_values(fields: &unfold::mesh::Fields, name: &str) -> Vec<f64> {

@@ -10,12 +10,14 @@ use unfold::io::nifti::INTENT_VECTOR;
 use unfold::io::{
     Datatype, NiftiImage, WriteOptions, read_image, read_tet_mesh, write_image, write_mesh,
 };
-use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
+use unfold::mesh::nalgebra::{Point3, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::spatial::TetLocator;
 use unfold::mesh::{CellMesh, TetMesh, Volume};
 
 mod common;
+#[path = "common/scan.rs"]
+mod scan;
 use common::*;
 
 /// A small placenta slab (1296 tets), tilted so that scanner and template
@@ -38,30 +40,7 @@ fn tilted_slab() -> TetMesh {
 /// A scanner image around `mesh` (2 mm voxels, 6 mm margin) with values
 /// `f(world position)`.
 fn image_around(mesh: &TetMesh, f: impl Fn(&Point3<f64>) -> f64) -> NiftiImage {
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(-f64::INFINITY),
-    );
-    for p in &mesh.positions {
-        lo = lo.inf(&p.coords);
-        hi = hi.sup(&p.coords);
-    }
-    lo -= Vector3::repeat(6.0);
-    hi += Vector3::repeat(6.0);
-    let dims: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / 2.0).ceil() as usize + 1);
-    let mut affine = Matrix4::new_scaling(2.0);
-    affine[(3, 3)] = 1.0;
-    affine.fixed_view_mut::<3, 1>(0, 3).copy_from(&lo);
-    let mut data = Vec::new();
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let p = affine.transform_point(&Point3::new(i as f64, j as f64, k as f64));
-                data.push(f(&p) as f32);
-            }
-        }
-    }
-    NiftiImage::new(Volume::new([dims[0], dims[1], dims[2], 1], affine, data).expect("volume"))
+    scan::image_around(mesh, [2.0; 3], 1, Vector3::zeros(), |p, _| f(p))
 }
 
 /// The intensity of the subject image: smooth, far from 0.
