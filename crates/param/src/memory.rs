@@ -14,21 +14,24 @@ use unfold_mesh::memory::MemoryEstimate;
 
 /// Bytes per factor entry: the value (8 B) and the supernodal structure
 /// with the allocator's slack (measured on placenta meshes of 22k and 179k
-/// tets, whose factors hold 5.9M and 127M entries).
-pub const BYTES_PER_FACTOR_ENTRY: f64 = 10.0;
+/// tets, whose factors hold 5.9M and 127M entries: 10 B were enough; 20 %
+/// more, as peaks vary by some 10 % run to run).
+pub const BYTES_PER_FACTOR_ENTRY: f64 = 12.0;
 /// Bytes per stored Hessian entry (value and row index).
 pub const BYTES_PER_HESSIAN_ENTRY: f64 = 16.0;
 /// Bytes per element besides the factor: the assembly slots (`144 x 4` B
 /// for a tet), the element Hessians and gradients of the parallel assembly,
-/// the energy and step buffers, with the allocator's slack (measured).
-pub const BYTES_PER_ELEMENT: f64 = 2048.0;
+/// the energy and step buffers, with the allocator's slack (measured: 2 KiB
+/// were enough; 25 % more).
+pub const BYTES_PER_ELEMENT: f64 = 2560.0;
 /// The solver's fixed overhead (threads, small buffers).
 pub const BASE_BYTES: f64 = 32.0 * 1024.0 * 1024.0;
 
 /// The memory a second-order solve of `objective` will allocate: runs its
 /// symbolic analysis (kept in the objective, so solving this objective
-/// does not analyse again) and sums `10 nnz(L) + workspace + 16 nnz(H) + 2048 elements`
-/// bytes and a fixed 32 MiB.
+/// does not analyse again) and sums
+/// `12 nnz(L) + workspace + 16 nnz(H) + 2560 elements` bytes and a fixed
+/// 32 MiB.
 ///
 /// # Errors
 /// Those of [`Objective::pattern`].
