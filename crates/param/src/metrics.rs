@@ -398,9 +398,13 @@ pub fn inverted_count(mesh: &ParamMesh, x: &[f64]) -> usize {
 /// Folded interior faces (tets) or edges (triangles in the plane) of the
 /// map `x`: the two elements sharing the face or edge lie on the same side
 /// of it ([`unfold_mesh::geometry::folded_faces`],
-/// [`unfold_mesh::geometry::folded_edges`]). With [`inverted_count`] 0 as
-/// well, the map is locally injective; a map can fold with every element
-/// positive only if its boundary overlaps.
+/// [`unfold_mesh::geometry::folded_edges`]). In a consistently oriented
+/// mesh a face can only fold where one of its elements is inverted, so with
+/// [`inverted_count`] 0 this is 0 too; it counts what orientation alone
+/// misses where the elements' orientation is not trusted (a reoriented
+/// input). Locally injective maps can still overlap globally: see
+/// [`unfold_mesh::geometry::tet_boundary_self_intersections`] and
+/// [`unfold_mesh::geometry::boundary_edge_crossings`].
 pub fn folded_count(mesh: &ParamMesh, x: &[f64]) -> usize {
     check_x(mesh, x);
     match &mesh.elements {
