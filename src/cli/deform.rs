@@ -116,6 +116,8 @@ struct Report<'a> {
     repair: RepairReport,
     #[serde(flatten)]
     report: &'a DeformReport,
+    /// Version, command line, parameters, input hashes, start time.
+    provenance: super::provenance::Provenance,
 }
 
 /// `path` with `.report.json` appended to its file name.
@@ -366,6 +368,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         output: a.output.display().to_string(),
         repair: repaired.report,
         report,
+        provenance: super::provenance::this_run(),
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_file, format!("cannot serialize the report: {e}")))?;

@@ -354,6 +354,8 @@ struct FullReport<'a> {
     inputs: &'a str,
     #[serde(flatten)]
     report: &'a Report,
+    /// Version, command line, parameters, input hashes, start time.
+    provenance: super::provenance::Provenance,
 }
 
 /// Writes one outcome's files into `dir` (created if missing), with its
@@ -380,6 +382,7 @@ pub(crate) fn write_outcome(
     let json = serde_json::to_string_pretty(&FullReport {
         inputs: label,
         report: &outcome.report,
+        provenance: super::provenance::this_run(),
     })
     .map_err(|e| at(&path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&path, format!("{json}\n").as_bytes())?;

@@ -8,6 +8,7 @@ mod memory;
 mod mesh;
 mod mitral;
 mod placenta;
+mod provenance;
 mod pushback;
 mod repair;
 mod ventricle;
@@ -114,6 +115,10 @@ enum Command {
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     memory::init(cli.max_memory);
+    // `info` reads files to describe them; it writes no report
+    if !matches!(cli.command, Command::Info(_)) {
+        provenance::init(&cli.command);
+    }
     match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Convert(a) => convert::run(&a),

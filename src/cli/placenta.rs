@@ -452,6 +452,8 @@ struct FullReport<'a> {
     report: &'a Report,
     /// Predicted and measured peak memory of the run.
     memory: super::memory::MemoryReport,
+    /// Version, command line, parameters, input hashes, start time.
+    provenance: super::provenance::Provenance,
 }
 
 /// What a run produced, for the summary on stdout.
@@ -774,6 +776,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         displacement,
         report: &outcome.report,
         memory: super::memory::report(),
+        provenance: super::provenance::this_run(),
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;

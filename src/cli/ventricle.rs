@@ -347,6 +347,8 @@ struct FullReport<'a> {
     transfer: Option<&'a TransferReport>,
     /// Predicted and measured peak memory of the run.
     memory: super::memory::MemoryReport,
+    /// Version, command line, parameters, input hashes, start time.
+    provenance: super::provenance::Provenance,
 }
 
 /// The inputs named in `report.json`.
@@ -518,6 +520,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         report: &outcome.report,
         transfer: transfer.as_ref(),
         memory: super::memory::report(),
+        provenance: super::provenance::this_run(),
     })
     .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_path, format!("{json}\n").as_bytes())?;

@@ -1,0 +1,200 @@
+//! Where a run's results come from (issue 19): the unfold version, the
+//! command line, the inputs' SHA-256, the time, and one hash of all that
+//! bears on the outputs, so a batch can tell a subject already done with
+//! the same inputs and options from one to run again.
+//!
+//! The run hash is SHA-256 over the unfold version, then every argument
+//! after the program name except the output path (`-o`/`--output` and its
+//! value) and `--max-memory` (which does not change what is written), each
+//! followed by a NUL byte, then for every argument naming an existing file
+//! (also the value of `--flag=FILE`) its SHA-256. Paths are taken as given:
+//! the same files under other names hash differently.
+
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+use std::io::Read;
+use std::path::Path;
+
+/// One input file and its content hash.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub(crate) struct InputHash {
+    /// The path as given.
+    pub path: String,
+    /// SHA-256 of its bytes, hexadecimal.
+    pub sha256: String,
+    /// Its size, bytes.
+    pub bytes: u64,
+}
+
+/// What `report.json` says of where the run comes from.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct Provenance {
+    /// The unfold version.
+    pub unfold_version: &'static str,
+    /// The command line, as given.
+    pub command_line: Vec<String>,
+    /// Every option's value after parsing (defaults included).
+    pub parameters: String,
+    /// The input files and their hashes.
+    pub inputs: Vec<InputHash>,
+    /// The hash of everything that bears on the outputs (module doc).
+    pub run_hash: String,
+    /// When the run started, UTC (RFC 3339).
+    pub started: String,
+}
+
+static THIS_RUN: std::sync::OnceLock<Provenance> = std::sync::OnceLock::new();
+
+/// Records this process's run before any work: the command line, the
+/// parsed command's `Debug` text as `parameters`, the inputs' hashes now
+/// (before anything could change them), the start time. The first call
+/// wins.
+pub(crate) fn init(parameters: &dyn std::fmt::Debug) {
+    THIS_RUN.get_or_init(|| {
+        let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
+        let command_line: Vec<String> = std::env::args().collect();
+        let (run_hash, inputs) = run_hash(command_line.get(1..).unwrap_or_default());
+        Provenance {
+            unfold_version: env!("CARGO_PKG_VERSION"),
+            command_line,
+            parameters: format!("{parameters:?}"),
+            inputs,
+            run_hash,
+            started,
+        }
+    });
+}
+
+/// This process's run (recorded by [`init`]; empty before).
+pub(crate) fn this_run() -> Provenance {
+    THIS_RUN.get().cloned().unwrap_or_else(|| Provenance {
+        unfold_version: env!("CARGO_PKG_VERSION"),
+        command_line: std::env::args().collect(),
+        parameters: String::new(),
+        inputs: Vec::new(),
+        run_hash: String::new(),
+        started: String::new(),
+    })
+}
+
+/// The arguments that bear on the outputs: all but the output path and
+/// `--max-memory`.
+fn significant(args: &[String]) -> Vec<&str> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut skip_next = false;
+    for a in args {
+        if std::mem::take(&mut skip_next) {
+            continue;
+        }
+        match a.as_str() {
+            "-o" | "--output" | "--max-memory" => skip_next = true,
+            s if s.starts_with("--output=") || s.starts_with("--max-memory=") => {}
+            s if s.starts_with("-o") && s.len() > 2 => {}
+            s => out.push(s),
+        }
+    }
+    out
+}
+
+/// SHA-256 of a file's bytes, read in blocks.
+fn file_sha256(path: &Path) -> Option<(String, u64)> {
+    let mut f = std::fs::File::open(path).ok()?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    let mut total = 0u64;
+    loop {
+        let n = f.read(&mut buf).ok()?;
+        if n == 0 {
+            break;
+        }
+        total += n as u64;
+        h.update(&buf[..n]);
+    }
+    Some((hex(&h.finalize()), total))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The run hash of `args` (the arguments after the program name) and the
+/// input files among them (module doc).
+pub(crate) fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
+    let mut h = Sha256::new();
+    h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    h.update([0]);
+    let mut inputs = Vec::new();
+    for a in significant(args) {
+        h.update(a.as_bytes());
+        h.update([0]);
+        let candidate = a.split_once('=').map_or(a, |(_, v)| v);
+        let p = Path::new(candidate);
+        if !candidate.is_empty()
+            && p.is_file()
+            && let Some((sha256, bytes)) = file_sha256(p)
+        {
+            h.update(sha256.as_bytes());
+            h.update([0]);
+            inputs.push(InputHash {
+                path: candidate.to_string(),
+                sha256,
+                bytes,
+            });
+        }
+    }
+    (hex(&h.finalize()), inputs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn the_output_and_the_memory_limit_do_not_count() {
+        let a = run_hash(&v(&["placenta", "m.vtu", "-o", "a", "--max-memory", "4G"])).0;
+        let b = run_hash(&v(&["placenta", "m.vtu", "--output=b"])).0;
+        let c = run_hash(&v(&["placenta", "m.vtu", "-ob", "--max-memory=1G"])).0;
+        assert_eq!(a, b);
+        assert_eq!(a, c);
+        let d = run_hash(&v(&[
+            "placenta",
+            "m.vtu",
+            "-o",
+            "a",
+            "--template",
+            "ellipsoid",
+        ]))
+        .0;
+        assert_ne!(a, d);
+    }
+
+    #[test]
+    fn input_contents_count() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("m.vtu");
+        std::fs::write(&f, b"one").unwrap();
+        let args = v(&["placenta", &f.display().to_string(), "-o", "x"]);
+        let (h1, inputs) = run_hash(&args);
+        assert_eq!(inputs.len(), 1);
+        assert_eq!(inputs[0].bytes, 3);
+        // sha256("one")
+        assert_eq!(
+            inputs[0].sha256,
+            "7692c3ad3540bb803c020b3aee66cd8887123234ea0c6e7143c0add73ff431ed"
+        );
+        std::fs::write(&f, b"two").unwrap();
+        assert_ne!(run_hash(&args).0, h1);
+        let flag = v(&[
+            "placenta",
+            "m",
+            &format!("--image={}", f.display()),
+            "-o",
+            "x",
+        ]);
+        assert_eq!(run_hash(&flag).1.len(), 1);
+    }
+}
