@@ -1,5 +1,7 @@
 //! Subcommands of the `unfold` binary, one module each.
 
+mod batch;
+mod cohort;
 mod convert;
 mod deform;
 mod demo;
@@ -107,6 +109,11 @@ enum Command {
     /// surface flattened to a disk (LV) or half disk (RV), depth along Laplace streamlines,
     /// AHA 17 segments, exact inverse map and transfer to another heart.
     Ventricle(Box<ventricle::VentricleArgs>),
+    /// Run many subjects from a CSV manifest (one row each, --jobs at a time), then gather their
+    /// reports into OUT/cohort.csv.
+    Batch(batch::BatchArgs),
+    /// Gather the reports of an `unfold batch` output directory into OUT/cohort.csv.
+    Cohort(cohort::CohortArgs),
     /// Lay a mitral valve out in 2D: annulus first, leaflets below, relaxed flip-free, with
     /// clinical maps (coaptation, tenting, Carpentier segments) and measurements.
     Mitral(mitral::MitralArgs),
@@ -130,6 +137,8 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Pushback(a) => pushback::run(&a),
         Command::Ventricle(a) => ventricle::run(&a),
         Command::Mitral(a) => mitral::run(&a),
+        Command::Batch(a) => batch::run(&a),
+        Command::Cohort(a) => cohort::run(&a),
     }
 }
 

@@ -1,0 +1,559 @@
+//! `unfold batch MANIFEST.csv -o OUT [--jobs N]`: many subjects, one
+//! command each (issue 19).
+//!
+//! The manifest is CSV with a header and one row per subject:
+//!
+//! - `id`: the subject, its outputs in `OUT/<id>/` (letters, digits, `.`,
+//!   `_`, `-`; unique);
+//! - `organ`: `placenta`, `ventricle` or `mitral`;
+//! - `input`: the command's positional input (the placenta's mesh, the
+//!   ventricle's anatomy);
+//! - any long option of that command, without the dashes (`seg`, `image`,
+//!   `template`, `surface`, `anterior`, `grid-mm`, ...): an empty cell is
+//!   the default; a switch (`no-figures`) is on for `true`, `yes` or `1`;
+//!   an option given several times (`image`) takes `;`-separated values;
+//!   file paths are relative to the manifest's directory;
+//! - every other column is a covariate, carried into the cohort table.
+//!
+//! Each subject runs as its own `unfold` process (an error, a refusal or a
+//! crash stays with its subject), `--jobs` at a time, each with its share
+//! of the memory limit. Its command line is the row's, so `OUT/<id>/` is
+//! exactly what the single-subject command writes; its output (stdout and
+//! stderr) goes to `OUT/logs/<id>.log`. A failing subject does not stop
+//! the others: its one-line error goes to `OUT/failures.csv` and the batch
+//! exits 1 at the end. A subject whose `OUT/<id>/report.json` carries the
+//! run hash of the same command line and input contents
+//! ([`super::provenance`]) is skipped. Progress: a bar on a terminal, a
+//! line per subject otherwise (cluster job logs).
+
+use super::{CliError, at};
+use clap::{Args, CommandFactory};
+use serde::Serialize;
+use std::collections::{BTreeMap, HashSet};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// `unfold batch`.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// The manifest: CSV with a header, one row per subject (columns `id`, `organ`, `input`,
+    /// the command's long options without dashes, covariates).
+    manifest: PathBuf,
+    /// Output directory: `OUT/<id>/` per subject, `OUT/failures.csv`, `OUT/cohort.csv`,
+    /// `OUT/logs/`.
+    #[arg(short, long, value_name = "OUT")]
+    output: PathBuf,
+    /// Subjects run at a time [default: the number of CPUs].
+    #[arg(long, value_name = "N")]
+    jobs: Option<usize>,
+}
+
+/// The organs a manifest row may name.
+const ORGANS: [&str; 3] = ["placenta", "ventricle", "mitral"];
+
+/// One subject to run.
+#[derive(Debug, Clone)]
+struct Subject {
+    id: String,
+    organ: String,
+    /// The arguments after the program name, without `-o`.
+    args: Vec<String>,
+    /// Covariate columns and their values.
+    covariates: BTreeMap<String, String>,
+}
+
+/// A manifest cell's problem, for one row.
+fn row_error(manifest: &Path, row: usize, msg: impl std::fmt::Display) -> CliError {
+    at(manifest, format!("row {row}: {msg}"))
+}
+
+/// How the options of `organ`'s command take their values.
+struct OptionKinds {
+    /// Long names of options taking a value (true: a file path).
+    valued: BTreeMap<String, bool>,
+    /// Long names of switches.
+    switches: HashSet<String>,
+    /// Long names that may repeat.
+    repeated: HashSet<String>,
+    /// Whether the positional input is a path.
+    input: Option<bool>,
+}
+
+fn option_kinds(organ: &str) -> Option<OptionKinds> {
+    let cli = super::Cli::command();
+    let cmd = cli.find_subcommand(organ)?;
+    let mut k = OptionKinds {
+        valued: BTreeMap::new(),
+        switches: HashSet::new(),
+        repeated: HashSet::new(),
+        input: None,
+    };
+    for a in cmd.get_arguments() {
+        let is_path = a.get_value_parser().type_id() == std::any::TypeId::of::<PathBuf>();
+        if a.is_positional() {
+            k.input = Some(is_path);
+            continue;
+        }
+        let Some(long) = a.get_long() else { continue };
+        if matches!(long, "output" | "help" | "max-memory") {
+            continue;
+        }
+        match a.get_action() {
+            clap::ArgAction::SetTrue => {
+                k.switches.insert(long.to_string());
+            }
+            clap::ArgAction::Append => {
+                k.repeated.insert(long.to_string());
+                k.valued.insert(long.to_string(), is_path);
+            }
+            clap::ArgAction::Set => {
+                k.valued.insert(long.to_string(), is_path);
+            }
+            _ => {}
+        }
+    }
+    Some(k)
+}
+
+/// Every long option of any organ's command (a column named so is not a
+/// covariate).
+fn all_option_names() -> HashSet<String> {
+    let mut names = HashSet::new();
+    for organ in ORGANS {
+        if let Some(k) = option_kinds(organ) {
+            names.extend(k.valued.into_keys());
+            names.extend(k.switches);
+        }
+    }
+    names.insert("input".into());
+    names
+}
+
+/// `value` as a path relative to `base` (absolute paths kept).
+fn resolve(base: &Path, value: &str) -> String {
+    let p = Path::new(value);
+    if p.is_absolute() {
+        value.to_string()
+    } else {
+        base.join(p).display().to_string()
+    }
+}
+
+/// Whether a subject id is safe as a directory name of `OUT` (not `logs`,
+/// which holds the subjects' logs).
+pub(crate) fn valid_id(id: &str) -> bool {
+    !id.is_empty()
+        && id != "logs"
+        && !id.starts_with('.')
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
+}
+
+/// Reads the manifest into subjects, every row checked before anything
+/// runs.
+fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliError> {
+    let base = match manifest.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(manifest)
+        .map_err(|e| at(manifest, e))?;
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| at(manifest, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    for needed in ["id", "organ"] {
+        if !header.iter().any(|h| h == needed) {
+            return Err(at(
+                manifest,
+                format!(
+                    "the header has no '{needed}' column (it has: {})",
+                    header.join(", ")
+                ),
+            ));
+        }
+    }
+    let mut seen = HashSet::new();
+    for h in &header {
+        if !seen.insert(h.as_str()) {
+            return Err(at(manifest, format!("the column '{h}' appears twice")));
+        }
+    }
+    let options = all_option_names();
+    let covariate_names: Vec<String> = header
+        .iter()
+        .filter(|h| !matches!(h.as_str(), "id" | "organ") && !options.contains(*h))
+        .cloned()
+        .collect();
+    let mut subjects = Vec::new();
+    let mut ids = HashSet::new();
+    for (k, record) in reader.records().enumerate() {
+        let row = k + 2; // the header is line 1
+        let record = record.map_err(|e| row_error(manifest, row, e))?;
+        let cell = |name: &str| -> &str {
+            header
+                .iter()
+                .position(|h| h == name)
+                .and_then(|i| record.get(i))
+                .unwrap_or("")
+        };
+        let id = cell("id").to_string();
+        if !valid_id(&id) {
+            return Err(row_error(
+                manifest,
+                row,
+                format!(
+                    "the id '{}' is not a usable directory name (letters, digits, '.', '_', \
+                     '-'; not starting with '.'; not 'logs')",
+                    super::printable(&id)
+                ),
+            ));
+        }
+        if !ids.insert(id.clone()) {
+            return Err(row_error(
+                manifest,
+                row,
+                format!("the id '{id}' appears twice"),
+            ));
+        }
+        let organ = cell("organ").to_string();
+        let kinds = option_kinds(&organ)
+            .filter(|_| ORGANS.contains(&organ.as_str()))
+            .ok_or_else(|| {
+                row_error(
+                    manifest,
+                    row,
+                    format!(
+                        "organ '{}' is not one of {}",
+                        super::printable(&organ),
+                        ORGANS.join(", ")
+                    ),
+                )
+            })?;
+        let mut args = vec![organ.clone()];
+        let input = cell("input");
+        match (kinds.input, input.is_empty()) {
+            (Some(is_path), false) => args.push(if is_path {
+                resolve(&base, input)
+            } else {
+                input.to_string()
+            }),
+            (None, false) => {
+                return Err(row_error(
+                    manifest,
+                    row,
+                    format!("{organ} takes no positional input; leave 'input' empty"),
+                ));
+            }
+            _ => {}
+        }
+        let mut covariates = BTreeMap::new();
+        for (i, name) in header.iter().enumerate() {
+            let value = record.get(i).unwrap_or("");
+            if matches!(name.as_str(), "id" | "organ" | "input") {
+                continue;
+            }
+            if covariate_names.contains(name) {
+                covariates.insert(name.clone(), value.to_string());
+                continue;
+            }
+            if value.is_empty() {
+                continue;
+            }
+            if kinds.switches.contains(name) {
+                match value.to_ascii_lowercase().as_str() {
+                    "true" | "yes" | "1" => args.push(format!("--{name}")),
+                    "false" | "no" | "0" => {}
+                    v => {
+                        return Err(row_error(
+                            manifest,
+                            row,
+                            format!("'{name}' is a switch: true or false, got '{v}'"),
+                        ));
+                    }
+                }
+            } else if let Some(&is_path) = kinds.valued.get(name) {
+                let values: Vec<&str> = if kinds.repeated.contains(name) {
+                    value
+                        .split(';')
+                        .map(str::trim)
+                        .filter(|v| !v.is_empty())
+                        .collect()
+                } else {
+                    vec![value]
+                };
+                for v in values {
+                    args.push(format!("--{name}"));
+                    args.push(if is_path {
+                        resolve(&base, v)
+                    } else {
+                        v.to_string()
+                    });
+                }
+            } else {
+                return Err(row_error(
+                    manifest,
+                    row,
+                    format!("'{name}' is not an option of unfold {organ}; leave it empty"),
+                ));
+            }
+        }
+        subjects.push(Subject {
+            id,
+            organ,
+            args,
+            covariates,
+        });
+    }
+    if subjects.is_empty() {
+        return Err(at(manifest, "the manifest has no subject rows"));
+    }
+    Ok((subjects, covariate_names))
+}
+
+/// How one subject ended.
+#[derive(Debug, Clone, Serialize)]
+struct Ended {
+    id: String,
+    organ: String,
+    /// `done`, `skipped` or `failed`.
+    status: &'static str,
+    /// The exit code (none for a skip or a signal).
+    exit_code: Option<i32>,
+    /// The one-line error of a failure.
+    message: String,
+    seconds: f64,
+}
+
+/// The run hash recorded in `dir/report.json`, if any.
+fn recorded_hash(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join("report.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["provenance"]["run_hash"].as_str().map(str::to_string)
+}
+
+/// Runs one subject as its own process.
+fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
+    let t = Instant::now();
+    let dir = out.join(&s.id);
+    let ended = |status, exit_code, message: String| Ended {
+        id: s.id.clone(),
+        organ: s.organ.clone(),
+        status,
+        exit_code,
+        message,
+        seconds: t.elapsed().as_secs_f64(),
+    };
+    let (hash, _) = super::provenance::run_hash(&s.args);
+    if recorded_hash(&dir).as_deref() == Some(hash.as_str()) {
+        return ended("skipped", None, String::new());
+    }
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => {
+            return ended(
+                "failed",
+                None,
+                format!("cannot find the unfold binary: {e}"),
+            );
+        }
+    };
+    let mut cmd = std::process::Command::new(exe);
+    cmd.args(&s.args).arg("-o").arg(&dir);
+    if let Some(m) = max_memory {
+        cmd.arg("--max-memory").arg(m.to_string());
+    }
+    let log = out.join("logs").join(format!("{}.log", s.id));
+    let output = match cmd.stdin(std::process::Stdio::null()).output() {
+        Ok(o) => o,
+        Err(e) => return ended("failed", None, format!("cannot start unfold: {e}")),
+    };
+    let mut text = output.stdout.clone();
+    text.extend_from_slice(&output.stderr);
+    // the log is a convenience: a failure to write it does not fail the subject
+    let _ = unfold::io::atomic_write(&log, &text);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let last = stderr
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("")
+        .trim_start_matches("unfold: error: ")
+        .to_string();
+    match output.status.code() {
+        Some(0) => ended("done", Some(0), String::new()),
+        Some(c) => ended("failed", Some(c), last),
+        None => ended(
+            "failed",
+            None,
+            format!("killed by a signal ({:?}); {last}", output.status),
+        ),
+    }
+}
+
+/// Writes `OUT/failures.csv`: one row per failed subject (header only when
+/// none failed).
+fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), CliError> {
+    let path = out.join("failures.csv");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let err = |e: csv::Error| at(&path, e);
+    w.write_record(["id", "organ", "exit_code", "message"])
+        .map_err(err)?;
+    for e in ended.iter().filter(|e| e.status == "failed") {
+        let code = e.exit_code.map(|c| c.to_string()).unwrap_or_default();
+        w.write_record([
+            e.id.as_str(),
+            e.organ.as_str(),
+            &code,
+            &super::printable(&e.message),
+        ])
+        .map_err(err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| at(&path, e))?;
+    Ok(unfold::io::atomic_write(&path, &bytes)?)
+}
+
+/// Runs `unfold batch`.
+pub fn run(a: &BatchArgs) -> Result<(), CliError> {
+    let (subjects, covariates) = read_manifest(&a.manifest)?;
+    let jobs = match a.jobs {
+        Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    }
+    .min(subjects.len());
+    let out = &a.output;
+    if out.is_file() {
+        return Err(at(out, "is a file; -o names a directory"));
+    }
+    super::ensure_dir(&out.join("logs"))?;
+    let max_memory = super::memory::budget()
+        .limit_bytes
+        .map(|l| (l / jobs as f64) as u64);
+    let total = subjects.len();
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let results: Mutex<Vec<Ended>> = Mutex::new(Vec::with_capacity(total));
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(total as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("batch [{bar:30}] {pos}/{len} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(s) = subjects.get(i) else { break };
+                    let e = run_subject(s, out, max_memory);
+                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    let line = format!(
+                        "[{k}/{total}] {} ({}): {} in {:.1} s{}",
+                        s.id,
+                        s.organ,
+                        e.status,
+                        e.seconds,
+                        if e.message.is_empty() {
+                            String::new()
+                        } else {
+                            format!(": {}", super::printable(&e.message))
+                        }
+                    );
+                    match &bar {
+                        Some(b) => {
+                            b.inc(1);
+                            b.set_message(format!("{} {}", s.id, e.status));
+                        }
+                        None => println!("batch {line}"),
+                    }
+                    if let Ok(mut r) = results.lock() {
+                        r.push(e);
+                    }
+                }
+            });
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let mut ended = results.into_inner().unwrap_or_default();
+    let order: BTreeMap<&str, usize> = subjects
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.id.as_str(), i))
+        .collect();
+    ended.sort_by_key(|e| order.get(e.id.as_str()).copied().unwrap_or(usize::MAX));
+    write_failures(out, &ended)?;
+    super::cohort::write_cohort(out, &subjects_table(&subjects), &covariates)?;
+    let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
+    let (ran, skipped, failed) = (count("done"), count("skipped"), count("failed"));
+    println!(
+        "batch: {total} subjects, {ran} run, {skipped} skipped (done before with the same \
+         inputs), {failed} failed; wrote {}",
+        out.display()
+    );
+    if failed > 0 {
+        let first = ended
+            .iter()
+            .find(|e| e.status == "failed")
+            .map_or("", |e| e.id.as_str());
+        return Err(CliError::Usage(format!(
+            "{failed} of {total} subjects failed (first: {first}); see {}",
+            out.join("failures.csv").display()
+        )));
+    }
+    Ok(())
+}
+
+/// The subjects as the cohort table wants them: id, organ, covariates.
+fn subjects_table(subjects: &[Subject]) -> Vec<super::cohort::SubjectRow> {
+    subjects
+        .iter()
+        .map(|s| super::cohort::SubjectRow {
+            id: s.id.clone(),
+            organ: s.organ.clone(),
+            covariates: s.covariates.clone(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_directory_names() {
+        for ok in ["s01", "a.b_c-d", "P7"] {
+            assert!(valid_id(ok), "{ok}");
+        }
+        for bad in ["", ".", "..", ".hidden", "a/b", "a b", "x\u{1b}", "logs"] {
+            assert!(!valid_id(bad), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn the_organs_options_are_known_from_their_commands() {
+        let p = option_kinds("placenta").unwrap();
+        assert_eq!(p.input, Some(true));
+        assert_eq!(p.valued.get("seg"), Some(&true));
+        assert_eq!(p.valued.get("template"), Some(&false));
+        assert!(p.repeated.contains("image"));
+        assert!(p.switches.contains("no-figures"));
+        assert!(!p.valued.contains_key("output"));
+        let m = option_kinds("mitral").unwrap();
+        assert_eq!(m.input, None);
+        assert_eq!(m.valued.get("annulus"), Some(&true));
+        assert!(all_option_names().contains("surface"));
+    }
+}

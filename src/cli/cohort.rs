@@ -1,0 +1,176 @@
+//! `unfold cohort OUT`: every subject's `report.json` in one table (issue
+//! 19; also run at the end of `unfold batch`).
+//!
+//! `OUT/subjects.csv` (written by the batch: `id`, `organ`, then the
+//! covariates) names the subjects; `OUT/cohort.csv` gets one row per
+//! subject: `id`, `organ`, `status` (`ok`, or `missing` without a report),
+//! the covariates, then every scalar of its report, flattened with dotted
+//! keys (`field.unknowns`, `roundtrip_error_um.mean`; booleans as 0 and 1;
+//! arrays and text left out, and the `provenance` section, which describes
+//! the run rather than the organ). Columns are the union over subjects,
+//! sorted; a subject without a value has an empty cell.
+
+use super::{CliError, at};
+use clap::Args;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// `unfold cohort`.
+#[derive(Debug, Args)]
+pub struct CohortArgs {
+    /// The output directory of an `unfold batch` run.
+    output: PathBuf,
+}
+
+/// A subject as the batch ran it.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SubjectRow {
+    /// Its id (`OUT/<id>/`).
+    pub id: String,
+    /// Its organ.
+    pub organ: String,
+    /// Covariate values by column.
+    pub covariates: BTreeMap<String, String>,
+}
+
+/// The scalars of a JSON value, keys joined by dots.
+fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
+    match v {
+        serde_json::Value::Number(n) => {
+            out.insert(prefix.to_string(), n.to_string());
+        }
+        serde_json::Value::Bool(b) => {
+            out.insert(prefix.to_string(), u8::from(*b).to_string());
+        }
+        serde_json::Value::Object(map) => {
+            for (k, v) in map {
+                if prefix.is_empty() && k == "provenance" {
+                    continue;
+                }
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten(&key, v, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Writes `OUT/subjects.csv` and `OUT/cohort.csv` for `subjects`.
+///
+/// # Errors
+/// Writing either file.
+pub(crate) fn write_cohort(
+    out: &Path,
+    subjects: &[SubjectRow],
+    covariates: &[String],
+) -> Result<(), CliError> {
+    let path = out.join("subjects.csv");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header = vec!["id".to_string(), "organ".to_string()];
+    header.extend(covariates.iter().cloned());
+    w.write_record(&header).map_err(|e| at(&path, e))?;
+    for s in subjects {
+        let mut row = vec![s.id.clone(), s.organ.clone()];
+        row.extend(
+            covariates
+                .iter()
+                .map(|c| s.covariates.get(c).cloned().unwrap_or_default()),
+        );
+        w.write_record(&row).map_err(|e| at(&path, e))?;
+    }
+    let bytes = w.into_inner().map_err(|e| at(&path, e))?;
+    unfold::io::atomic_write(&path, &bytes)?;
+
+    let mut rows = Vec::with_capacity(subjects.len());
+    let mut keys = std::collections::BTreeSet::new();
+    for s in subjects {
+        let report = std::fs::read_to_string(out.join(&s.id).join("report.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let mut scalars = BTreeMap::new();
+        if let Some(r) = &report {
+            flatten("", r, &mut scalars);
+        }
+        keys.extend(scalars.keys().cloned());
+        rows.push((s, report.is_some(), scalars));
+    }
+    let path = out.join("cohort.csv");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header = vec!["id".to_string(), "organ".to_string(), "status".to_string()];
+    header.extend(covariates.iter().cloned());
+    header.extend(keys.iter().cloned());
+    w.write_record(&header).map_err(|e| at(&path, e))?;
+    for (s, ok, scalars) in rows {
+        let mut row = vec![
+            s.id.clone(),
+            s.organ.clone(),
+            if ok { "ok" } else { "missing" }.to_string(),
+        ];
+        row.extend(
+            covariates
+                .iter()
+                .map(|c| s.covariates.get(c).cloned().unwrap_or_default()),
+        );
+        row.extend(
+            keys.iter()
+                .map(|k| scalars.get(k).cloned().unwrap_or_default()),
+        );
+        w.write_record(&row).map_err(|e| at(&path, e))?;
+    }
+    let bytes = w.into_inner().map_err(|e| at(&path, e))?;
+    Ok(unfold::io::atomic_write(&path, &bytes)?)
+}
+
+/// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
+pub fn run(a: &CohortArgs) -> Result<(), CliError> {
+    let path = a.output.join("subjects.csv");
+    let mut reader = csv::Reader::from_path(&path).map_err(|e| {
+        at(
+            &path,
+            format!("{e}; `unfold cohort` reads the subjects an `unfold batch` run wrote"),
+        )
+    })?;
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| at(&path, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header.first().map(String::as_str) != Some("id")
+        || header.get(1).map(String::as_str) != Some("organ")
+    {
+        return Err(at(&path, "the header must start with id,organ"));
+    }
+    let covariates: Vec<String> = header[2..].to_vec();
+    let mut subjects = Vec::new();
+    for r in reader.records() {
+        let r = r.map_err(|e| at(&path, e))?;
+        let id = r.get(0).unwrap_or("");
+        if !super::batch::valid_id(id) {
+            return Err(at(
+                &path,
+                format!("'{}' is not a subject id", super::printable(id)),
+            ));
+        }
+        subjects.push(SubjectRow {
+            id: id.to_string(),
+            organ: r.get(1).unwrap_or("").to_string(),
+            covariates: covariates
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (c.clone(), r.get(i + 2).unwrap_or("").to_string()))
+                .collect(),
+        });
+    }
+    write_cohort(&a.output, &subjects, &covariates)?;
+    println!(
+        "{}: {} subjects",
+        a.output.join("cohort.csv").display(),
+        subjects.len()
+    );
+    Ok(())
+}
