@@ -51,10 +51,10 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
         std::fs::write(
             &manifest,
             format!(
-                "id,organ,input,template,no-figures,ga_weeks,group\n\
-                 s1,placenta,meshes/s1.vtu,,true,31,twin\n\
-                 s2,placenta,meshes/missing.vtu,,true,28,singleton\n\
-                 s3,placenta,meshes/s3.vtu,{s3_template},yes,35,singleton\n"
+                "id,organ,input,template,no-figures,grid,spacing-mm,ga_weeks,group\n\
+                 s1,placenta,meshes/s1.vtu,,true,,,31,twin\n\
+                 s2,placenta,meshes/missing.vtu,,true,,,28,singleton\n\
+                 s3,placenta,meshes/s3.vtu,{s3_template},yes,\"-80,80,-80,80,-30,30\",4,35,singleton\n"
             ),
         )
         .unwrap();
@@ -122,7 +122,7 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
             .as_array()
             .unwrap()
             .iter()
-            .any(|a| a == "ellipsoid")
+            .any(|a| a == "--template=ellipsoid")
     );
 
     // `unfold cohort` alone rebuilds the table

@@ -142,11 +142,12 @@ fn resolve(base: &Path, value: &str) -> String {
     }
 }
 
-/// Whether a subject id is safe as a directory name of `OUT` (not `logs`,
-/// which holds the subjects' logs).
+/// Whether a subject id is safe as a directory name of `OUT` (not `logs`
+/// or `cohort`, which hold the logs and the cohort statistics).
 pub(crate) fn valid_id(id: &str) -> bool {
     !id.is_empty()
         && id != "logs"
+        && id != "cohort"
         && !id.starts_with('.')
         && id
             .chars()
@@ -212,7 +213,7 @@ fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliErro
                 row,
                 format!(
                     "the id '{}' is not a usable directory name (letters, digits, '.', '_', \
-                     '-'; not starting with '.'; not 'logs')",
+                     '-'; not starting with '.'; not 'logs' or 'cohort')",
                     super::printable(&id)
                 ),
             ));
@@ -290,13 +291,14 @@ fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliErro
                 } else {
                     vec![value]
                 };
+                // `--name=value`: a value may start with '-' (a coordinate)
                 for v in values {
-                    args.push(format!("--{name}"));
-                    args.push(if is_path {
+                    let v = if is_path {
                         resolve(&base, v)
                     } else {
                         v.to_string()
-                    });
+                    };
+                    args.push(format!("--{name}={v}"));
                 }
             } else {
                 return Err(row_error(
@@ -537,7 +539,9 @@ mod tests {
         for ok in ["s01", "a.b_c-d", "P7"] {
             assert!(valid_id(ok), "{ok}");
         }
-        for bad in ["", ".", "..", ".hidden", "a/b", "a b", "x\u{1b}", "logs"] {
+        for bad in [
+            "", ".", "..", ".hidden", "a/b", "a b", "x\u{1b}", "logs", "cohort",
+        ] {
             assert!(!valid_id(bad), "{bad:?}");
         }
     }

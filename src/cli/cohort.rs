@@ -8,7 +8,9 @@
 //! keys (`field.unknowns`, `roundtrip_error_um.mean`; booleans as 0 and 1;
 //! arrays and text left out, and the `provenance` section, which describes
 //! the run rather than the organ). Columns are the union over subjects,
-//! sorted; a subject without a value has an empty cell.
+//! sorted; a subject without a value has an empty cell. Then the
+//! template-space statistics of the placenta subjects
+//! ([`super::cohort_images`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -122,7 +124,20 @@ pub(crate) fn write_cohort(
         w.write_record(&row).map_err(|e| at(&path, e))?;
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
-    Ok(unfold::io::atomic_write(&path, &bytes)?)
+    unfold::io::atomic_write(&path, &bytes)?;
+    let super::cohort_images::Statistics { written, left_out } =
+        super::cohort_images::placenta_statistics(out, subjects)?;
+    if !written.is_empty() {
+        println!(
+            "cohort: {} template-space statistics images in {}",
+            written.len(),
+            out.join("cohort").display()
+        );
+    }
+    for (id, why) in left_out {
+        println!("cohort: {id} left out of the statistics: {why}");
+    }
+    Ok(())
 }
 
 /// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.

@@ -2,6 +2,7 @@
 
 mod batch;
 mod cohort;
+mod cohort_images;
 mod convert;
 mod deform;
 mod demo;
