@@ -10,7 +10,8 @@
 //! the run rather than the organ). Columns are the union over subjects,
 //! sorted; a subject without a value has an empty cell. Then the
 //! template-space statistics of the placenta subjects
-//! ([`super::cohort_images`]).
+//! ([`super::cohort_images`]) and the AHA-segment statistics of the
+//! ventricle subjects ([`super::cohort_segments`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -136,6 +137,9 @@ pub(crate) fn write_cohort(
     }
     for (id, why) in left_out {
         println!("cohort: {id} left out of the statistics: {why}");
+    }
+    for p in super::cohort_segments::ventricle_segments(out, subjects)? {
+        println!("cohort: wrote {}", p.display());
     }
     Ok(())
 }
