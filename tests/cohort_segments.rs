@@ -1,7 +1,7 @@
 //! AHA-segment statistics of a ventricle cohort through `unfold batch`
 //! (issue 19): every scalar array of the hearts' anatomy averaged per
 //! segment, then across hearts, with each heart's leave-one-out z-score;
-//! the same heart moved gives the same segment values.
+//! the same heart in two poses gives the same segment values.
 
 use std::path::Path;
 use unfold::io::{WriteOptions, write_mesh};

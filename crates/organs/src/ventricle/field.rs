@@ -106,8 +106,10 @@ pub struct BasalFrame {
 
 impl BasalFrame {
     /// The frame of S: least-squares plane of the rim (smallest eigenvector
-    /// of the rim's covariance), `e3` toward the apex, origin at the rim
-    /// centroid moved along `e3` to the smallest rim height.
+    /// of the rim's covariance), `e3` toward the apex, `e1` in that plane
+    /// toward the anterior landmark (so the frame, and the field's grid,
+    /// move with the heart), origin at the rim centroid moved along `e3` to
+    /// the smallest rim height.
     ///
     /// # Errors
     /// [`VentricleError::CollinearRim`] when the rim is degenerate
@@ -141,9 +143,18 @@ impl BasalFrame {
         if along < 0.0 {
             e3 = -e3;
         }
-        let mut e1: Vector3<f64> = eig.eigenvectors.column(order[2]).into();
-        e1 -= e3 * e1.dot(&e3);
-        e1.normalize_mut();
+        // In the plane, toward the anterior landmark: the rim's largest
+        // eigenvector is arbitrary for a round rim (and its sign always),
+        // and the grid laid along it would turn with the pose.
+        let toward = |d: Vector3<f64>| {
+            let d = d - e3 * d.dot(&e3);
+            d.try_normalize(1e-9 * d.norm().max(1e-300))
+        };
+        let e1 = toward(rim[landmarks.anterior.min(rim.len() - 1)].coords - c)
+            .or_else(|| toward(eig.eigenvectors.column(order[2]).into()))
+            .ok_or(VentricleError::CollinearRim {
+                variances: order.map(|k| eig.eigenvalues[k]),
+            })?;
         let e2 = e3.cross(&e1);
         let rotation = Matrix3::from_rows(&[e1.transpose(), e2.transpose(), e3.transpose()]);
         let zmin = rim
