@@ -51,7 +51,12 @@ fn main() -> ExitCode {
             // One line on stderr, so scripts and users see exactly what failed.
             let msg = e.to_string();
             eprintln!("unfold: error: {}", cli::printable(&msg));
-            ExitCode::FAILURE
+            // 3: outputs written, but the solver did not converge
+            if matches!(e, cli::CliError::NotConverged { .. }) {
+                ExitCode::from(3)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     };
     cli::write_peak_file();

@@ -51,10 +51,13 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
         std::fs::write(
             &manifest,
             format!(
-                "id,organ,input,template,no-figures,grid,spacing-mm,ga_weeks,group\n\
-                 s1,placenta,meshes/s1.vtu,,true,,,31,twin\n\
-                 s2,placenta,meshes/missing.vtu,,true,,,28,singleton\n\
-                 s3,placenta,meshes/s3.vtu,{s3_template},yes,\"-80,80,-80,80,-30,30\",4,35,singleton\n"
+                "id,organ,input,template,no-figures,grid,spacing-mm,solver,max-iterations,\
+                 ga_weeks,group\n\
+                 s1,placenta,meshes/s1.vtu,,true,,,,,31,twin\n\
+                 s2,placenta,meshes/missing.vtu,,true,,,,,28,singleton\n\
+                 s3,placenta,meshes/s3.vtu,{s3_template},yes,\"-80,80,-80,80,-30,30\",4,,,35,\
+                 singleton\n\
+                 s4,placenta,meshes/s1.vtu,,true,,,gd,3,30,twin\n"
             ),
         )
         .unwrap();
@@ -65,11 +68,15 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
 
     let o = run();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert_one_line_error(&o, "1 of 3 subjects failed (first: s2)");
+    assert_one_line_error(&o, "1 of 4 subjects failed (first: s2)");
     let text = stdout(&o);
     assert!(text.contains("s1 (placenta): done"), "{text}");
     assert!(text.contains("s3 (placenta): done"), "{text}");
     assert!(text.contains("s2 (placenta): failed"), "{text}");
+    // a solver stopped early: outputs kept, not a failure, marked in the table
+    assert!(text.contains("s4 (placenta): not converged"), "{text}");
+    assert!(text.contains("1 not converged"), "{text}");
+    assert!(out.join("s4").join("report.json").is_file());
     for id in ["s1", "s3"] {
         assert!(out.join(id).join("report.json").is_file(), "{id}");
         assert!(out.join("logs").join(format!("{id}.log")).is_file(), "{id}");
@@ -82,7 +89,7 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
     assert!(failures[1][3].contains("missing.vtu"), "{failures:?}");
 
     let cohort = csv_rows(&out.join("cohort.csv"));
-    assert_eq!(cohort.len(), 4, "a header and three subjects");
+    assert_eq!(cohort.len(), 5, "a header and four subjects");
     let col = |name: &str| cohort[0].iter().position(|h| h == name).unwrap();
     assert_eq!(
         &cohort[0][..5],
@@ -94,6 +101,8 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
     assert_eq!(cohort[1][col("inverted_tets")], "0");
     assert_eq!(cohort[3][col("folded_faces")], "0");
     assert!(!cohort[0].iter().any(|h| h.starts_with("provenance")));
+    assert_eq!(cohort[1][col("converged")], "1");
+    assert_eq!(cohort[4][col("converged")], "0");
 
     // a rerun skips the subjects done with the same inputs and options
     let before = std::fs::read(out.join("s1").join("report.json")).unwrap();
@@ -102,7 +111,8 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
     let text = stdout(&o);
     assert!(text.contains("s1 (placenta): skipped"), "{text}");
     assert!(text.contains("s3 (placenta): skipped"), "{text}");
-    assert!(text.contains("2 skipped"), "{text}");
+    assert!(text.contains("s4 (placenta): skipped"), "{text}");
+    assert!(text.contains("3 skipped"), "{text}");
     assert_eq!(
         std::fs::read(out.join("s1").join("report.json")).unwrap(),
         before
@@ -129,7 +139,7 @@ fn a_cohort_runs_reports_failures_and_reruns_only_what_changed() {
     std::fs::remove_file(out.join("cohort.csv")).unwrap();
     let o = unfold(&["cohort", &s(&out)]);
     assert_ok(&o);
-    assert_eq!(csv_rows(&out.join("cohort.csv")).len(), 4);
+    assert_eq!(csv_rows(&out.join("cohort.csv")).len(), 5);
 }
 
 #[test]

@@ -247,7 +247,13 @@ fn deform_arap_and_gradient_descent_on_a_small_bowl() {
         "--max-iterations",
         "30",
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // outputs written, exit code 3 and one line saying so
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the deformation did not converge (max_iterations after 30"),
+        "{}",
+        stderr(&o)
+    );
     assert!(
         stdout(&o).contains("NOT converged (max_iterations)"),
         "{}",

@@ -277,7 +277,12 @@ fn gradient_descent_with_few_iterations_reports_not_converged() {
         "--lambda",
         "0.5",
     ]);
-    assert_ok(&o);
+    // outputs written, exit code 3 and one line saying so
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert_one_line_error(
+        &o,
+        "the placenta's flattening did not converge (max_iterations after 5 iterations)",
+    );
     let r = check_outputs(&out, &slab());
     assert_eq!(r["converged"], false);
     assert_eq!(r["solver"], "gd");

@@ -21,7 +21,9 @@
 //! exactly what the single-subject command writes; its output (stdout and
 //! stderr) goes to `OUT/logs/<id>.log`. A failing subject does not stop
 //! the others: its one-line error goes to `OUT/failures.csv` and the batch
-//! exits 1 at the end. A subject whose `OUT/<id>/report.json` carries the
+//! exits 1 at the end. A subject whose solver did not converge (exit code
+//! 3: its outputs are written) is kept and counted apart; the cohort
+//! table's `converged` column marks it. A subject whose `OUT/<id>/report.json` carries the
 //! run hash of the same command line and input contents
 //! ([`super::provenance`]) is skipped. Progress: a bar on a terminal, a
 //! line per subject otherwise (cluster job logs).
@@ -326,7 +328,7 @@ fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliErro
 struct Ended {
     id: String,
     organ: String,
-    /// `done`, `skipped` or `failed`.
+    /// `done`, `not converged` (outputs written), `skipped` or `failed`.
     status: &'static str,
     /// The exit code (none for a skip or a signal).
     exit_code: Option<i32>,
@@ -392,6 +394,9 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
         .to_string();
     match output.status.code() {
         Some(0) => ended("done", Some(0), String::new()),
+        // outputs written, solver stopped early: kept, and the cohort
+        // table's `converged` column says so
+        Some(3) => ended("not converged", Some(3), last),
         Some(c) => ended("failed", Some(c), last),
         None => ended(
             "failed",
@@ -499,10 +504,11 @@ pub fn run(a: &BatchArgs) -> Result<(), CliError> {
     write_failures(out, &ended)?;
     super::cohort::write_cohort(out, &subjects_table(&subjects), &covariates)?;
     let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
-    let (ran, skipped, failed) = (count("done"), count("skipped"), count("failed"));
+    let (ran, unconverged) = (count("done"), count("not converged"));
+    let (skipped, failed) = (count("skipped"), count("failed"));
     println!(
-        "batch: {total} subjects, {ran} run, {skipped} skipped (done before with the same \
-         inputs), {failed} failed; wrote {}",
+        "batch: {total} subjects, {ran} run, {unconverged} not converged (outputs written), \
+         {skipped} skipped (done before with the same inputs), {failed} failed; wrote {}",
         out.display()
     );
     if failed > 0 {

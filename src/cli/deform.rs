@@ -49,9 +49,7 @@ use unfold::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh,
 use unfold::mesh::MeshError;
 use unfold::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use unfold::param::energy::{Arap, SymmetricDirichlet};
-use unfold::param::{
-    Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver, StopReason,
-};
+use unfold::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
 
 /// Distortion energies `D` of `unfold deform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -379,7 +377,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     let status = if report.converged {
         "converged".to_string()
     } else {
-        format!("NOT converged ({})", stop_name(report.stop_reason))
+        format!("NOT converged ({})", super::stop_name(report.stop_reason))
     };
     println!(
         "{} -> {}: {} tets, {} targets, {} {}: {status} in {} iterations, {:.3} s; \
@@ -396,15 +394,15 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         report.distortion,
         report.inverted_tets
     );
+    if !report.converged {
+        return Err(CliError::NotConverged {
+            what: "the deformation",
+            reason: super::stop_name(report.stop_reason),
+            iterations: report.iterations,
+            output: a.output.display().to_string(),
+        });
+    }
     Ok(())
-}
-
-/// The report's name of a stop reason.
-fn stop_name(r: StopReason) -> String {
-    serde_json::to_value(r)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_else(|| format!("{r:?}"))
 }
 
 #[cfg(test)]

@@ -66,6 +66,22 @@ pub enum CliError {
     /// A usage error not caught by the argument parser.
     #[error("{0}")]
     Usage(String),
+    /// The solver stopped before converging; the outputs are written (exit
+    /// code 3).
+    #[error(
+        "{what} did not converge ({reason} after {iterations} iterations); its outputs are \
+         written to {output} with converged: false in report.json"
+    )]
+    NotConverged {
+        /// What was solved.
+        what: &'static str,
+        /// Why the solver stopped.
+        reason: String,
+        /// Iterations taken.
+        iterations: usize,
+        /// Where the outputs are.
+        output: String,
+    },
     /// A stage would take more memory than the run may use.
     #[error(transparent)]
     Memory(Box<memory::MemoryRefusal>),
@@ -156,6 +172,14 @@ pub fn write_peak_file() {
         // a diagnostic: failing to write it must not change the exit code
         let _ = std::fs::write(path, format!("{}\n", peak as u64));
     }
+}
+
+/// The report's name of a solver's stop reason (`max_iterations`, ...).
+pub(crate) fn stop_name(r: unfold::param::StopReason) -> String {
+    serde_json::to_value(r)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_else(|| format!("{r:?}"))
 }
 
 /// `text` safe to print on a terminal: control characters (C0, DEL, C1:

@@ -467,14 +467,6 @@ pub(crate) struct Summary {
     pub written: Vec<PathBuf>,
 }
 
-/// The report's name of a stop reason.
-fn stop_name(r: unfold::param::StopReason) -> String {
-    serde_json::to_value(r)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_else(|| format!("{r:?}"))
-}
-
 /// `name value` pairs of template parameters, mm.
 fn params(theta: &std::collections::BTreeMap<&'static str, f64>) -> String {
     theta
@@ -498,7 +490,7 @@ impl fmt::Display for Summary {
         let status = if r.converged {
             "converged".to_string()
         } else {
-            format!("NOT converged ({})", stop_name(r.stop_reason))
+            format!("NOT converged ({})", super::stop_name(r.stop_reason))
         };
         writeln!(
             f,
@@ -1055,6 +1047,14 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     .map_err(|e| super::shown(&staged, e))?;
     staged.commit()?;
     println!("{summary}");
+    if !summary.report.converged {
+        return Err(CliError::NotConverged {
+            what: "the placenta's flattening",
+            reason: super::stop_name(summary.report.stop_reason),
+            iterations: summary.report.iterations,
+            output: a.output.display().to_string(),
+        });
+    }
     Ok(())
 }
 
