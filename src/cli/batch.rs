@@ -430,14 +430,27 @@ fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), CliError> {
 
 /// Runs `unfold batch`.
 pub fn run(a: &BatchArgs) -> Result<(), CliError> {
-    let (subjects, covariates) = read_manifest(&a.manifest)?;
-    let jobs = match a.jobs {
+    run_manifest(&a.manifest, &a.output, a.jobs)
+}
+
+/// Runs the subjects of `manifest` into `out`, `jobs` at a time (see the
+/// module documentation).
+///
+/// # Errors
+/// A bad manifest (before anything runs); writing the tables; a failed
+/// subject (after all have run).
+pub(crate) fn run_manifest(
+    manifest: &Path,
+    out: &Path,
+    jobs: Option<usize>,
+) -> Result<(), CliError> {
+    let (subjects, covariates) = read_manifest(manifest)?;
+    let jobs = match jobs {
         Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     }
     .min(subjects.len());
-    let out = &a.output;
     if out.is_file() {
         return Err(at(out, "is a file; -o names a directory"));
     }

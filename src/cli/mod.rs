@@ -7,6 +7,7 @@ mod cohort_segments;
 mod convert;
 mod deform;
 mod demo;
+mod demo_cohort;
 mod info;
 mod memory;
 mod mesh;

@@ -1,0 +1,43 @@
+//! `unfold demo --cohort` (issue 19): a synthetic cohort of 8 placentas, 6
+//! ventricles and 6 valves run through `unfold batch` in one command, with
+//! the cohort table and statistics; a rerun skips every subject.
+
+use unfold::io::read_image;
+
+mod common;
+use common::*;
+
+#[test]
+fn the_cohort_demo_runs_twenty_subjects_and_gathers_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cohort-demo");
+    let o = unfold(&["demo", "--cohort", "-o", &s(&out)]);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("batch: 20 subjects, 20 run"), "{text}");
+    let study = out.join("study");
+    let table = std::fs::read_to_string(study.join("cohort.csv")).unwrap();
+    assert_eq!(table.lines().count(), 21, "{table}");
+    assert!(table.lines().next().unwrap().contains("age_weeks,group"));
+    assert_eq!(table.matches(",ok,").count(), 20, "{table}");
+    // every placenta on one grid: the count reaches 8
+    let count = read_image(study.join("cohort").join("t2_count.nii.gz")).unwrap();
+    let max = count.volume.data().iter().cloned().fold(0.0f32, f32::max);
+    assert_eq!(max, 8.0);
+    let segments =
+        std::fs::read_to_string(study.join("cohort").join("ventricle_segments.csv")).unwrap();
+    assert_eq!(
+        segments.lines().filter(|l| l.starts_with("depth,")).count(),
+        17
+    );
+    assert!(
+        segments
+            .lines()
+            .skip(1)
+            .all(|l| l.split(',').nth(2) == Some("6"))
+    );
+    // a rerun regenerates the same inputs: nothing to do
+    let o = unfold(&["demo", "--cohort", "-o", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("20 skipped"), "{}", stdout(&o));
+}
