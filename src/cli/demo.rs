@@ -30,6 +30,10 @@ pub struct DemoArgs {
     /// `unfold batch` into DIR/study/, with the cohort table and statistics.
     #[arg(long)]
     cohort: bool,
+    /// With --cohort: the number of placentas (7,200 tets each, one MRI each).
+    #[arg(long, value_name = "N", default_value_t = 8, requires = "cohort",
+          value_parser = clap::value_parser!(u32).range(1..=10000))]
+    placentas: u32,
 }
 
 fn points_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
@@ -58,7 +62,7 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
             .output
             .clone()
             .unwrap_or_else(|| PathBuf::from("unfold-cohort-demo"));
-        return super::demo_cohort::run(&dir);
+        return super::demo_cohort::run(&dir, a.placentas as usize);
     }
     let output = a
         .output

@@ -2,7 +2,8 @@
 //! `unfold batch` (issue 19), so a new user sees the cohort outputs in one
 //! command.
 //!
-//! `DIR/inputs/` gets 8 placenta slabs of different sizes and poses, each
+//! `DIR/inputs/` gets 8 placenta slabs (7,200 tets; `--placentas N` for
+//! another number, e.g. the cohort bench's 100) of different sizes and poses, each
 //! with an MRI whose tissue values move with the body (plus a per-subject
 //! offset, so the cohort statistics have something to show), 6 ventricle
 //! cups of different radii and poses with their landmarks, and 6 mitral
@@ -87,7 +88,7 @@ fn ring(points: &[Point3<f64>]) -> CellMesh {
 
 /// Writes the cohort's inputs and manifest into `dir`, returns the
 /// manifest's path.
-fn write_inputs(dir: &Path) -> Result<std::path::PathBuf, CliError> {
+fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliError> {
     let opts = WriteOptions::default();
     let inputs = dir.join("inputs");
     super::ensure_dir(&inputs)?;
@@ -95,21 +96,21 @@ fn write_inputs(dir: &Path) -> Result<std::path::PathBuf, CliError> {
         "id,organ,input,image,grid,spacing-mm,surface,anterior,inferior,apex,grid-mm,posterior,\
          annulus,no-figures,age_weeks,group\n",
     );
-    for k in 0..8 {
+    for k in 0..placentas {
         let f = k as f64;
         let pose = Pose::new(
             [10.0 * f - 35.0, 20.0 * (f * 0.7).sin(), 15.0 * f],
             [5.0 * f, -3.0 * f, 2.0 * f],
         );
         let shape = placenta_slab(&PlacentaParams {
-            length: 150.0 + 8.0 * f,
-            width: 120.0 + 5.0 * f,
-            cells_radial: 7,
-            cells_through: 2,
+            length: 150.0 + 8.0 * (f % 8.0),
+            width: 120.0 + 5.0 * (f % 8.0),
+            cells_radial: 10,
+            cells_through: 4,
             pose,
             ..PlacentaParams::default()
         })?;
-        let id = format!("placenta{:02}", k + 1);
+        let id = format!("placenta{:03}", k + 1);
         // one folder per subject: every image is `t2`, so the cohort
         // gathers them under one name
         super::ensure_dir(&inputs.join(&id))?;
@@ -121,7 +122,7 @@ fn write_inputs(dir: &Path) -> Result<std::path::PathBuf, CliError> {
             csv,
             "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,\
              true,{},{}",
-            28 + 2 * k,
+            28 + 2 * (k % 8),
             if k % 2 == 0 { "singleton" } else { "twin" }
         );
     }
@@ -189,10 +190,10 @@ fn write_inputs(dir: &Path) -> Result<std::path::PathBuf, CliError> {
 ///
 /// # Errors
 /// Writing the inputs; the batch's errors (a failed subject).
-pub(crate) fn run(dir: &Path) -> Result<(), CliError> {
-    let manifest = write_inputs(dir)?;
+pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), CliError> {
+    let manifest = write_inputs(dir, placentas)?;
     println!(
-        "wrote {} (8 placentas, 6 ventricles, 6 valves, covariates age_weeks and group)",
+        "wrote {} ({placentas} placentas, 6 ventricles, 6 valves, covariates age_weeks and group)",
         manifest.display()
     );
     super::batch::run_manifest(&manifest, &dir.join("study"), None)
