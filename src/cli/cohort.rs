@@ -3,7 +3,9 @@
 //!
 //! `OUT/subjects.csv` (written by the batch: `id`, `organ`, then the
 //! covariates) names the subjects; `OUT/cohort.csv` gets one row per
-//! subject: `id`, `organ`, `status` (`ok`, or `missing` without a report),
+//! subject: `id`, `organ`, `status` (`ok`; `series` for a mitral series,
+//! whose measurements per step are in `cohort/mitral_measurements.csv`;
+//! `missing` without outputs),
 //! the covariates, then every scalar of its report, flattened with dotted
 //! keys (`field.unknowns`, `roundtrip_error_um.mean`; booleans as 0 and 1;
 //! arrays and text left out, and the `provenance` section, which describes
@@ -11,7 +13,8 @@
 //! sorted; a subject without a value has an empty cell. Then the
 //! template-space statistics of the placenta subjects
 //! ([`super::cohort_images`]) and the AHA-segment statistics of the
-//! ventricle subjects ([`super::cohort_segments`]).
+//! ventricle subjects ([`super::cohort_segments`]), and the mitral
+//! measurements over valves and series steps ([`super::cohort_mitral`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -99,7 +102,12 @@ pub(crate) fn write_cohort(
             flatten("", r, &mut scalars);
         }
         keys.extend(scalars.keys().cloned());
-        rows.push((s, report.is_some(), scalars));
+        let status = match (&report, out.join(&s.id).join("series.csv").is_file()) {
+            (Some(_), _) => "ok",
+            (None, true) => "series",
+            (None, false) => "missing",
+        };
+        rows.push((s, status, scalars));
     }
     let path = out.join("cohort.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -107,12 +115,8 @@ pub(crate) fn write_cohort(
     header.extend(covariates.iter().cloned());
     header.extend(keys.iter().cloned());
     w.write_record(&header).map_err(|e| at(&path, e))?;
-    for (s, ok, scalars) in rows {
-        let mut row = vec![
-            s.id.clone(),
-            s.organ.clone(),
-            if ok { "ok" } else { "missing" }.to_string(),
-        ];
+    for (s, status, scalars) in rows {
+        let mut row = vec![s.id.clone(), s.organ.clone(), status.to_string()];
         row.extend(
             covariates
                 .iter()
@@ -139,6 +143,9 @@ pub(crate) fn write_cohort(
         println!("cohort: {id} left out of the statistics: {why}");
     }
     for p in super::cohort_segments::ventricle_segments(out, subjects)? {
+        println!("cohort: wrote {}", p.display());
+    }
+    if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
         println!("cohort: wrote {}", p.display());
     }
     Ok(())

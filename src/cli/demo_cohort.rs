@@ -7,7 +7,8 @@
 //! with an MRI whose tissue values move with the body (plus a per-subject
 //! offset, so the cohort statistics have something to show), 6 ventricle
 //! cups of different radii and poses with their landmarks, and 6 mitral
-//! valves of different diameters; `DIR/manifest.csv` names them with two
+//! valves of different diameters and one valve over three time steps (a
+//! series); `DIR/manifest.csv` names them with two
 //! covariates (`age_weeks`, `group`); then `unfold batch` runs them into
 //! `DIR/study/` (every placenta on one template grid, so
 //! `DIR/study/cohort/` holds the voxel-wise statistics) and gathers the
@@ -94,7 +95,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     super::ensure_dir(&inputs)?;
     let mut csv = String::from(
         "id,organ,input,image,grid,spacing-mm,surface,anterior,inferior,apex,grid-mm,posterior,\
-         annulus,no-figures,age_weeks,group\n",
+         annulus,series,no-figures,age_weeks,group\n",
     );
     for k in 0..placentas {
         let f = k as f64;
@@ -120,7 +121,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         write_image(&img_path, &mri(&shape.mesh, &pose, 10.0 * f)?)?;
         let _ = writeln!(
             csv,
-            "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,\
+            "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,,\
              true,{},{}",
             28 + 2 * (k % 8),
             if k % 2 == 0 { "singleton" } else { "twin" }
@@ -149,7 +150,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         )?;
         let _ = writeln!(
             csv,
-            "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,true,\
+            "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,,true,\
              {},{}",
             xyz(&v.anterior),
             xyz(&v.inferior),
@@ -176,11 +177,28 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         write_mesh(dir.join(&r), &ring(&valve.annulus), &opts)?;
         let _ = writeln!(
             csv,
-            "{id},mitral,,,,,,{a},,,,{p},{r},true,{},{}",
+            "{id},mitral,,,,,,{a},,,,{p},{r},,true,{},{}",
             40 + 4 * k,
             if k % 2 == 0 { "open" } else { "closed" }
         );
     }
+    // one valve over three time steps (the coaptation gap opening)
+    let series = inputs.join("valveseries");
+    super::ensure_dir(&series)?;
+    for step in 0..3 {
+        let valve = mitral_valve(&ValveParams {
+            coaptation_gap: 1.0 + 3.0 * step as f64,
+            ..ValveParams::default()
+        })?;
+        let p = |what: &str| series.join(format!("t{step:02}_{what}.vtu"));
+        write_mesh(p("anterior"), &CellMesh::from(&valve.anterior), &opts)?;
+        write_mesh(p("posterior"), &CellMesh::from(&valve.posterior), &opts)?;
+        write_mesh(p("annulus"), &ring(&valve.annulus), &opts)?;
+    }
+    let _ = writeln!(
+        csv,
+        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,true,44,series"
+    );
     let manifest = dir.join("manifest.csv");
     unfold::io::atomic_write(&manifest, csv.as_bytes())?;
     Ok(manifest)
@@ -193,7 +211,8 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
 pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), CliError> {
     let manifest = write_inputs(dir, placentas)?;
     println!(
-        "wrote {} ({placentas} placentas, 6 ventricles, 6 valves, covariates age_weeks and group)",
+        "wrote {} ({placentas} placentas, 6 ventricles, 6 valves and a valve series, covariates \
+         age_weeks and group)",
         manifest.display()
     );
     super::batch::run_manifest(&manifest, &dir.join("study"), None)

@@ -1,0 +1,112 @@
+//! The measurements of a mitral cohort in one table (issue 19): every
+//! valve, and every step of a valve series, one row each, in
+//! `OUT/cohort/mitral_measurements.csv`.
+//!
+//! The columns are those of a series' `series.csv` (`step`, annulus length,
+//! extent, leaflet areas, saddle height, area above the plane, coaptation
+//! vertices, energies, flipped triangles, seconds) after `id`. A series
+//! subject contributes its `series.csv` rows; a single valve one row from
+//! its `report.json` (`step` empty; what its report does not hold, the
+//! series' energies, empty).
+
+use super::cohort::SubjectRow;
+use super::{CliError, at};
+use std::path::{Path, PathBuf};
+
+/// The measurement columns, as `series.csv` names them (after `step`).
+const COLUMNS: [&str; 13] = [
+    "anterior_file",
+    "annulus_length_mm",
+    "u_extent_mm",
+    "anterior_area_mm2",
+    "posterior_area_mm2",
+    "saddle_horn_height_mm",
+    "area_above_plane_mm2",
+    "coaptation_vertices",
+    "angle_energy",
+    "area_energy",
+    "length_energy",
+    "flipped_triangles",
+    "seconds",
+];
+
+/// A single valve's row from its report, in [`COLUMNS`] order.
+fn report_row(report: &serde_json::Value) -> Vec<String> {
+    let num = |v: &serde_json::Value| match v {
+        serde_json::Value::Number(n) => n.to_string(),
+        _ => String::new(),
+    };
+    COLUMNS
+        .iter()
+        .map(|c| match *c {
+            "anterior_file" => String::new(),
+            "anterior_area_mm2" => num(&report["leaflet_area_mm2"]["anterior"]),
+            "posterior_area_mm2" => num(&report["leaflet_area_mm2"]["posterior"]),
+            "coaptation_vertices" => num(&report["coaptation_vertices"]["within"]),
+            "seconds" => num(&report["seconds"]),
+            c => num(&report[c]),
+        })
+        .collect()
+}
+
+/// Writes the table for the mitral subjects; the file written (none
+/// without a mitral subject with outputs).
+///
+/// # Errors
+/// Reading a subject's `series.csv`, writing the table.
+pub(crate) fn mitral_measurements(
+    out: &Path,
+    subjects: &[SubjectRow],
+) -> Result<Option<PathBuf>, CliError> {
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    for s in subjects.iter().filter(|s| s.organ == "mitral") {
+        let dir = out.join(&s.id);
+        let series = dir.join("series.csv");
+        if series.is_file() {
+            let mut r = csv::Reader::from_path(&series).map_err(|e| at(&series, e))?;
+            let header: Vec<String> = r
+                .headers()
+                .map_err(|e| at(&series, e))?
+                .iter()
+                .map(str::to_string)
+                .collect();
+            for rec in r.records() {
+                let rec = rec.map_err(|e| at(&series, e))?;
+                let get = |name: &str| {
+                    header
+                        .iter()
+                        .position(|h| h == name)
+                        .and_then(|i| rec.get(i))
+                        .unwrap_or("")
+                        .to_string()
+                };
+                let mut row = vec![s.id.clone(), get("step")];
+                row.extend(COLUMNS.iter().map(|c| get(c)));
+                rows.push(row);
+            }
+        } else if let Some(report) = std::fs::read_to_string(dir.join("report.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        {
+            let mut row = vec![s.id.clone(), String::new()];
+            row.extend(report_row(&report));
+            rows.push(row);
+        }
+    }
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    let stats_dir = out.join("cohort");
+    super::ensure_dir(&stats_dir)?;
+    let path = stats_dir.join("mitral_measurements.csv");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header = vec!["id", "step"];
+    header.extend(COLUMNS);
+    w.write_record(&header).map_err(|e| at(&path, e))?;
+    for r in &rows {
+        w.write_record(r).map_err(|e| at(&path, e))?;
+    }
+    let bytes = w.into_inner().map_err(|e| at(&path, e))?;
+    unfold::io::atomic_write(&path, &bytes)?;
+    Ok(Some(path))
+}
