@@ -438,24 +438,8 @@ fn a_tet_soup_deforms_like_the_clean_mesh_in_the_input_numbering() {
     let clean = &shape.mesh;
     // Every tet with its own four vertices, renumbered in first-use order
     // so that the welded soup solves the same system as the clean mesh.
-    let mut number = vec![u32::MAX; clean.num_vertices()];
-    let mut positions = Vec::new();
-    for t in &clean.tets {
-        for &v in t {
-            if number[v as usize] == u32::MAX {
-                number[v as usize] = positions.len() as u32;
-                positions.push(clean.positions[v as usize]);
-            }
-        }
-    }
-    let ordered = TetMesh::new(
-        positions,
-        clean
-            .tets
-            .iter()
-            .map(|t| t.map(|v| number[v as usize]))
-            .collect(),
-    );
+    let (positions, tets, number) = first_use_order(&clean.positions, &clean.tets);
+    let ordered = TetMesh::new(positions, tets);
     let targets: Vec<(usize, [f64; 3])> = flat_targets(&shape)
         .into_iter()
         .map(|(v, t)| (number[v] as usize, t))

@@ -364,23 +364,8 @@ fn an_annulus_of_line_segments_is_chained_into_the_ring() {
 /// `m` renumbered in the order its triangles first use its vertices (the
 /// order welding its soup gives back).
 fn first_use_order(m: &TriMesh) -> TriMesh {
-    let mut number = vec![u32::MAX; m.positions.len()];
-    let mut positions = Vec::new();
-    for t in &m.triangles {
-        for &v in t {
-            if number[v as usize] == u32::MAX {
-                number[v as usize] = positions.len() as u32;
-                positions.push(m.positions[v as usize]);
-            }
-        }
-    }
-    TriMesh::new(
-        positions,
-        m.triangles
-            .iter()
-            .map(|t| t.map(|v| number[v as usize]))
-            .collect(),
-    )
+    let (positions, triangles, _) = common::first_use_order(&m.positions, &m.triangles);
+    TriMesh::new(positions, triangles)
 }
 
 /// `m` as a triangle soup, every 4th triangle written twice.

@@ -640,23 +640,8 @@ fn a_tet_soup_with_duplicated_tets_flattens_like_the_clean_mesh() {
     // result depend on the vertex order by ~1.5 mm at the same objective,
     // so the comparison needs the same order.
     let slab = slab();
-    let mut number = vec![u32::MAX; slab.num_vertices()];
-    let mut positions = Vec::new();
-    for t in &slab.tets {
-        for &v in t {
-            if number[v as usize] == u32::MAX {
-                number[v as usize] = positions.len() as u32;
-                positions.push(slab.positions[v as usize]);
-            }
-        }
-    }
-    let clean = TetMesh::new(
-        positions,
-        slab.tets
-            .iter()
-            .map(|t| t.map(|v| number[v as usize]))
-            .collect(),
-    );
+    let (positions, tets, _) = first_use_order(&slab.positions, &slab.tets);
+    let clean = TetMesh::new(positions, tets);
     // Every tet with its own four vertices (as a tet soup exporter writes
     // them), every 5th tet written twice, its copy's corners rotated.
     let mut soup = TetMesh::default();

@@ -43,3 +43,32 @@ pub fn assert_ok(o: &Output) {
     assert!(o.status.success(), "{}", stderr(o));
     assert!(o.stderr.is_empty(), "stderr: {}", stderr(o));
 }
+
+/// The vertices of `elements` renumbered in the order the elements first use
+/// them (the order welding their soup gives back: each welded vertex keeps
+/// its first copy): the new positions, the renumbered elements, and the new
+/// number of every old vertex (`u32::MAX` for an unused one).
+pub fn first_use_order<const N: usize>(
+    positions: &[unfold::mesh::nalgebra::Point3<f64>],
+    elements: &[[u32; N]],
+) -> (
+    Vec<unfold::mesh::nalgebra::Point3<f64>>,
+    Vec<[u32; N]>,
+    Vec<u32>,
+) {
+    let mut number = vec![u32::MAX; positions.len()];
+    let mut ordered = Vec::new();
+    for e in elements {
+        for &v in e {
+            if number[v as usize] == u32::MAX {
+                number[v as usize] = ordered.len() as u32;
+                ordered.push(positions[v as usize]);
+            }
+        }
+    }
+    let renumbered = elements
+        .iter()
+        .map(|e| e.map(|v| number[v as usize]))
+        .collect();
+    (ordered, renumbered, number)
+}

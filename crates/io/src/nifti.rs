@@ -778,17 +778,7 @@ fn check_file_len(h: &Header, len: u64) -> Result<(), IoError> {
     if h.total()? <= len {
         return Ok(());
     }
-    Err(malformed(
-        len,
-        format!(
-            "the file ends after {len} bytes, but the header declares {} bytes of {} \
-             data for dimensions {:?} at offset {}",
-            h.data_len,
-            h.datatype().name(),
-            h.meta.dims,
-            h.offset
-        ),
-    ))
+    Err(h.short(len, false))
 }
 
 /// Fails when `compressed` gzip bytes cannot hold what the header declares
