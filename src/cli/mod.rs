@@ -142,8 +142,16 @@ enum Command {
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     memory::init(cli.max_memory);
-    // `info` reads files to describe them; it writes no report
-    if !matches!(cli.command, Command::Info(_)) {
+    // only the commands whose reports carry provenance hash their inputs
+    // (a batch hashes each subject's in the subject's own process)
+    if matches!(
+        cli.command,
+        Command::Placenta(_)
+            | Command::Ventricle(_)
+            | Command::Mitral(_)
+            | Command::Deform(_)
+            | Command::Demo(_)
+    ) {
         provenance::init(&cli.command);
     }
     match cli.command {
