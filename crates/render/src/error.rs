@@ -58,6 +58,12 @@ pub enum RenderError {
     /// too small for a widget, ...).
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// The embedded font (Noto Sans Regular) could not be read, so no text
+    /// can be drawn; the build is broken, not the input.
+    #[error(
+        "the embedded font could not be read: rebuild unfold-render from an intact notosans crate"
+    )]
+    Font,
     /// PNG encoding or decoding failed.
     #[error("PNG: {0}")]
     Png(String),

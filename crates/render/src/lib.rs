@@ -5,7 +5,10 @@
 //!   [`Image::to_png`] / [`Image::from_png`]; 2D drawing in pixel space
 //!   ([`Image::line`], [`Image::polyline`], [`Image::fill_polygon`] with
 //!   [`FillRule`], [`arc`], [`annular_sector`]) and text
-//!   ([`Image::draw_text`], [`text_width`]) in the `font8x8` bitmap font.
+//!   ([`Image::draw_text`], [`text_width`]) in Noto Sans Regular, anti-aliased
+//!   by `ab_glyph` (the font bytes come from the `notosans` crate; Noto Sans
+//!   is under the SIL Open Font License 1.1, see `THIRD-PARTY.md` at the
+//!   repository root).
 //! - [`Camera`]: orthographic or perspective, [`Camera::frame`] to fit a
 //!   point set in a panel.
 //! - [`Renderer`]: z-buffered triangles with a top-left-style fill rule
