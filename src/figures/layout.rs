@@ -4,41 +4,58 @@
 //! the top of a panel or figure ([`TitleStyle`], [`title_band`]), and
 //! panels ([`panel`]) composed into one figure ([`compose`]).
 //!
-//! Text is the renderer's 8x8 bitmap font: a line of `n` characters at
-//! scale `s` is `8 s n` pixels wide and `8 s` high.
+//! Text is the renderer's proportional font (Noto Sans): every width is
+//! measured with [`text_width`], never counted in characters.
 
 use unfold_render::{Anchor, Image, RenderError, Rgba, text_width};
 
 use super::{FigureOptions, INK, PAPER};
 
-/// Width of one character at text scale 1, pixels.
-const CHAR_WIDTH: u32 = 8;
-
 /// What marks the end of text that was cut.
 const ELLIPSIS: &str = "...";
 
-/// Splits `text` into lines of at most `max_chars` characters (at least 1):
-/// at white space, and inside a longer word after an underscore or, failing
-/// that, anywhere (so that array names like `coaptation_distance_mm` break
-/// at their parts). Words are joined by single spaces; empty text gives no
+/// The longest prefix of `text` (in characters) that is at most `max_width`
+/// pixels wide at `scale`, followed by `tail`: the whole of it must fit.
+/// Empty when not even `tail` alone fits.
+fn longest_prefix(text: &str, tail: &str, scale: u32, max_width: u32) -> String {
+    let mut best = String::new();
+    let mut cur = String::new();
+    for ch in text.chars() {
+        cur.push(ch);
+        if text_width(&format!("{cur}{tail}"), scale) > max_width {
+            break;
+        }
+        best.clone_from(&cur);
+    }
+    best
+}
+
+/// Splits `text` into lines at most `max_width` pixels wide at text scale
+/// `scale` (a line holds at least one character, even if wider): at white
+/// space, and inside a longer word after an underscore or, failing that,
+/// anywhere (so that array names like `coaptation_distance_mm` break at
+/// their parts). Words are joined by single spaces; empty text gives no
 /// line.
-pub fn wrap(text: &str, max_chars: usize) -> Vec<String> {
-    let max = max_chars.max(1);
+pub fn wrap(text: &str, max_width: u32, scale: u32) -> Vec<String> {
+    let fits = |s: &str| text_width(s, scale) <= max_width;
     let mut pieces: Vec<String> = Vec::new();
     for word in text.split_whitespace() {
-        if word.chars().count() <= max {
+        if fits(word) {
             pieces.push(word.to_string());
             continue;
         }
         let mut cur = String::new();
         for part in word.split_inclusive('_') {
-            if cur.chars().count() + part.chars().count() > max && !cur.is_empty() {
+            if !cur.is_empty() && !fits(&format!("{cur}{part}")) {
                 pieces.push(std::mem::take(&mut cur));
             }
             cur.push_str(part);
-            while cur.chars().count() > max {
-                let head: String = cur.chars().take(max).collect();
-                cur = cur.chars().skip(max).collect();
+            while !fits(&cur) && cur.chars().count() > 1 {
+                let mut head = longest_prefix(&cur, "", scale, max_width);
+                if head.is_empty() {
+                    head = cur.chars().take(1).collect();
+                }
+                cur = cur[head.len()..].to_string();
                 pieces.push(head);
             }
         }
@@ -49,7 +66,7 @@ pub fn wrap(text: &str, max_chars: usize) -> Vec<String> {
     let mut lines: Vec<String> = Vec::new();
     for p in pieces {
         match lines.last_mut() {
-            Some(l) if l.chars().count() + 1 + p.chars().count() <= max => {
+            Some(l) if fits(&format!("{l} {p}")) => {
                 l.push(' ');
                 l.push_str(&p);
             }
@@ -60,8 +77,8 @@ pub fn wrap(text: &str, max_chars: usize) -> Vec<String> {
 }
 
 /// The largest text scale `s`, `1 <= s <= max_scale`, at which `text` is at
-/// most `max_width` pixels wide (`8 s n <= max_width` for `n` characters);
-/// 1 when it fits at none.
+/// most `max_width` pixels wide (`text_width(text, s) <= max_width`); 1
+/// when it fits at none.
 pub fn fit_scale(text: &str, max_scale: u32, max_width: u32) -> u32 {
     let mut scale = max_scale.max(1);
     while scale > 1 && text_width(text, scale) > max_width {
@@ -71,22 +88,18 @@ pub fn fit_scale(text: &str, max_scale: u32, max_width: u32) -> u32 {
 }
 
 /// `text` fitted into `max_width` pixels: the scale of [`fit_scale`] and the
-/// text itself, or, when it does not fit even at scale 1, its first
-/// `floor(max_width / 8) - 3` characters followed by `...` (only the first
-/// `floor(max_width / 8)` characters when that leaves no room for `...`).
+/// text itself, or, when it does not fit even at scale 1, its longest
+/// prefix that fits followed by `...` (only the longest prefix that fits
+/// when not even `...` does).
 pub fn fit(text: &str, max_scale: u32, max_width: u32) -> (u32, String) {
     let scale = fit_scale(text, max_scale, max_width);
     if text_width(text, scale) <= max_width {
         return (scale, text.to_string());
     }
-    let n = (max_width / CHAR_WIDTH) as usize;
-    let cut = if n > ELLIPSIS.len() {
-        text.chars()
-            .take(n - ELLIPSIS.len())
-            .chain(ELLIPSIS.chars())
-            .collect()
+    let cut = if text_width(ELLIPSIS, scale) <= max_width {
+        longest_prefix(text, ELLIPSIS, scale, max_width) + ELLIPSIS
     } else {
-        text.chars().take(n).collect()
+        longest_prefix(text, "", scale, max_width)
     };
     (scale, cut)
 }
@@ -171,7 +184,7 @@ pub fn title_band(
         Anchor::Center,
     )?;
     let max_lines = style.subtitle_lines.max(1);
-    let mut lines = wrap(subtitle, (room / CHAR_WIDTH).max(1) as usize);
+    let mut lines = wrap(subtitle, room, 1);
     if lines.len() > max_lines {
         lines.truncate(max_lines);
         if let Some(last) = lines.last_mut() {
@@ -219,56 +232,106 @@ pub fn compose(panels: &[Image], columns: u32, opts: &FigureOptions) -> Result<I
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    /// Width of `text` at scale 1.
+    fn w(text: &str) -> u32 {
+        text_width(text, 1)
+    }
 
     #[test]
     fn wrap_splits_at_spaces() {
+        let room = w("thickness");
         assert_eq!(
-            wrap("wall thickness in mm", 10),
+            wrap("wall thickness in mm", room, 1),
             vec!["wall", "thickness", "in mm"]
         );
-        assert_eq!(wrap("", 10), Vec::<String>::new());
-        assert_eq!(wrap("  two   spaces ", 20), vec!["two spaces"]);
+        assert_eq!(wrap("", 10, 1), Vec::<String>::new());
+        assert_eq!(wrap("  two   spaces ", 200, 1), vec!["two spaces"]);
     }
 
     #[test]
     fn wrap_breaks_long_words_after_underscores_then_anywhere() {
+        let room = w("distance_mm");
         assert_eq!(
-            wrap("coaptation_distance_mm of the valve", 12),
-            vec!["coaptation_", "distance_mm", "of the valve"]
+            wrap("coaptation_distance_mm of", room, 1),
+            vec!["coaptation_", "distance_mm", "of"]
         );
-        assert_eq!(wrap("abcdefghij", 4), vec!["abcd", "efgh", "ij"]);
-        assert_eq!(wrap("a b", 0), vec!["a", "b"]);
+        let room = w("abcd");
+        let lines = wrap("abcdabcdab", room, 1);
+        assert_eq!(lines, vec!["abcd", "abcd", "ab"]);
+        // No room at all: one character a line.
+        assert_eq!(wrap("ab c", 0, 1), vec!["a", "b", "c"]);
     }
 
     #[test]
     fn fit_takes_the_largest_scale_then_cuts() {
-        assert_eq!(fit_scale("abcd", 2, 64), 2);
-        assert_eq!(fit_scale("abcd", 2, 63), 1);
+        assert_eq!(fit_scale("abcd", 2, text_width("abcd", 2)), 2);
+        assert_eq!(fit_scale("abcd", 2, text_width("abcd", 2) - 1), 1);
         assert_eq!(fit_scale("abcd", 0, 8), 1);
-        assert_eq!(fit("abcd", 2, 32), (1, "abcd".to_string()));
-        assert_eq!(fit("abcdefghij", 2, 48), (1, "abc...".to_string()));
-        assert_eq!(fit("abcdefghij", 1, 24), (1, "abc".to_string()));
+        assert_eq!(fit("abcd", 2, w("abcd") + 1), (1, "abcd".to_string()));
+        assert_eq!(fit("abcdefghij", 2, w("abc...")), (1, "abc...".to_string()));
+        assert_eq!(fit("abcdefghij", 1, w("...") - 1), (1, "a".to_string()));
+        assert_eq!(fit("abcdefghij", 1, 0), (1, String::new()));
     }
 
     #[test]
     fn a_title_band_drops_what_does_not_fit_with_an_ellipsis() {
         let style = TitleStyle {
-            title_top: 2,
+            title_top: 0,
             margin: 0,
-            subtitle_top: 12,
-            line_step: 10,
+            subtitle_top: 26,
+            line_step: 14,
             subtitle_lines: 1,
             subtitle_ink: INK,
         };
-        let mut img = Image::new(80, 24, PAPER).unwrap();
+        // "one two" fits, "one two three" does not: "one two..." is drawn.
+        let width = w("one two...") + 2;
+        let mut img = Image::new(width, 40, PAPER).unwrap();
         title_band(&mut img, &style, "T", 2, "one two three").unwrap();
-        // "one two" fits the 10 characters, "three" does not: "one two..."
-        // fills the whole row of the subtitle.
-        let inked = |x0: u32, x1: u32| {
-            (x0..x1).any(|x| (12..20).any(|y| img.get(i64::from(x), y) == Some(INK)))
+        let mut expect = Image::new(width, 40, PAPER).unwrap();
+        expect
+            .draw_text((width / 2) as i32, 26, "one two...", 1, INK, Anchor::Center)
+            .unwrap();
+        let rows = |im: &Image| -> Vec<Option<Rgba>> {
+            (24..40)
+                .flat_map(|y| (0..width).map(move |x| (x, y)))
+                .map(|(x, y)| im.get(i64::from(x), y))
+                .collect()
         };
-        assert!(inked(0, 8) && inked(72, 80));
-        assert_eq!(style.shared_scale(80, &["abcd", "abcde"], 2), 2);
-        assert_eq!(style.shared_scale(80, &["abcd", "abcdef"], 2), 1);
+        assert_eq!(rows(&img), rows(&expect));
+        let both = text_width("abcd", 2);
+        assert_eq!(style.shared_scale(both, &["abcd", "abc"], 2), 2);
+        assert_eq!(style.shared_scale(both, &["abcd", "abcdef"], 2), 1);
+    }
+
+    proptest! {
+        /// Every wrapped line fits (or is a single character), and the
+        /// lines hold the words of the text in order.
+        #[test]
+        fn wrapped_lines_fit_and_keep_the_words(
+            words in prop::collection::vec("[a-z_]{1,14}", 0..8),
+            room in 0u32..160,
+            scale in 1u32..3,
+        ) {
+            let text = words.join(" ");
+            let lines = wrap(&text, room, scale);
+            for l in &lines {
+                prop_assert!(text_width(l, scale) <= room || l.chars().count() == 1, "{:?}", l);
+            }
+            let joined: String = lines.concat().chars().filter(|c| *c != ' ').collect();
+            let original: String = text.chars().filter(|c| *c != ' ').collect();
+            prop_assert_eq!(joined, original);
+        }
+
+        /// A fitted line is at most the room wide (at scale 1 when it had
+        /// to be cut), and what was kept is a prefix of the text.
+        #[test]
+        fn fitted_text_fits(text in "[ -~]{0,30}", room in 0u32..200, max_scale in 1u32..4) {
+            let (scale, shown) = fit(&text, max_scale, room);
+            prop_assert!(text_width(&shown, scale) <= room);
+            let kept = shown.strip_suffix(ELLIPSIS).unwrap_or(&shown);
+            prop_assert!(text.starts_with(kept));
+        }
     }
 }

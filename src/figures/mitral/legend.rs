@@ -1,10 +1,10 @@
 //! The legend beside the 3D view: a colour bar with ticks or one swatch per
 //! label, with title and notes wrapped to its width.
 
-use unfold_render::{Anchor, Image};
+use unfold_render::{Anchor, Image, text_height};
 
 use super::specs::Legend;
-use crate::figures::layout::wrap;
+use crate::figures::layout::{fit, wrap};
 use crate::figures::{FigureError, INK};
 
 /// Draws `legend` in the box at `(x, y)` of `width x height` pixels (text
@@ -20,17 +20,20 @@ pub(super) fn draw_legend(
 ) -> Result<(), FigureError> {
     let err = || FigureError::render(figure);
     let bottom = y + height;
+    // One line of scale-1 text and the step from one line to the next.
+    let lh = text_height(1) as i32;
+    let step = lh + 1;
     // Writes wrapped lines from row `ty` at column `tx`; returns the next row.
     let lines = |img: &mut Image, tx: i32, ty: i32, s: &str| -> Result<i32, FigureError> {
-        let room = (x + width as i32 - tx).max(8) as usize / 8;
+        let room = (x + width as i32 - tx).max(8) as u32;
         let mut ty = ty;
-        for line in wrap(s, room) {
-            if ty + 8 > bottom {
+        for line in wrap(s, room, 1) {
+            if ty + lh > bottom {
                 break;
             }
             img.draw_text(tx, ty, &line, 1, INK, Anchor::Left)
                 .map_err(err())?;
-            ty += 10;
+            ty += step;
         }
         Ok(ty)
     };
@@ -44,11 +47,8 @@ pub(super) fn draw_legend(
     ty += 6;
     match legend {
         Legend::Bar { color, ticks, .. } => {
-            let note_lines: usize = notes
-                .iter()
-                .map(|n| wrap(n, (width / 8) as usize).len())
-                .sum();
-            let note_h = 10 * note_lines as i32 + 8;
+            let note_lines: usize = notes.iter().map(|n| wrap(n, width, 1).len()).sum();
+            let note_h = step * note_lines as i32 + 8;
             let bar_h = (bottom - ty - note_h - 8).clamp(20, 200);
             let (y_top, y_bot) = (ty + 4, ty + 4 + bar_h);
             let bar_w = 18;
@@ -70,9 +70,9 @@ pub(super) fn draw_legend(
                     [f64::from(x + bar_w + 3), f64::from(yy) + 0.5],
                     INK,
                 );
-                let room = (width as i32 - bar_w - 8).max(8) as usize / 8;
-                let s: String = label.chars().take(room).collect();
-                img.draw_text(x + bar_w + 8, yy - 4, &s, 1, INK, Anchor::Left)
+                let room = (width as i32 - bar_w - 8).max(8) as u32;
+                let (_, s) = fit(label, 1, room);
+                img.draw_text(x + bar_w + 8, yy - lh / 2, &s, 1, INK, Anchor::Left)
                     .map_err(err())?;
             }
             ty = y_bot + 14;

@@ -101,7 +101,7 @@ pub(super) const TITLE_BAND: i32 = 24;
 pub(super) const SUBTITLE_Y: i32 = 28;
 
 /// Rows of the labels above the 2D annulus.
-pub(super) const LABEL_Y: [i32; 2] = [42, 52];
+pub(super) const LABEL_Y: [i32; 2] = [39, 52];
 
 /// Top of the 2D map area.
 pub(super) const MAP_TOP: i32 = 66;

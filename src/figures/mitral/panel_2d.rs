@@ -158,14 +158,15 @@ pub(super) fn panel_2d(
         ),
     ];
     let mut ty = yb as i32 + 14;
-    let room = (geo.pw as usize).saturating_sub(2 * MAP_SIDE as usize) / 8;
-    for line in lines.iter().flat_map(|l| wrap(l, room)) {
-        if ty + 8 > geo.ph as i32 - 2 {
+    let room = geo.pw.saturating_sub(2 * MAP_SIDE as u32);
+    let lh = unfold_render::text_height(1) as i32;
+    for line in lines.iter().flat_map(|l| wrap(l, room, 1)) {
+        if ty + lh > geo.ph as i32 - 2 {
             break;
         }
         img.draw_text(MAP_SIDE, ty, &line, 1, INK, Anchor::Left)
             .map_err(err())?;
-        ty += 11;
+        ty += lh + 1;
     }
     Ok(img)
 }

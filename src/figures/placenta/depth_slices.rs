@@ -177,7 +177,7 @@ pub(super) fn depth_slices(
             p.line([ox, oy - l], [ox + 3.0, oy - l + 4.0], INK);
             p.draw_text(
                 (ox + l + 4.0) as i32,
-                (oy - 4.0) as i32,
+                (oy - 6.0) as i32,
                 "x",
                 1,
                 INK,
@@ -215,7 +215,7 @@ pub(super) fn depth_slices(
     let mut y = TITLE_BAND as i32 + 4;
     for line in &notes {
         text_fit(&mut p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center).map_err(err(name))?;
-        y += 12;
+        y += unfold_render::text_height(1) as i32 + 1;
     }
     let bar_top = y + 8;
     let bar_h = (ph as i32 - bar_top - 10).max(40) as u32;

@@ -79,7 +79,8 @@ pub(super) fn distortion(m: &Meshes<'_>, opts: &FigureOptions) -> Result<Image, 
         if values.len() > n {
             lines.push(format!("{} non-finite (inverted)", values.len() - n));
         }
-        let stats_h = 12 * lines.len() as u32 + 4;
+        let step = text_height(1) + 1;
+        let stats_h = step * lines.len() as u32 + 4;
         let rect = Rect::new(
             10,
             TITLE_BAND as i32 + 4,
@@ -119,7 +120,7 @@ pub(super) fn distortion(m: &Meshes<'_>, opts: &FigureOptions) -> Result<Image, 
             text_fit(
                 &mut img,
                 (pw / 2) as i32,
-                y0 + 12 * k as i32,
+                y0 + (step * k as u32) as i32,
                 line,
                 1,
                 pw - 8,

@@ -16,10 +16,10 @@ pub(super) const PANEL_EDGE: Rgba = Rgba::new(215, 215, 215, 255);
 /// one line of subtitle at row 26, 4 pixels free on either side; it fills
 /// [`TITLE_BAND`](super::TITLE_BAND).
 const TITLE_STYLE: TitleStyle = TitleStyle {
-    title_top: 6,
+    title_top: 2,
     margin: 8,
-    subtitle_top: 26,
-    line_step: 11,
+    subtitle_top: 27,
+    line_step: 13,
     subtitle_lines: 1,
     subtitle_ink: INK,
 };

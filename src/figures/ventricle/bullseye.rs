@@ -65,7 +65,7 @@ pub(super) fn bullseye(
         };
         let p = layout.pixel(c);
         let ink = ink_on(fill(m));
-        let th = 8.0 * f64::from(ts);
+        let th = f64::from(unfold_render::text_height(ts));
         let y = if m.mean.is_some() {
             p[1] - 0.5 * th
         } else {
@@ -102,7 +102,7 @@ pub(super) fn bullseye(
     if default {
         heading.extend(["depth".to_string(), "(0 = S, 1 = H)".to_string()]);
     } else {
-        heading.extend(wrap(name, 13));
+        heading.extend(wrap(name, COLORBAR_COLUMN as u32 - 8, 1));
     }
     colorbar_column(&mut img, F, x0, &scale, &heading)?;
     let tx = x0 + COLORBAR_COLUMN + 4;

@@ -4,7 +4,9 @@
 
 use std::f64::consts::TAU;
 
-use unfold_render::{Anchor, ColorScale, FillRule, Image, Rect, Rgb, Rgba, arc, draw_colorbar};
+use unfold_render::{
+    Anchor, ColorScale, FillRule, Image, Rect, Rgb, Rgba, arc, draw_colorbar, text_height,
+};
 
 use super::{COLORBAR_COLUMN, DiskLayout, SOFT_INK, TITLE_BAND};
 use crate::figures::layout::{self, TitleStyle};
@@ -25,10 +27,10 @@ pub(super) fn title_band(
 /// top, up to two lines of subtitle from row 27 in [`SOFT_INK`], 6 pixels
 /// free on either side; it fills [`TITLE_BAND`].
 const TITLE_STYLE: TitleStyle = TitleStyle {
-    title_top: 6,
+    title_top: 2,
     margin: 12,
     subtitle_top: 27,
-    line_step: 11,
+    line_step: 13,
     subtitle_lines: 2,
     subtitle_ink: SOFT_INK,
 };
@@ -72,7 +74,7 @@ pub(super) fn colorbar_column(
             INK,
             Anchor::Center,
         )?;
-        y += 11;
+        y += i64::from(text_height(1)) + 1;
     }
     y += 4;
     let h = (i64::from(img.height()) - 12 - y).max(40);
