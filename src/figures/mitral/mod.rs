@@ -59,12 +59,15 @@ use panel_2d::panel_2d;
 use panel_3d::panel_3d;
 use specs::{MapSpec, map_specs};
 
-/// Colour of the annulus highlight in both panels (a thick dark line).
-pub const ANNULUS_COLOR: Rgba = Rgba::new(30, 30, 30, 255);
+/// Colour of the annulus highlight in both panels (a thick dark navy line).
+/// Not a grey: anti-aliased black text over white paper is grey, so the
+/// annulus stays tellable from the labels' edges.
+pub const ANNULUS_COLOR: Rgba = Rgba::new(25, 25, 90, 255);
 
 /// Colour of the rest of the leaflets' boundary (free edges, commissure
-/// sides).
-pub const OUTLINE_COLOR: Rgba = Rgba::new(128, 128, 128, 255);
+/// sides): a slightly blue grey, so that it is not one of the greys of
+/// anti-aliased text.
+pub const OUTLINE_COLOR: Rgba = Rgba::new(118, 128, 142, 255);
 
 /// Coaptation colours by label ([`COAPTATION_NONE`](unfold_organs::mitral::maps::COAPTATION_NONE), `COAPTATION_NEAR`,
 /// `COAPTATION_WITHIN`): white, yellow, green (ALGORITHMS 4.5).
