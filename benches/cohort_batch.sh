@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The cohort bench (issue 19): 100 synthetic placentas of 7,200 tets with
 # one 3D image each (and the demo's 6 ventricles and 6 valves), batch +
-# cohort, timed; target under 2 minutes on 2 cores. The batch process's own
+# cohort (every subject's figures and the report page OUT/index.html
+# included), timed; target under 2 minutes on 2 cores. The batch process's own
 # peak memory (VmHWM, UNFOLD_PEAK_FILE) is printed for 20 and for 100
 # placentas: the statistics are accumulated in one pass, so it stays flat.
 #

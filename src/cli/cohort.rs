@@ -15,6 +15,7 @@
 //! ([`super::cohort_images`]) and the AHA-segment statistics of the
 //! ventricle subjects ([`super::cohort_segments`]), and the mitral
 //! measurements over valves and series steps ([`super::cohort_mitral`]).
+//! Last, the visual report `OUT/index.html` ([`super::cohort_report`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -148,6 +149,8 @@ pub(crate) fn write_cohort(
     if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
         println!("cohort: wrote {}", p.display());
     }
+    let page = super::cohort_report::write_report(out, subjects, covariates)?;
+    println!("cohort: wrote {}", page.display());
     Ok(())
 }
 

@@ -12,7 +12,8 @@
 //! covariates (`age_weeks`, `group`); then `unfold batch` runs them into
 //! `DIR/study/` (every placenta on one template grid, so
 //! `DIR/study/cohort/` holds the voxel-wise statistics) and gathers the
-//! cohort table. Rerunning skips the subjects already done.
+//! cohort table, every subject's figures and the report page
+//! `DIR/study/index.html`. Rerunning skips the subjects already done.
 
 use super::CliError;
 use std::fmt::Write as _;
@@ -95,7 +96,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     super::ensure_dir(&inputs)?;
     let mut csv = String::from(
         "id,organ,input,image,grid,spacing-mm,surface,anterior,inferior,apex,grid-mm,posterior,\
-         annulus,series,no-figures,age_weeks,group\n",
+         annulus,series,age_weeks,group\n",
     );
     for k in 0..placentas {
         let f = k as f64;
@@ -122,7 +123,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         let _ = writeln!(
             csv,
             "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,,\
-             true,{},{}",
+             {},{}",
             28 + 2 * (k % 8),
             if k % 2 == 0 { "singleton" } else { "twin" }
         );
@@ -150,7 +151,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         )?;
         let _ = writeln!(
             csv,
-            "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,,true,\
+            "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,,\
              {},{}",
             xyz(&v.anterior),
             xyz(&v.inferior),
@@ -177,7 +178,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         write_mesh(dir.join(&r), &ring(&valve.annulus), &opts)?;
         let _ = writeln!(
             csv,
-            "{id},mitral,,,,,,{a},,,,{p},{r},,true,{},{}",
+            "{id},mitral,,,,,,{a},,,,{p},{r},,{},{}",
             40 + 4 * k,
             if k % 2 == 0 { "open" } else { "closed" }
         );
@@ -197,7 +198,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     }
     let _ = writeln!(
         csv,
-        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,true,44,series"
+        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,44,series"
     );
     let manifest = dir.join("manifest.csv");
     unfold::io::atomic_write(&manifest, csv.as_bytes())?;
