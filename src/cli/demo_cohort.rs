@@ -8,8 +8,9 @@
 //! offset, so the cohort statistics have something to show), 6 ventricle
 //! cups of different radii and poses with their landmarks, and 6 mitral
 //! valves of different diameters and one valve over three time steps (a
-//! series); `DIR/manifest.csv` names them with two
-//! covariates (`age_weeks`, `group`); then `unfold batch` runs them into
+//! series); `DIR/manifest.csv` names them with the
+//! covariates `age_weeks`, `group` and, for the valves, `phase` (`open`:
+//! the free edges 6 mm apart, `closed`: 1 mm); then `unfold batch` runs them into
 //! `DIR/study/` (every placenta on one template grid, so
 //! `DIR/study/cohort/` holds the voxel-wise statistics) and gathers the
 //! cohort table. Rerunning skips the subjects already done.
@@ -95,7 +96,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     super::ensure_dir(&inputs)?;
     let mut csv = String::from(
         "id,organ,input,image,grid,spacing-mm,surface,anterior,inferior,apex,grid-mm,posterior,\
-         annulus,series,no-figures,age_weeks,group\n",
+         annulus,series,no-figures,age_weeks,group,phase\n",
     );
     for k in 0..placentas {
         let f = k as f64;
@@ -122,7 +123,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         let _ = writeln!(
             csv,
             "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,,\
-             true,{},{}",
+             true,{},{},",
             28 + 2 * (k % 8),
             if k % 2 == 0 { "singleton" } else { "twin" }
         );
@@ -151,7 +152,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         let _ = writeln!(
             csv,
             "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,,true,\
-             {},{}",
+             {},{},",
             xyz(&v.anterior),
             xyz(&v.inferior),
             xyz(&v.apex),
@@ -161,9 +162,13 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     }
     for k in 0..6 {
         let f = k as f64;
+        // even valves open (diastole: the free edges 6 mm apart), odd ones
+        // closed (1 mm)
+        let open = k % 2 == 0;
         let valve = mitral_valve(&ValveParams {
             commissural_diameter: 34.0 + 1.5 * f,
             anteroposterior_diameter: 26.0 + 1.0 * f,
+            coaptation_gap: if open { 6.0 } else { 1.0 },
             ..ValveParams::default()
         })?;
         let id = format!("valve{:02}", k + 1);
@@ -177,9 +182,10 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         write_mesh(dir.join(&r), &ring(&valve.annulus), &opts)?;
         let _ = writeln!(
             csv,
-            "{id},mitral,,,,,,{a},,,,{p},{r},,true,{},{}",
+            "{id},mitral,,,,,,{a},,,,{p},{r},,true,{},{},{}",
             40 + 4 * k,
-            if k % 2 == 0 { "open" } else { "closed" }
+            if open { "open" } else { "closed" },
+            if open { "open" } else { "closed" }
         );
     }
     // one valve over three time steps (the coaptation gap opening)
@@ -197,7 +203,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     }
     let _ = writeln!(
         csv,
-        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,true,44,series"
+        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,true,44,series,"
     );
     let manifest = dir.join("manifest.csv");
     unfold::io::atomic_write(&manifest, csv.as_bytes())?;
@@ -212,7 +218,7 @@ pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), CliError> {
     let manifest = write_inputs(dir, placentas)?;
     println!(
         "wrote {} ({placentas} placentas, 6 ventricles, 6 valves and a valve series, covariates \
-         age_weeks and group)",
+         age_weeks, group and phase)",
         manifest.display()
     );
     super::batch::run_manifest(&manifest, &dir.join("study"), None)

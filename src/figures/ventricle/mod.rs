@@ -72,6 +72,7 @@ mod drawing;
 mod segments;
 
 use bullseye::bullseye;
+pub use bullseye::{Bullseye, bullseye_figure};
 use cylinder::cylinder;
 use disk::{disk_aha, disk_angle};
 pub use disk_layout::{DiskLayout, bullseye_layout, disk_layout};
