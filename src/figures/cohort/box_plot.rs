@@ -224,6 +224,40 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    fn panel() -> BoxPanel {
+        BoxPanel {
+            title: "t".into(),
+            subtitle: "s".into(),
+            y_label: "y".into(),
+            groups: vec![
+                BoxGroup {
+                    label: "a".into(),
+                    values: vec![1.0, 2.0, 3.0, 4.0, 5.0, 40.0],
+                },
+                BoxGroup {
+                    label: "b".into(),
+                    values: vec![],
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn a_panel_is_deterministic_and_marks_the_outlier_red() {
+        let opts = FigureOptions::default();
+        let a = box_panel(&panel(), &opts).unwrap();
+        let b = box_panel(&panel(), &opts).unwrap();
+        assert_eq!(a.to_png().unwrap(), b.to_png().unwrap());
+        let count = |c: Rgba| {
+            (0..a.height())
+                .flat_map(|y| (0..a.width()).map(move |x| (x, y)))
+                .filter(|&(x, y)| a.get(i64::from(x), i64::from(y)) == Some(c))
+                .count()
+        };
+        assert!(count(OUTLIER) >= 8, "one cross of red pixels");
+        assert!(count(BOX_FILL) > 100, "one filled box");
+    }
+
     #[test]
     fn quartiles_of_known_samples() {
         let s = box_stats(&[1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();

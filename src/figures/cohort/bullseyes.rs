@@ -153,3 +153,46 @@ pub fn z_bullseye(
         opts,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::figures::ventricle::{bullseye_layout, segment_centre};
+
+    #[test]
+    fn a_z_bullseye_spans_at_least_two_and_is_deterministic() {
+        let opts = FigureOptions::default();
+        let mut z = [Some(1.0); 17];
+        z[16] = None;
+        let values = [Some(0.5); 17];
+        let a = z_bullseye("h1", "depth", &z, &values, &opts).unwrap();
+        let b = z_bullseye("h1", "depth", &z, &values, &opts).unwrap();
+        assert_eq!(a.name, "ventricle_depth_z_h1_bullseye.png");
+        assert_eq!(a.image.to_png().unwrap(), b.image.to_png().unwrap());
+        // z = 1 on [-2, 2]: three quarters up the map, inside segment 1
+        // (off its number).
+        let layout = bullseye_layout(&opts).unwrap();
+        let c = segment_centre(1).unwrap();
+        let p = layout.pixel([c[0] + 0.12, c[1]]);
+        let got = a.image.get(p[0] as i64, p[1] as i64).unwrap();
+        assert_eq!(got, Z_COLORMAP.eval(0.75).opaque());
+        // A larger |z| widens the range symmetrically.
+        z[0] = Some(-4.0);
+        let c = z_bullseye("h1", "depth", &z, &values, &opts).unwrap();
+        let got = c.image.get(p[0] as i64, p[1] as i64).unwrap();
+        assert_eq!(got, Z_COLORMAP.eval(0.0).opaque());
+    }
+
+    #[test]
+    fn mean_and_std_bullseyes_are_named_by_array() {
+        let opts = FigureOptions::default();
+        let s = SegmentStatistics {
+            array: "xi".into(),
+            hearts: [4; 17],
+            mean: [Some(0.25); 17],
+            std: [Some(0.1); 17],
+        };
+        assert_eq!(mean_bullseye(&s, &opts).unwrap().name, mean_name("xi"));
+        assert_eq!(std_bullseye(&s, &opts).unwrap().name, std_name("xi"));
+    }
+}

@@ -246,6 +246,50 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    fn points() -> Vec<ScatterPoint> {
+        (0..6)
+            .map(|k| ScatterPoint {
+                x: f64::from(k),
+                y: 2.0 * f64::from(k) + if k % 2 == 0 { 0.5 } else { -0.5 },
+                category: Some(if k < 3 { "a" } else { "b" }.to_string()),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_plot_is_deterministic_and_independent_of_the_order() {
+        let opts = FigureOptions::default();
+        let s = Scatter {
+            measure: "m".into(),
+            covariate: "c".into(),
+            colour_by: Some("g".into()),
+            points: points(),
+        };
+        let mut r = s.clone();
+        r.points.reverse();
+        let a = scatter("s.png", &s, &opts).unwrap().image.to_png().unwrap();
+        let b = scatter("s.png", &s, &opts).unwrap().image.to_png().unwrap();
+        let c = scatter("s.png", &r, &opts).unwrap().image.to_png().unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a, c);
+        let img = scatter("s.png", &s, &opts).unwrap().image;
+        let has = |c: Rgba| {
+            (0..img.height())
+                .any(|y| (0..img.width()).any(|x| img.get(i64::from(x), i64::from(y)) == Some(c)))
+        };
+        assert!(has(FIT_LINE));
+        assert!(has(CATEGORY_COLORMAP.label(0).opaque()));
+        assert!(has(CATEGORY_COLORMAP.label(1).opaque()));
+        let one = Scatter {
+            points: points().into_iter().take(1).collect(),
+            ..s
+        };
+        assert!(matches!(
+            scatter("s.png", &one, &opts),
+            Err(FigureError::Input { .. })
+        ));
+    }
+
     #[test]
     fn a_known_fit() {
         // mean x = 1.5, mean y = 4, S_xy = 8, S_xx = 5: b = 1.6, a = 1.6.

@@ -256,3 +256,79 @@ pub fn mean_std_slices(
     let img = compose(&imgs, 2, opts).map_err(err())?;
     Ok(Figure::new(name, img))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::nalgebra::Matrix4;
+
+    fn grid(f: impl Fn(usize, usize, usize) -> f32) -> Volume<f32> {
+        let (nx, ny, nz) = (12, 10, 6);
+        let mut data = Vec::new();
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    data.push(f(i, j, k));
+                }
+            }
+        }
+        let mut a = Matrix4::identity() * 2.0;
+        a[(3, 3)] = 1.0;
+        a[(0, 3)] = -12.0;
+        Volume::new([nx, ny, nz, 1], a, data).unwrap()
+    }
+
+    #[test]
+    fn the_middle_of_the_covered_slices_and_a_deterministic_figure() {
+        let inside = |i: usize, j: usize, k: usize| {
+            (2..9).contains(&i) && (3..7).contains(&j) && (1..4).contains(&k)
+        };
+        let count = grid(|i, j, k| if inside(i, j, k) { 3.0 } else { 0.0 });
+        let mean = grid(|i, j, k| {
+            if inside(i, j, k) {
+                i as f32 + j as f32
+            } else {
+                0.0
+            }
+        });
+        let std = grid(|i, _, k| if k < 6 { 0.1 * i as f32 } else { 0.0 });
+        let stats = ImageStatistics {
+            image: "t2",
+            mean: &mean,
+            std: &std,
+            count: Some(&count),
+        };
+        assert_eq!(mid_depth(&stats), 2);
+        let no_count = ImageStatistics {
+            count: None,
+            ..stats
+        };
+        assert_eq!(mid_depth(&no_count), 2);
+        let opts = FigureOptions::default();
+        let a = mean_std_slices(&stats, &opts).unwrap();
+        let b = mean_std_slices(&stats, &opts).unwrap();
+        assert_eq!(a.name, "placenta_t2_slices.png");
+        assert_eq!(a.image.to_png().unwrap(), b.image.to_png().unwrap());
+        assert_eq!(a.image.width(), 2 * opts.panel_width);
+        // Both ends of the mean's map appear (its smallest and largest
+        // covered values).
+        let has = |c: Rgba| {
+            (0..a.image.height()).any(|y| {
+                (0..opts.panel_width).any(|x| a.image.get(i64::from(x), i64::from(y)) == Some(c))
+            })
+        };
+        assert!(has(MEAN_COLORMAP.eval(0.0).opaque()));
+        assert!(has(MEAN_COLORMAP.eval(1.0).opaque()));
+        assert!(has(EMPTY));
+        // Another grid for the std is refused.
+        let other = Volume::new([2, 2, 2, 1], Matrix4::identity(), vec![0.0; 8]).unwrap();
+        let bad = ImageStatistics {
+            std: &other,
+            ..stats
+        };
+        assert!(matches!(
+            mean_std_slices(&bad, &opts),
+            Err(FigureError::Input { .. })
+        ));
+    }
+}
