@@ -169,12 +169,15 @@ pub fn bullseye_figure(
     let value_col = width("-0.000000");
     let names_w = width("basal inferoseptal   ") + width("0000000") + width("00000000");
     let with_names = avail >= 14 + 24 + names_w;
+    // The segment number right-aligned after the swatch, the name after it.
+    let seg_right = tx + 14 + width("00");
+    let name_x = seg_right + 8;
     let row_h = ((bottom - top) / 20).clamp(9, 16);
     let mut y = top;
     let right = i64::from(w) - 6;
     text(&mut img, f, tx, y, "seg", INK, Anchor::Left)?;
     if with_names {
-        text(&mut img, f, tx + 38, y, "name", INK, Anchor::Left)?;
+        text(&mut img, f, name_x, y, "name", INK, Anchor::Left)?;
     }
     text(
         &mut img,
@@ -202,7 +205,7 @@ pub fn bullseye_figure(
         text(
             &mut img,
             f,
-            tx + 14 + 16,
+            seg_right,
             y,
             &seg.to_string(),
             INK,
@@ -212,7 +215,7 @@ pub fn bullseye_figure(
             text(
                 &mut img,
                 f,
-                tx + 38,
+                name_x,
                 y,
                 AHA_NAMES[seg as usize - 1],
                 INK,
