@@ -248,6 +248,12 @@ mod tests {
         let a = box_panel(&panel(), &opts).unwrap();
         let b = box_panel(&panel(), &opts).unwrap();
         assert_eq!(a.to_png().unwrap(), b.to_png().unwrap());
+        // `UNFOLD_FIGURES_DIR` keeps the panel to look at.
+        if let Ok(dir) = std::env::var("UNFOLD_FIGURES_DIR") {
+            std::fs::create_dir_all(&dir).unwrap();
+            let path = std::path::Path::new(&dir).join("box_panel.png");
+            std::fs::write(path, a.to_png().unwrap()).unwrap();
+        }
         let count = |c: Rgba| {
             (0..a.height())
                 .flat_map(|y| (0..a.width()).map(move |x| (x, y)))
