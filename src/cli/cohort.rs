@@ -13,9 +13,11 @@
 //! sorted; a subject without a value has an empty cell. Then the
 //! template-space statistics of the placenta subjects
 //! ([`super::cohort_images`]) and the AHA-segment statistics of the
-//! ventricle subjects ([`super::cohort_segments`]), and the mitral
-//! measurements over valves and series steps ([`super::cohort_mitral`]).
-//! Last, the visual report `OUT/index.html` ([`super::cohort_report`]).
+//! ventricle subjects ([`super::cohort_segments`]), the mitral
+//! measurements over valves and series steps ([`super::cohort_mitral`]),
+//! and the cohort figures ([`super::cohort_figures`]; `--plot
+//! MEASURE:COVARIATE` chooses the scatter plots). Last, the visual report
+//! `OUT/index.html` ([`super::cohort_report`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -27,6 +29,11 @@ use std::path::{Path, PathBuf};
 pub struct CohortArgs {
     /// The output directory of an `unfold batch` run.
     output: PathBuf,
+    /// A scatter plot of a `cohort.csv` column against a numeric covariate
+    /// (repeatable; default: every numeric covariate against the headline
+    /// measurements of each organ).
+    #[arg(long = "plot", value_name = "MEASURE:COVARIATE")]
+    plot: Vec<super::cohort_figures::PlotSpec>,
 }
 
 /// A subject as the batch ran it.
@@ -66,7 +73,8 @@ fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, Strin
     }
 }
 
-/// Writes `OUT/subjects.csv` and `OUT/cohort.csv` for `subjects`.
+/// Writes `OUT/subjects.csv` and `OUT/cohort.csv` for `subjects`, the
+/// statistics and the default cohort figures.
 ///
 /// # Errors
 /// Writing either file.
@@ -74,6 +82,19 @@ pub(crate) fn write_cohort(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
+) -> Result<(), CliError> {
+    write_cohort_plots(out, subjects, covariates, &[])
+}
+
+/// [`write_cohort`] with the scatter plots `plots` (none: the defaults).
+///
+/// # Errors
+/// Writing a file; a `plots` entry naming an unknown column.
+fn write_cohort_plots(
+    out: &Path,
+    subjects: &[SubjectRow],
+    covariates: &[String],
+    plots: &[super::cohort_figures::PlotSpec],
 ) -> Result<(), CliError> {
     let path = out.join("subjects.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -149,6 +170,14 @@ pub(crate) fn write_cohort(
     if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
         println!("cohort: wrote {}", p.display());
     }
+    let figures = super::cohort_figures::cohort_figures(out, covariates, plots)?;
+    if !figures.is_empty() {
+        println!(
+            "cohort: {} figures in {}",
+            figures.len() - 1,
+            out.join("cohort").join("figures").display()
+        );
+    }
     let page = super::cohort_report::write_report(out, subjects, covariates)?;
     println!("cohort: wrote {}", page.display());
     Ok(())
@@ -195,7 +224,7 @@ pub fn run(a: &CohortArgs) -> Result<(), CliError> {
                 .collect(),
         });
     }
-    write_cohort(&a.output, &subjects, &covariates)?;
+    write_cohort_plots(&a.output, &subjects, &covariates, &a.plot)?;
     println!(
         "{}: {} subjects",
         a.output.join("cohort.csv").display(),

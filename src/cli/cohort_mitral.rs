@@ -6,8 +6,8 @@
 //! extent, leaflet areas, saddle height, area above the plane, coaptation
 //! vertices, energies, flipped triangles, seconds) after `id`. A series
 //! subject contributes its `series.csv` rows; a single valve one row from
-//! its `report.json` (`step` empty; what its report does not hold, the
-//! series' energies, empty).
+//! its `report.json` (`step` empty, `anterior_file` empty; the energies
+//! are its `distortion.final`, the quantities a series writes).
 
 use super::cohort::SubjectRow;
 use super::{CliError, at};
@@ -44,6 +44,11 @@ fn report_row(report: &serde_json::Value) -> Vec<String> {
             "posterior_area_mm2" => num(&report["leaflet_area_mm2"]["posterior"]),
             "coaptation_vertices" => num(&report["coaptation_vertices"]["within"]),
             "seconds" => num(&report["seconds"]),
+            // The same quantities as a series' columns (`unfold mitral`
+            // writes `distortion.final` there).
+            "angle_energy" => num(&report["distortion"]["final"]["angle"]),
+            "area_energy" => num(&report["distortion"]["final"]["area"]),
+            "length_energy" => num(&report["distortion"]["final"]["length"]),
             c => num(&report[c]),
         })
         .collect()

@@ -8,8 +8,9 @@
 //! offset, so the cohort statistics have something to show), 6 ventricle
 //! cups of different radii and poses with their landmarks, and 6 mitral
 //! valves of different diameters and one valve over three time steps (a
-//! series); `DIR/manifest.csv` names them with two
-//! covariates (`age_weeks`, `group`); then `unfold batch` runs them into
+//! series); `DIR/manifest.csv` names them with the
+//! covariates `age_weeks`, `group` and, for the valves, `phase` (`open`:
+//! the free edges 6 mm apart, `closed`: 1 mm); then `unfold batch` runs them into
 //! `DIR/study/` (every placenta on one template grid, so
 //! `DIR/study/cohort/` holds the voxel-wise statistics) and gathers the
 //! cohort table, every subject's figures and the report page
@@ -96,7 +97,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     super::ensure_dir(&inputs)?;
     let mut csv = String::from(
         "id,organ,input,image,grid,spacing-mm,surface,anterior,inferior,apex,grid-mm,posterior,\
-         annulus,series,age_weeks,group\n",
+         annulus,series,age_weeks,group,phase\n",
     );
     for k in 0..placentas {
         let f = k as f64;
@@ -123,7 +124,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         let _ = writeln!(
             csv,
             "{id},placenta,inputs/{id}/mesh.vtu,inputs/{id}/t2.nii.gz,\"{GRID}\",{GRID_SPACING_MM},,,,,,,,,\
-             {},{}",
+             {},{},",
             28 + 2 * (k % 8),
             if k % 2 == 0 { "singleton" } else { "twin" }
         );
@@ -152,7 +153,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         let _ = writeln!(
             csv,
             "{id},ventricle,inputs/{id}_anatomy.vtu,,,,inputs/{id}_surface.vtu,{},{},{},1.5,,,,\
-             {},{}",
+             {},{},",
             xyz(&v.anterior),
             xyz(&v.inferior),
             xyz(&v.apex),
@@ -162,9 +163,13 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     }
     for k in 0..6 {
         let f = k as f64;
+        // even valves open (diastole: the free edges 6 mm apart), odd ones
+        // closed (1 mm)
+        let open = k % 2 == 0;
         let valve = mitral_valve(&ValveParams {
             commissural_diameter: 34.0 + 1.5 * f,
             anteroposterior_diameter: 26.0 + 1.0 * f,
+            coaptation_gap: if open { 6.0 } else { 1.0 },
             ..ValveParams::default()
         })?;
         let id = format!("valve{:02}", k + 1);
@@ -178,9 +183,10 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         write_mesh(dir.join(&r), &ring(&valve.annulus), &opts)?;
         let _ = writeln!(
             csv,
-            "{id},mitral,,,,,,{a},,,,{p},{r},,{},{}",
+            "{id},mitral,,,,,,{a},,,,{p},{r},,{},{},{}",
             40 + 4 * k,
-            if k % 2 == 0 { "open" } else { "closed" }
+            if open { "open" } else { "closed" },
+            if open { "open" } else { "closed" }
         );
     }
     // one valve over three time steps (the coaptation gap opening)
@@ -198,7 +204,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
     }
     let _ = writeln!(
         csv,
-        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,44,series"
+        "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,44,series,"
     );
     let manifest = dir.join("manifest.csv");
     unfold::io::atomic_write(&manifest, csv.as_bytes())?;
@@ -213,7 +219,7 @@ pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), CliError> {
     let manifest = write_inputs(dir, placentas)?;
     println!(
         "wrote {} ({placentas} placentas, 6 ventricles, 6 valves and a valve series, covariates \
-         age_weeks and group)",
+         age_weeks, group and phase)",
         manifest.display()
     );
     super::batch::run_manifest(&manifest, &dir.join("study"), None)

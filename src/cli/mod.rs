@@ -2,6 +2,7 @@
 
 mod batch;
 mod cohort;
+mod cohort_figures;
 mod cohort_images;
 mod cohort_mitral;
 mod cohort_report;

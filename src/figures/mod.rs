@@ -7,9 +7,11 @@
 //! same outcome and options give the same PNG bytes.
 //!
 //! One module per organ ([`placenta`], [`ventricle`], [`mitral`]), each a
-//! folder with one file per figure family; the text layout they share
+//! folder with one file per figure family, and [`cohort`] for the figures
+//! of a whole cohort (`unfold cohort`); the text layout they share
 //! (wrapping, fitting, title bands, panels) is [`layout`].
 
+pub mod cohort;
 pub mod layout;
 pub mod mitral;
 pub mod placenta;

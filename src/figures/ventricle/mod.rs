@@ -72,6 +72,7 @@ mod drawing;
 mod segments;
 
 use bullseye::bullseye;
+pub use bullseye::{Bullseye, bullseye_figure};
 use cylinder::cylinder;
 use disk::{disk_aha, disk_angle};
 pub use disk_layout::{DiskLayout, bullseye_layout, disk_layout};
@@ -159,6 +160,10 @@ pub(super) const TITLE_BAND: i64 = 52;
 
 /// Width of the column holding a colour bar at the right of a panel.
 pub(super) const COLORBAR_COLUMN: i64 = 112;
+
+/// Width a colour bar's heading lines wrap at, pixels (the column less a
+/// margin).
+pub(crate) const COLORBAR_HEADING_PX: u32 = COLORBAR_COLUMN as u32 - 8;
 
 /// The ventricle figures of `outcome` (see the module documentation):
 /// LV `[bullseye.png, disk_aha.png, cylinder.png]`, RV `[disk_angle.png,
