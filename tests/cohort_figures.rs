@@ -93,6 +93,31 @@ fn the_cohort_demo_draws_every_cohort_figure_and_indexes_them() {
         "{caption}"
     );
 
+    // The cohort report shows every indexed figure in its cohort section,
+    // and a subject's figure in that subject's section too.
+    let html = std::fs::read_to_string(study.join("index.html")).unwrap();
+    let section = |id: &str| {
+        let start = html
+            .find(&format!("<section id=\"{id}\""))
+            .unwrap_or_else(|| panic!("no section {id}"));
+        let rest = &html[start..];
+        rest[..rest.find("</section>").unwrap()].to_string()
+    };
+    let cohort_section = section("cohort");
+    for e in &entries {
+        let src = format!("src=\"cohort/figures/{}\"", e["file"].as_str().unwrap());
+        assert!(
+            cohort_section.contains(&src),
+            "{src} not in the cohort section"
+        );
+        if let Some(id) = e["subject"].as_str() {
+            assert!(
+                section(&format!("s-{id}")).contains(&src),
+                "{src} not in {id}'s section"
+            );
+        }
+    }
+
     // `unfold cohort` again: the same bytes, the same index.
     let before: Vec<Vec<u8>> = present
         .iter()

@@ -624,6 +624,46 @@ mod tests {
     use super::*;
 
     #[test]
+    fn index_entries_missing_or_outside_the_folder_are_reported_not_shown() {
+        let dir = tempfile::tempdir().unwrap();
+        let figs = dir.path().join("cohort").join("figures");
+        std::fs::create_dir_all(&figs).unwrap();
+        for f in ["spread.png", "s1 outlier.png"] {
+            std::fs::write(figs.join(f), b"\x89PNG\r\n\x1a\n").unwrap();
+        }
+        std::fs::write(dir.path().join("s1.vtu"), "x").unwrap();
+        std::fs::write(
+            figs.join("index.json"),
+            r#"[{"file": "spread.png", "title": "Spread <b>", "caption": "over the cohort", "subject": null},
+                {"file": "s1 outlier.png", "title": "Outlier", "caption": "s1 against the rest", "subject": "s1"},
+                {"file": "gone.png", "title": "Gone", "caption": "", "subject": null},
+                {"file": "../s1.vtu", "title": "Escape", "caption": "", "subject": null}]"#,
+        )
+        .unwrap();
+        let (found, problems) = cohort_figures(dir.path());
+        let files: Vec<&str> = found.iter().map(|f| f.file.as_str()).collect();
+        assert_eq!(files, ["spread.png", "s1 outlier.png"]);
+        assert_eq!(found[1].subject.as_deref(), Some("s1"));
+        assert_eq!(found[0].title, "Spread <b>");
+        assert_eq!(
+            problems,
+            [
+                "cohort/figures/index.json: gone.png is missing",
+                "cohort/figures/index.json: '../s1.vtu' is not a file name in cohort/figures",
+            ]
+        );
+        // An unreadable index: no figures, one problem naming the file.
+        std::fs::write(figs.join("index.json"), "{not json").unwrap();
+        let (found, problems) = cohort_figures(dir.path());
+        assert!(found.is_empty());
+        assert_eq!(problems.len(), 1);
+        assert!(
+            problems[0].starts_with("cohort/figures/index.json: "),
+            "{problems:?}"
+        );
+    }
+
+    #[test]
     fn text_from_files_is_escaped() {
         assert_eq!(
             escape("<script>alert('x')</script> & \"y\""),
