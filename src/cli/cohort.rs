@@ -14,7 +14,9 @@
 //! template-space statistics of the placenta subjects
 //! ([`super::cohort_images`]) and the AHA-segment statistics of the
 //! ventricle subjects ([`super::cohort_segments`]), and the mitral
-//! measurements over valves and series steps ([`super::cohort_mitral`]).
+//! measurements over valves and series steps ([`super::cohort_mitral`]) and
+//! their mean maps on one normalised `(u, v)` grid
+//! ([`super::cohort_mitral_maps`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -148,6 +150,7 @@ pub(crate) fn write_cohort(
     if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
         println!("cohort: wrote {}", p.display());
     }
+    super::cohort_mitral_maps::mitral_maps(out, subjects)?.print(&out.join("cohort"));
     Ok(())
 }
 

@@ -4,6 +4,7 @@ mod batch;
 mod cohort;
 mod cohort_images;
 mod cohort_mitral;
+mod cohort_mitral_maps;
 mod cohort_segments;
 mod convert;
 mod deform;
