@@ -25,8 +25,10 @@
 //! 3: its outputs are written) is kept and counted apart; the cohort
 //! table's `converged` column marks it. A subject whose `OUT/<id>/report.json` carries the
 //! run hash of the same command line and input contents
-//! ([`super::provenance`]) is skipped. Progress: a bar on a terminal, a
-//! line per subject otherwise (cluster job logs).
+//! ([`super::provenance`]) is skipped; a mitral series, which has no
+//! report of its own, records its run hash in `OUT/<id>/series.json`.
+//! Progress: a bar on a terminal, a line per subject otherwise (cluster
+//! job logs).
 
 use super::{CliError, at};
 use clap::{Args, CommandFactory};
@@ -337,11 +339,14 @@ struct Ended {
     seconds: f64,
 }
 
-/// The run hash recorded in `dir/report.json`, if any.
+/// The run hash recorded in `dir/report.json`, or for a mitral series
+/// (no report of its own) in `dir/series.json`, if any.
 fn recorded_hash(dir: &Path) -> Option<String> {
-    let text = std::fs::read_to_string(dir.join("report.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    v["provenance"]["run_hash"].as_str().map(str::to_string)
+    ["report.json", "series.json"].iter().find_map(|f| {
+        let text = std::fs::read_to_string(dir.join(f)).ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        v["provenance"]["run_hash"].as_str().map(str::to_string)
+    })
 }
 
 /// Runs one subject as its own process.

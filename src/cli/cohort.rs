@@ -14,10 +14,12 @@
 //! template-space statistics of the placenta subjects
 //! ([`super::cohort_images`]) and the AHA-segment statistics of the
 //! ventricle subjects ([`super::cohort_segments`]), the mitral
-//! measurements over valves and series steps ([`super::cohort_mitral`]),
-//! and the cohort figures ([`super::cohort_figures`]; `--plot
-//! MEASURE:COVARIATE` chooses the scatter plots). Last, the visual report
-//! `OUT/index.html` ([`super::cohort_report`]).
+//! measurements over valves and series steps ([`super::cohort_mitral`]) and
+//! their mean maps on one normalised `(u, v)` grid
+//! ([`super::cohort_mitral_maps`]), and the cohort figures
+//! ([`super::cohort_figures`]; `--plot MEASURE:COVARIATE` chooses the
+//! scatter plots). Last, the visual report `OUT/index.html`
+//! ([`super::cohort_report`]).
 
 use super::{CliError, at};
 use clap::Args;
@@ -170,6 +172,7 @@ fn write_cohort_plots(
     if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
         println!("cohort: wrote {}", p.display());
     }
+    super::cohort_mitral_maps::mitral_maps(out, subjects)?.print(&out.join("cohort"));
     let figures = super::cohort_figures::cohort_figures(out, covariates, plots)?;
     if !figures.is_empty() {
         println!(

@@ -17,7 +17,8 @@
 //! `--series DIR`: every file in DIR whose name contains `anterior`,
 //! `posterior` or `annulus` (any case); each group sorted by name and
 //! paired by position, one output set per step in `OUT/<step>/` and a
-//! summary table `OUT/series.csv` (and `series.json`).
+//! summary table `OUT/series.csv` (and `series.json`: `steps`, the same
+//! rows, and `provenance`, the run's, as a single valve's report has).
 
 use super::{CliError, at, organ};
 use clap::{Args, ValueEnum};
@@ -514,6 +515,16 @@ struct SeriesRow {
     seconds: f64,
 }
 
+/// `series.json`: the series table and the run's provenance (its run hash
+/// lets a batch skip a series done before with the same inputs).
+#[derive(Serialize)]
+struct SeriesJson<'a> {
+    /// One row per step, as `series.csv`.
+    steps: &'a [SeriesRow],
+    /// Version, command line, parameters, input hashes, start time.
+    provenance: super::provenance::Provenance,
+}
+
 /// Runs `unfold mitral`.
 pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     let pipeline = a.pipeline()?;
@@ -633,8 +644,11 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         ));
     }
     atomic_write(staging.join("series.csv"), csv.as_bytes()).map_err(|e| staged.shown_error(e))?;
-    let json = serde_json::to_string_pretty(&rows)
-        .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
+    let json = serde_json::to_string_pretty(&SeriesJson {
+        steps: &rows,
+        provenance: super::provenance::this_run(),
+    })
+    .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
     atomic_write(staging.join("series.json"), format!("{json}\n").as_bytes())
         .map_err(|e| staged.shown_error(e))?;
     staged.commit()?;

@@ -5,6 +5,7 @@ mod cohort;
 mod cohort_figures;
 mod cohort_images;
 mod cohort_mitral;
+mod cohort_mitral_maps;
 mod cohort_report;
 mod cohort_segments;
 mod convert;

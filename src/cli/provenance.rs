@@ -7,8 +7,10 @@
 //! after the program name except the output path (`-o`/`--output` and its
 //! value) and `--max-memory` (which does not change what is written), each
 //! followed by a NUL byte, then for every argument naming an existing file
-//! (also the value of `--flag=FILE`) its SHA-256. Paths are taken as given:
-//! the same files under other names hash differently.
+//! (also the value of `--flag=FILE`) its SHA-256; for an argument naming a
+//! directory (`mitral --series DIR`), the path and SHA-256 of every file
+//! directly in it, sorted by name. Paths are taken as given: the same files
+//! under other names hash differently.
 
 use serde::Serialize;
 use sha2::{Digest, Sha256};
@@ -117,6 +119,20 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// The regular files directly in `dir` (not in its subdirectories),
+/// sorted by name.
+fn dir_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    files
+}
+
 /// The run hash of `args` (the arguments after the program name) and the
 /// input files among them (module doc).
 pub(crate) fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
@@ -129,17 +145,31 @@ pub(crate) fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
         h.update([0]);
         let candidate = a.split_once('=').map_or(a, |(_, v)| v);
         let p = Path::new(candidate);
-        if !candidate.is_empty()
-            && p.is_file()
-            && let Some((sha256, bytes)) = file_sha256(p)
-        {
-            h.update(sha256.as_bytes());
-            h.update([0]);
-            inputs.push(InputHash {
-                path: candidate.to_string(),
-                sha256,
-                bytes,
-            });
+        if candidate.is_empty() {
+            continue;
+        }
+        let files = if p.is_file() {
+            vec![p.to_path_buf()]
+        } else if p.is_dir() {
+            dir_files(p)
+        } else {
+            Vec::new()
+        };
+        for f in files {
+            if let Some((sha256, bytes)) = file_sha256(&f) {
+                let path = f.display().to_string();
+                if p.is_dir() {
+                    h.update(path.as_bytes());
+                    h.update([0]);
+                }
+                h.update(sha256.as_bytes());
+                h.update([0]);
+                inputs.push(InputHash {
+                    path,
+                    sha256,
+                    bytes,
+                });
+            }
         }
     }
     (hex(&h.finalize()), inputs)
@@ -196,5 +226,33 @@ mod tests {
             "x",
         ]);
         assert_eq!(run_hash(&flag).1.len(), 1);
+    }
+
+    #[test]
+    fn a_directory_counts_by_the_files_in_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::write(d.join("t00_anterior.vtu"), b"a").unwrap();
+        std::fs::write(d.join("t00_annulus.vtu"), b"r").unwrap();
+        std::fs::create_dir(d.join("sub")).unwrap();
+        std::fs::write(d.join("sub").join("deeper"), b"x").unwrap();
+        let args = v(&["mitral", &format!("--series={}", d.display()), "-o", "x"]);
+        let (h1, inputs) = run_hash(&args);
+        let names: Vec<&str> = inputs.iter().map(|i| i.path.as_str()).collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        assert!(names[0].ends_with("t00_annulus.vtu") && names[1].ends_with("t00_anterior.vtu"));
+        // a changed file, an added file and a renamed file each count
+        std::fs::write(d.join("t00_anterior.vtu"), b"b").unwrap();
+        let h2 = run_hash(&args).0;
+        assert_ne!(h2, h1);
+        std::fs::write(d.join("t01_anterior.vtu"), b"b").unwrap();
+        let h3 = run_hash(&args).0;
+        assert_ne!(h3, h2);
+        std::fs::rename(d.join("t01_anterior.vtu"), d.join("t02_anterior.vtu")).unwrap();
+        assert_ne!(run_hash(&args).0, h3);
+        // the subdirectory does not
+        let h4 = run_hash(&args).0;
+        std::fs::write(d.join("sub").join("deeper"), b"z").unwrap();
+        assert_eq!(run_hash(&args).0, h4);
     }
 }

@@ -243,6 +243,21 @@ pub enum MeshError {
         /// The sum (infinite).
         value: f64,
     },
+    /// A raster grid ([`crate::raster::Grid2`]) without cells, or with a
+    /// spacing that is not a finite number > 0, or a non-finite origin.
+    #[error(
+        "a raster grid needs at least one cell along each axis, finite spacings > 0 and a finite \
+         origin; got {} x {} cells of {} x {} from ({}, {})",
+        dims[0], dims[1], spacing[0], spacing[1], origin[0], origin[1]
+    )]
+    RasterGrid {
+        /// The origin given.
+        origin: [f64; 2],
+        /// The spacing given.
+        spacing: [f64; 2],
+        /// The cell counts given.
+        dims: [usize; 2],
+    },
     /// A volume's data length or dimensions are inconsistent.
     #[error("image: {0}")]
     Image(String),
@@ -278,6 +293,7 @@ impl MeshError {
             MeshError::WorkingGridTooLarge { .. } => "working_grid_too_large",
             MeshError::NonFiniteMeasure { .. } => "non_finite_measure",
             MeshError::NonFiniteTotalMeasure { .. } => "non_finite_total_measure",
+            MeshError::RasterGrid { .. } => "raster_grid",
             MeshError::Image(_) => "image",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }

@@ -26,6 +26,7 @@ pub mod geometry;
 pub mod mask;
 pub mod memory;
 pub mod mesher;
+pub mod raster;
 pub mod reindex;
 pub mod repair;
 pub mod shapes;
