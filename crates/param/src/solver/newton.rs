@@ -229,6 +229,62 @@ impl ProjectedNewton {
     }
 }
 
+/// Solves `(S + sigma I) dt = rhs` for the smallest `sigma` of the sequence
+/// `0, 1e-12 m, 1e-11 m, ...` (`m` the largest `|S_ii|` or `|C_ii|`, 1 when
+/// they all vanish) at which `S + sigma I` has a Cholesky factor (and a
+/// finite solution), trying at last `sigma = ||S||_F`
+/// (which bounds `|lambda_min(S)|`, so `S + sigma I` is then positive
+/// definite whatever `S`'s signs). The shift is measured against `C` as
+/// well as `S`: where the objective is flat along a joint direction of `x`
+/// and `theta` (a scale-invariant energy with a template that scales with
+/// its parameters, at its minimum) `S` vanishes to roundoff, and a damped
+/// step is the answer. With `S + sigma I` positive definite, `rhs^T dt > 0`:
+/// the step descends.
+///
+/// # Errors
+/// [`ParamError::ThetaBlockIndefinite`] only when no shift gives a factor
+/// and a finite solution, i.e. `S` or `rhs` is not finite.
+fn shifted_solve(
+    s: &nalgebra::DMatrix<f64>,
+    c_diag: &[f64],
+    rhs: &nalgebra::DVector<f64>,
+) -> Result<nalgebra::DVector<f64>, ParamError> {
+    let p = s.nrows();
+    let largest = (0..p)
+        .map(|i| s[(i, i)].abs().max(c_diag.get(i).map_or(0.0, |c| c.abs())))
+        .fold(0.0, f64::max);
+    // A block that vanishes (no curvature in theta at all) gets a unit
+    // shift: a gradient step in theta, whose length the line search sets.
+    let scale = if largest > 0.0 { largest } else { 1.0 };
+    // Slightly past the Frobenius norm, so roundoff cannot leave it short.
+    let last = (s.norm() * (1.0 + 1e-6)).max(scale);
+    let mut shift = 0.0;
+    loop {
+        let mut sm = s.clone();
+        for i in 0..p {
+            sm[(i, i)] += shift;
+        }
+        if let Some(dt) = sm
+            .cholesky()
+            .map(|ch| ch.solve(rhs))
+            .filter(|dt| dt.iter().all(|v| v.is_finite()))
+        {
+            return Ok(dt);
+        }
+        if shift >= last || !shift.is_finite() {
+            return Err(ParamError::ThetaBlockIndefinite {
+                parameters: p,
+                shift,
+            });
+        }
+        shift = if shift == 0.0 {
+            1e-12 * scale
+        } else {
+            (shift * 10.0).min(last)
+        };
+    }
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -237,9 +293,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `[A B; B^T C] [dx; dt] = -[g; g_t]` given the factor of `A` and
 /// `d = -A^-1 g`: `S = C - B^T A^-1 B`, `dt = S^-1 (-g_t - B^T d)`,
 /// `dx = d - A^-1 B dt`. Returns `dt` and updates `d` in place. `S` is
-/// dense `p x p` (any number `p` of parameters), factored by Cholesky with
-/// a growing diagonal shift (up to the largest diagonal entry of `S` or
-/// `C`) when it is not positive definite.
+/// dense `p x p` (any number `p` of parameters), solved by
+/// [`shifted_solve`].
 fn eliminate_theta(
     factor: &SpdFactor,
     tb: &ThetaBlock,
@@ -259,35 +314,8 @@ fn eliminate_theta(
             s[(i, j)] = tb.c[i * p + j] - dot(bi, &y[j * n..(j + 1) * n]);
         }
     }
-    // The shift is measured against `C` as well as `S`: where the objective
-    // is flat along a joint direction of `x` and `theta` (a scale-invariant
-    // energy with a template that scales with its parameters, at its
-    // minimum) `S` vanishes to roundoff, and a damped step is the answer.
-    let scale = (0..p)
-        .map(|i| s[(i, i)].abs().max(tb.c[i * p + i].abs()))
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let mut shift = 0.0;
-    let dt = loop {
-        let mut sm = s.clone();
-        for i in 0..p {
-            sm[(i, i)] += shift;
-        }
-        if let Some(ch) = sm.cholesky() {
-            break ch.solve(&rhs);
-        }
-        shift = if shift == 0.0 {
-            1e-12 * scale
-        } else {
-            shift * 10.0
-        };
-        if shift > scale {
-            return Err(ParamError::ThetaBlockIndefinite {
-                parameters: p,
-                shift,
-            });
-        }
-    };
+    let c_diag: Vec<f64> = (0..p).map(|i| tb.c[i * p + i]).collect();
+    let dt = shifted_solve(&s, &c_diag, &rhs)?;
     for j in 0..p {
         let yj = &y[j * n..(j + 1) * n];
         for (di, yi) in d.iter_mut().zip(yj) {
@@ -295,4 +323,57 @@ fn eliminate_theta(
         }
     }
     Ok(dt.iter().copied().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_positive_definite_block_is_solved_unshifted() {
+        let s = DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 3.0]);
+        let rhs = DVector::from_vec(vec![1.0, 2.0]);
+        let dt = shifted_solve(&s, &[4.0, 3.0], &rhs).unwrap();
+        assert!((&s * &dt - &rhs).norm() < 1e-12);
+    }
+
+    #[test]
+    fn an_indefinite_block_with_a_zero_diagonal_is_shifted_past_its_norm() {
+        // Eigenvalues +-1 and a zero diagonal: no shift up to the largest
+        // diagonal entry helps; the Frobenius norm does.
+        let s = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0]);
+        let rhs = DVector::from_vec(vec![1.0, -0.5]);
+        let dt = shifted_solve(&s, &[0.0, 0.0], &rhs).unwrap();
+        assert!(dt.iter().all(|v| v.is_finite()));
+        assert!(rhs.dot(&dt) > 0.0);
+    }
+
+    proptest! {
+        /// Any finite symmetric block gives a finite descending step.
+        #[test]
+        fn every_symmetric_block_gives_a_descending_step(
+            p in 1usize..5,
+            entries in prop::collection::vec(-10.0..10.0f64, 16),
+            diag_scale in prop::sample::select(vec![0.0, 1e-6, 1.0]),
+            rhs in prop::collection::vec(-1.0..1.0f64, 4),
+        ) {
+            let mut s = DMatrix::<f64>::zeros(p, p);
+            for i in 0..p {
+                for j in 0..=i {
+                    let v = entries[i * 4 + j];
+                    let v = if i == j { v * diag_scale } else { v };
+                    s[(i, j)] = v;
+                    s[(j, i)] = v;
+                }
+            }
+            let r = DVector::from_iterator(p, rhs.iter().copied().take(p));
+            prop_assume!(r.norm() > 1e-6);
+            let c: Vec<f64> = (0..p).map(|i| s[(i, i)]).collect();
+            let dt = shifted_solve(&s, &c, &r).unwrap();
+            prop_assert!(dt.iter().all(|v| v.is_finite()));
+            prop_assert!(r.dot(&dt) > 0.0, "{} for {:?}", r.dot(&dt), s);
+        }
+    }
 }
