@@ -173,7 +173,14 @@ fn write_cohort_plots(
         println!("cohort: wrote {}", p.display());
     }
     super::cohort_mitral_maps::mitral_maps(out, subjects)?.print(&out.join("cohort"));
-    let figures = super::cohort_figures::cohort_figures(out, covariates, plots)?;
+    // The placenta images with statistics, by name (`<name>_mean.nii.gz`).
+    let mut placenta_images: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name()?.to_str()?.strip_suffix("_mean.nii.gz"))
+        .map(str::to_string)
+        .collect();
+    placenta_images.sort();
+    let figures = super::cohort_figures::cohort_figures(out, covariates, plots, &placenta_images)?;
     if !figures.is_empty() {
         println!(
             "cohort: {} figures in {}",

@@ -492,22 +492,14 @@ fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), 
     Ok(())
 }
 
-/// The placenta mean and standard deviation slices.
-fn slices(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), CliError> {
+/// The placenta mean and standard deviation slices of `images`.
+fn slices(
+    out: &Path,
+    images: &[String],
+    opts: &FigureOptions,
+    drawn: &mut Drawn,
+) -> Result<(), CliError> {
     let dir = out.join("cohort");
-    let Ok(listing) = std::fs::read_dir(&dir) else {
-        return Ok(());
-    };
-    let mut images: Vec<String> = listing
-        .filter_map(Result::ok)
-        .filter_map(|e| {
-            e.file_name()
-                .to_str()
-                .and_then(|n| n.strip_suffix("_mean.nii.gz"))
-                .map(str::to_string)
-        })
-        .collect();
-    images.sort();
     for image in images {
         let name = unfold::figures::cohort::slices::slices_name(&image);
         let std_path = dir.join(format!("{image}_std.nii.gz"));
@@ -630,7 +622,10 @@ fn energies(
 /// Draws the cohort figures of `OUT` (see the module documentation) into
 /// `OUT/cohort/figures/` with their `index.json`; `covariates` are the
 /// manifest's covariate columns, `plots` the `--plot` requests (none: the
-/// default scatter plots). Returns the files written.
+/// default scatter plots), `placenta_images` the names of the placenta
+/// images whose statistics the cohort wrote (`<name>_mean.nii.gz`, ...; other
+/// statistics in `OUT/cohort/`, such as the mitral maps, are not placenta
+/// images). Returns the files written.
 ///
 /// # Errors
 /// A `--plot` naming a column `cohort.csv` lacks or a covariate that is not
@@ -640,6 +635,7 @@ pub(crate) fn cohort_figures(
     out: &Path,
     covariates: &[String],
     plots: &[PlotSpec],
+    placenta_images: &[String],
 ) -> Result<Vec<PathBuf>, CliError> {
     let csv_path = out.join("cohort.csv");
     let table = Table::read(&csv_path)?;
@@ -649,7 +645,7 @@ pub(crate) fn cohort_figures(
     distortion(out, &table, &opts, &mut drawn)?;
     scatters(&table, covariates, plots, &opts, &mut drawn)?;
     bullseyes(out, &opts, &mut drawn)?;
-    slices(out, &opts, &mut drawn)?;
+    slices(out, placenta_images, &opts, &mut drawn)?;
     energies(out, &table, &opts, &mut drawn)?;
     for (figure, why) in &drawn.skipped {
         println!("cohort: figure {figure} skipped: {why}");
