@@ -501,7 +501,7 @@ fn slices(
 ) -> Result<(), CliError> {
     let dir = out.join("cohort");
     for image in images {
-        let name = unfold::figures::cohort::slices::slices_name(&image);
+        let name = unfold::figures::cohort::slices::slices_name(image);
         let std_path = dir.join(format!("{image}_std.nii.gz"));
         if !std_path.is_file() {
             drawn.skip(name, format!("no {}", std_path.display()));
@@ -526,7 +526,7 @@ fn slices(
             }
         }
         let stats = ImageStatistics {
-            image: &image,
+            image,
             mean: &mean.volume,
             std: &std.volume,
             count: count.as_ref().map(|c| &c.volume),
