@@ -49,8 +49,10 @@ pub(crate) struct SubjectRow {
     pub covariates: BTreeMap<String, String>,
 }
 
-/// The scalars of a JSON value, keys joined by dots.
-fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
+/// The scalars of a JSON value, keys joined by dots (numbers as written,
+/// booleans as 0 and 1; at the top level the `provenance` section is left
+/// out).
+pub(crate) fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
     match v {
         serde_json::Value::Number(n) => {
             out.insert(prefix.to_string(), n.to_string());

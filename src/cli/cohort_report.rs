@@ -229,35 +229,23 @@ impl Status {
 /// `roundtrip_error_um` statistic, by dotted key (`provenance` left out),
 /// with whether it is a problem.
 fn quality_flags(report: &serde_json::Value) -> Vec<(String, String, bool)> {
-    fn walk(prefix: &str, v: &serde_json::Value, out: &mut Vec<(String, String, bool)>) {
-        let serde_json::Value::Object(map) = v else {
-            return;
-        };
-        for (k, v) in map {
-            if prefix.is_empty() && k == "provenance" {
-                continue;
-            }
-            let key = if prefix.is_empty() {
-                k.clone()
+    let mut scalars = std::collections::BTreeMap::new();
+    super::cohort::flatten("", report, &mut scalars);
+    scalars
+        .into_iter()
+        .filter_map(|(key, value)| {
+            let (parent, last) = key.rsplit_once('.').unwrap_or(("", key.as_str()));
+            let x = value.parse::<f64>().ok();
+            let bad = if QUALITY_COUNTS.contains(&last) {
+                x != Some(0.0)
+            } else if parent.ends_with("roundtrip_error_um") {
+                x.is_none_or(|x| x > ROUNDTRIP_TOLERANCE_UM)
             } else {
-                format!("{prefix}.{k}")
+                return None;
             };
-            match v {
-                serde_json::Value::Number(n) if QUALITY_COUNTS.contains(&k.as_str()) => {
-                    out.push((key, n.to_string(), n.as_f64() != Some(0.0)));
-                }
-                serde_json::Value::Number(n) if prefix.ends_with("roundtrip_error_um") => {
-                    let bad = n.as_f64().is_none_or(|x| x > ROUNDTRIP_TOLERANCE_UM);
-                    out.push((key, n.to_string(), bad));
-                }
-                serde_json::Value::Object(_) => walk(&key, v, out),
-                _ => {}
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk("", report, &mut out);
-    out
+            Some((key, value, bad))
+        })
+        .collect()
 }
 
 /// The page's inline style sheet.
