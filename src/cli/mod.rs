@@ -273,6 +273,17 @@ pub(crate) fn shown(staged: &unfold::io::StagedOutputs, e: CliError) -> CliError
     }
 }
 
+impl From<unfold::placenta::InputError> for CliError {
+    fn from(e: unfold::placenta::InputError) -> Self {
+        match e {
+            unfold::placenta::InputError::Usage(m) => CliError::Usage(m),
+            unfold::placenta::InputError::Organ { path, source } => {
+                CliError::Organ { path, source }
+            }
+        }
+    }
+}
+
 /// `value` if it is finite and positive, else a usage error naming `flag`.
 pub(crate) fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
     if value.is_finite() && value > 0.0 {

@@ -50,16 +50,16 @@ use unfold::io::{
     Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
     write_mesh,
 };
+use unfold::mesh::CellMesh;
 use unfold::mesh::mesher::MeshQuality;
-use unfold::mesh::{CellMesh, MeshError};
 use unfold::organs::placenta::displacement::{VectorFrame, displacement_field};
 use unfold::organs::placenta::images::{check_images, template_grid};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
 use unfold::organs::placenta::pullback::PullbackTable;
 use unfold::organs::placenta::segmentation::from_segmentation;
 use unfold::organs::placenta::{
-    Config, GridBox, Image, Interpolation, Pipeline, PlacentaError, PreparedMesh, PullbackError,
-    Report, SolverKind, TemplateKind, prepare_mesh,
+    Config, GridBox, Image, Interpolation, Pipeline, PreparedMesh, PullbackError, Report,
+    SolverKind, TemplateKind, prepare_mesh,
 };
 use unfold::organs::{OrganError, PipelineObserver};
 use unfold::param::Iteration;
@@ -247,21 +247,10 @@ pub struct PlacentaArgs {
     max_iterations: Option<usize>,
 }
 
-/// A pipeline error (an [`OrganError`] or one of the placenta's own
-/// errors) about the input `path` (the mesh, or an image), reworded where
-/// the library's message speaks to programmers.
+/// A pipeline error about the input `path` (the mesh, or an image), as
+/// [`unfold::placenta::organ`] words it.
 fn organ(path: &str, source: impl Into<OrganError>) -> CliError {
-    let source = source.into();
-    if let OrganError::Mesh(MeshError::MultipleComponents { count }) = source {
-        return CliError::Usage(format!(
-            "{path}: the mesh has {count} connected components; the placenta pipeline needs \
-             one (keep the largest, or split the file)"
-        ));
-    }
-    CliError::Organ {
-        path: path.to_string(),
-        source,
-    }
+    unfold::placenta::organ(path, source).into()
 }
 
 impl PlacentaArgs {
@@ -438,22 +427,6 @@ pub(crate) struct SegReport {
     pub half_thickness_mm: f64,
     /// Size and quality of the mesh.
     pub quality: MeshQuality,
-}
-
-/// `report.json`: the library's report with the inputs and images added.
-#[derive(Serialize)]
-struct FullReport<'a> {
-    mesh: &'a str,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    segmentation: Option<&'a SegReport>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    displacement: Option<DisplacementReport>,
-    #[serde(flatten)]
-    report: &'a Report,
-    /// Predicted and measured peak memory of the run.
-    memory: super::memory::MemoryReport,
-    /// Version, command line, parameters, input hashes, start time.
-    provenance: super::provenance::Provenance,
 }
 
 /// What a run produced, for the summary on stdout.
@@ -762,7 +735,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     }
 
     let report_path = dir.join(REPORT);
-    let full = FullReport {
+    let full = unfold::placenta::FullReport {
         mesh: label,
         segmentation: input.segmentation,
         displacement,
@@ -770,9 +743,10 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         memory: super::memory::report(),
         provenance: super::provenance::this_run(),
     };
-    let json = serde_json::to_string_pretty(&full)
+    let json = full
+        .to_json()
         .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
-    atomic_write(&report_path, format!("{json}\n").as_bytes())?;
+    atomic_write(&report_path, json.as_bytes())?;
     written.push(report_path);
     drop(progress);
 
@@ -783,65 +757,14 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     })
 }
 
-/// A pipeline error, attributed to the file it is about: an image's errors
-/// to the image, bad settings to the command line, the rest to the mesh.
+/// A pipeline error, attributed to the file it is about
+/// ([`unfold::placenta::pipeline_error`]).
 fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganError) -> CliError {
-    let image_path = |index: usize| images.get(index).map(|i| i.path.display().to_string());
-    match e {
-        OrganError::Placenta(PlacentaError::MeshFlipped {
-            index,
-            inside,
-            flip,
-            flipped_inside,
-        }) => {
-            let image = image_path(index).unwrap_or_default();
-            let fix = if flip.is_lps_ras() {
-                let other = match frame {
-                    Frame::Ras => "lps",
-                    Frame::Lps => "ras",
-                };
-                format!(
-                    "({} -> {}) {:.0}% would: rerun with --mesh-frame {other}",
-                    frame.name(),
-                    if other == "lps" { "LPS" } else { "RAS" },
-                    100.0 * flipped_inside
-                )
-            } else {
-                format!(
-                    "{:.0}% would: convert the mesh to the image's frame \
-                     (or --no-frame-check)",
-                    100.0 * flipped_inside
-                )
-            };
-            CliError::Usage(format!(
-                "{label}: only {:.0}% of the mesh lies in the foreground of {image}; mirrored in {} {fix}",
-                100.0 * inside,
-                flip.describe()
-            ))
-        }
-        OrganError::Placenta(PlacentaError::MeshOutsideForeground { index, .. }) => {
-            let path = image_path(index).unwrap_or_else(|| label.to_string());
-            CliError::Usage(format!(
-                "{label}: {e}; if {path} has no placenta foreground, rerun with --no-frame-check"
-            ))
-        }
-        OrganError::Config(_) => CliError::Usage(e.to_string()),
-        OrganError::Placenta(PlacentaError::ImagePullback { index, source }) => {
-            let path = image_path(index).unwrap_or_else(|| label.to_string());
-            organ(&path, *source)
-        }
-        OrganError::Placenta(PlacentaError::Pullback(source)) => {
-            let index = match *source {
-                PullbackError::Disjoint { index, .. } => Some(index),
-                _ => None,
-            };
-            let path = index
-                .and_then(image_path)
-                .unwrap_or_else(|| label.to_string());
-            organ(&path, *source)
-        }
-        e => organ(label, e),
-    }
+    let paths: Vec<String> = images
+        .iter()
+        .map(|i| i.path.display().to_string())
+        .collect();
+    unfold::placenta::pipeline_error(label, frame, &paths, e).into()
 }
 
 /// Runs `unfold placenta`.

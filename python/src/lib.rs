@@ -1,0 +1,40 @@
+//! `unfold._native`: the Rust side of the `unfold` Python package
+//! (distribution `unfold-organs`). numpy in, numpy out; every function runs
+//! the library the `unfold` command line runs, with the GIL released during
+//! the Rust work, and raises `unfold.UnfoldError` with the command line's
+//! one-line message on any failure.
+//!
+//! The Python wrappers in `python/unfold/` turn the tuples returned here
+//! into `Mesh` and `PlacentaResult` objects and coerce arguments
+//! (`numpy.asarray`) before they get here.
+
+mod arrays;
+mod placenta;
+mod progress;
+
+use pyo3::prelude::*;
+
+pyo3::create_exception!(
+    unfold,
+    UnfoldError,
+    pyo3::exceptions::PyValueError,
+    "An input unfold cannot use, or a file it cannot read or write; the message is the \
+     command line's one-line message (what is wrong and what to do)."
+);
+
+/// An [`UnfoldError`] with `e`'s one-line message.
+pub(crate) fn error(e: impl std::fmt::Display) -> PyErr {
+    UnfoldError::new_err(e.to_string())
+}
+
+/// The native module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("UnfoldError", m.py().get_type::<UnfoldError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(arrays::read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(arrays::write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(placenta::placenta, m)?)?;
+    m.add_function(wrap_pyfunction!(placenta::placenta_slab, m)?)?;
+    Ok(())
+}

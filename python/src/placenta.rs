@@ -1,0 +1,260 @@
+//! `unfold.placenta`: the library pipeline `unfold placenta` runs
+//! ([`Pipeline`]), on numpy arrays, with the command line's defaults and
+//! messages ([`unfold::placenta::pipeline_error`]) and its `report.json`
+//! layout ([`unfold::placenta::FullReport`]).
+
+use crate::arrays::mesh_tuple;
+use crate::progress::Callback;
+use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use serde::Serialize;
+use unfold::io::Frame;
+use unfold::mesh::nalgebra::Point3;
+use unfold::mesh::shapes::{PlacentaParams, placenta_slab as slab};
+use unfold::mesh::{CellMesh, TetMesh};
+use unfold::organs::placenta::parcellation::ParcellationConfig;
+use unfold::organs::placenta::{Config, Pipeline, SolverKind, TemplateKind, prepare_mesh};
+
+/// `value` if finite and positive, else the command line's message for its
+/// flag, naming the Python argument `name`.
+fn positive(name: &str, value: f64) -> PyResult<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(crate::error(format!(
+            "{name} must be a finite number > 0, got {value}"
+        )))
+    }
+}
+
+/// The template of a name ("planes", "ellipsoid", "single-plane").
+fn template(name: &str) -> PyResult<TemplateKind> {
+    match name {
+        "planes" => Ok(TemplateKind::Planes),
+        "ellipsoid" => Ok(TemplateKind::Ellipsoid),
+        "single-plane" | "single_plane" => Ok(TemplateKind::SinglePlane),
+        other => Err(crate::error(format!(
+            "template must be planes, ellipsoid or single-plane, got '{other}'"
+        ))),
+    }
+}
+
+/// The solver of a name ("newton", "gd").
+fn solver(name: &str) -> PyResult<SolverKind> {
+    match name {
+        "newton" => Ok(SolverKind::Newton),
+        "gd" => Ok(SolverKind::Gd),
+        other => Err(crate::error(format!(
+            "solver must be newton or gd, got '{other}'"
+        ))),
+    }
+}
+
+/// `memory` in the Python report: the keys of the command line's; the
+/// prediction is not checked against a budget (there is none in Python).
+#[derive(Serialize)]
+struct Memory {
+    predicted_peak_bytes: u64,
+    peak_bytes: Option<u64>,
+    limit_bytes: Option<u64>,
+    limit_source: &'static str,
+}
+
+/// `provenance` in the Python report: the command line's keys where they
+/// apply (no command line, no input files).
+#[derive(Serialize)]
+struct Provenance {
+    unfold_version: &'static str,
+    interface: &'static str,
+    command_line: Vec<String>,
+    parameters: String,
+    inputs: Vec<String>,
+    run_hash: String,
+    started: String,
+}
+
+/// Seconds since the Unix epoch, as RFC 3339 UTC (days from the civil
+/// calendar algorithm of Howard Hinnant).
+fn rfc3339_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+/// Flattens a placenta tet mesh; returns `(flattened, original,
+/// report_json)` with each mesh as `(points, cells, point_data,
+/// cell_data)`.
+#[pyfunction]
+#[pyo3(signature = (
+    points, tets, *, template="planes", lam=1.0, margin_mm=15.0, voxel_mm=3.0,
+    solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn placenta<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    tets: PyReadonlyArray2<'py, i64>,
+    template: &str,
+    lam: f64,
+    margin_mm: f64,
+    voxel_mm: f64,
+    solver: &str,
+    tol: f64,
+    max_iterations: Option<usize>,
+    name: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let started = rfc3339_now();
+    let config = Config {
+        lambda: positive("lam", lam)?,
+        grad_tol: positive("tol", tol)?,
+        max_iterations,
+        parcellation: ParcellationConfig {
+            margin_mm: positive("margin_mm", margin_mm)?,
+            voxel_mm: positive("voxel_mm", voxel_mm)?,
+            ..ParcellationConfig::default()
+        },
+        ..Config::default()
+    };
+    if max_iterations == Some(0) {
+        return Err(crate::error("max_iterations must be at least 1"));
+    }
+    config
+        .validate()
+        .map_err(|e| crate::error(format!("{e} (see margin_mm and voxel_mm)")))?;
+    let template_kind = self::template(template)?;
+    let solver_kind = self::solver(solver)?;
+    let mesh = tet_mesh(&points, &tets)?;
+    let parameters = format!(
+        "template={template:?}, lam={lam}, margin_mm={margin_mm}, voxel_mm={voxel_mm}, \
+         solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}"
+    );
+    let label = name.to_string();
+    let mut callback = Callback::new(progress);
+    let run = py.detach(|| {
+        let failed = |e| unfold::placenta::pipeline_error(&label, Frame::Ras, &[], e);
+        let prepared = prepare_mesh(&mesh).map_err(|e| unfold::placenta::organ(&label, e))?;
+        let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
+            .map(|e| e.total())
+            .unwrap_or(0.0);
+        let pipeline = Pipeline::new()
+            .template(template_kind.build())
+            .solver(solver_kind.build())
+            .config(config);
+        let outcome = pipeline
+            .run_prepared(prepared, &[], &mut callback)
+            .map_err(failed)?;
+        Ok::<_, unfold::placenta::InputError>((outcome, predicted))
+    });
+    if let Some(e) = callback.error.take() {
+        return Err(e);
+    }
+    let (outcome, predicted) = run.map_err(crate::error)?;
+    let full = unfold::placenta::FullReport::<(), (), _, _> {
+        mesh: name,
+        segmentation: None,
+        displacement: None,
+        report: &outcome.report,
+        memory: Memory {
+            predicted_peak_bytes: predicted as u64,
+            peak_bytes: None,
+            limit_bytes: None,
+            limit_source: "unknown",
+        },
+        provenance: Provenance {
+            unfold_version: env!("CARGO_PKG_VERSION"),
+            interface: "python",
+            command_line: Vec::new(),
+            parameters,
+            inputs: Vec::new(),
+            run_hash: String::new(),
+            started,
+        },
+    };
+    let json = full.to_json().map_err(crate::error)?;
+    let flattened = mesh_tuple(py, &CellMesh::from(&outcome.flattened))?;
+    let original = mesh_tuple(py, &CellMesh::from(&outcome.original))?;
+    PyTuple::new(
+        py,
+        [
+            flattened.into_any(),
+            original.into_any(),
+            json.into_pyobject(py)?.into_any(),
+        ],
+    )
+}
+
+/// A tet mesh from `(n, 3)` points and `(m, 4)` tets, every index checked.
+fn tet_mesh(
+    points: &PyReadonlyArray2<'_, f64>,
+    tets: &PyReadonlyArray2<'_, i64>,
+) -> PyResult<TetMesh> {
+    if points.shape()[1] != 3 {
+        return Err(crate::error(format!(
+            "points must have shape (n, 3), got {:?}",
+            points.shape()
+        )));
+    }
+    if tets.shape()[1] != 4 {
+        return Err(crate::error(format!(
+            "tets must have shape (m, 4), got {:?}",
+            tets.shape()
+        )));
+    }
+    let positions: Vec<Point3<f64>> = points
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| Point3::new(r[0], r[1], r[2]))
+        .collect();
+    let n = positions.len();
+    let mut out = Vec::with_capacity(tets.shape()[0]);
+    for (t, r) in tets.as_array().rows().into_iter().enumerate() {
+        let mut tet = [0u32; 4];
+        for (slot, &v) in tet.iter_mut().zip(r) {
+            if v < 0 || v as u64 >= n as u64 {
+                return Err(crate::error(format!(
+                    "tets row {t} refers to point {v}, but there are {n} points"
+                )));
+            }
+            *slot = v as u32;
+        }
+        out.push(tet);
+    }
+    Ok(TetMesh::new(positions, out))
+}
+
+/// The synthetic placenta slab of `unfold demo` (`unfold_mesh::shapes`),
+/// in its own frame, as `(points, cells, point_data, cell_data)`;
+/// `cells_radial` sets its resolution.
+#[pyfunction]
+#[pyo3(signature = (cells_radial=None))]
+pub(crate) fn placenta_slab<'py>(
+    py: Python<'py>,
+    cells_radial: Option<usize>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let mut params = PlacentaParams::default();
+    if let Some(c) = cells_radial {
+        params.cells_radial = c;
+    }
+    let shape = slab(&params).map_err(crate::error)?;
+    mesh_tuple(py, &CellMesh::from(&shape.mesh))
+}

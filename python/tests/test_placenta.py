@@ -1,0 +1,108 @@
+"""unfold.placenta against `unfold placenta` on the same slab."""
+
+import json
+import math
+import subprocess
+
+import meshio
+import numpy as np
+import pytest
+
+import unfold
+
+
+@pytest.fixture(scope="module")
+def slab():
+    return unfold.shapes.placenta_slab(6)
+
+
+@pytest.fixture(scope="module")
+def both(slab, unfold_bin, tmp_path_factory):
+    d = tmp_path_factory.mktemp("placenta")
+    unfold.write_mesh(d / "slab.vtu", slab)
+    subprocess.run([unfold_bin, "placenta", str(d / "slab.vtu"), "-o", str(d / "out"),
+                    "--no-figures"], check=True, capture_output=True)
+    calls = []
+    result = unfold.placenta(slab.points, slab.cells["tetra"], name=str(d / "slab.vtu"),
+                             progress=lambda s, i, v: calls.append((s, i, v)))
+    return result, d / "out", calls
+
+
+def test_points_equal_the_cli(both):
+    result, out, _ = both
+    cli = meshio.read(out / "flattened.vtu")
+    assert result.points.dtype == np.float64
+    np.testing.assert_allclose(result.points, cli.points, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(result.cells["tetra"], cli.cells_dict["tetra"])
+
+
+def test_arrays_equal_the_cli(both):
+    result, out, _ = both
+    cli = meshio.read(out / "flattened.vtu")
+    assert set(result.arrays) == set(cli.point_data) | set(cli.cell_data)
+    np.testing.assert_array_equal(result.arrays["side"], cli.point_data["side"].ravel())
+    for name in cli.cell_data:
+        np.testing.assert_allclose(result.arrays[name], cli.cell_data[name][0].ravel(), atol=1e-12)
+    orig = meshio.read(out / "original.vtu")
+    np.testing.assert_array_equal(result.original.points, orig.points)
+
+
+def test_report_has_the_cli_keys(both):
+    result, out, _ = both
+    cli = json.loads((out / "report.json").read_text())
+    assert set(result.report) == set(cli)
+    assert result.report["mesh"] == cli["mesh"]
+    for key in ("iterations", "converged", "theta", "boundary", "inverted_tets"):
+        assert result.report[key] == cli[key], key
+    assert math.isclose(result.report["objective"], cli["objective"], rel_tol=0, abs_tol=1e-12)
+    assert result.report["provenance"]["interface"] == "python"
+    assert set(result.report["memory"]) == set(cli["memory"])
+
+
+def test_progress_is_called(both):
+    _, _, calls = both
+    stages = [s for s, _, _ in calls]
+    assert "parcellation" in stages
+    assert any(s.startswith("optimization") for s in stages)
+    assert all(isinstance(i, int) and isinstance(v, float) for _, i, v in calls)
+
+
+def test_progress_exception_is_raised(slab):
+    def boom(stage, iteration, value):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        unfold.placenta(slab.points, slab.cells["tetra"], progress=boom)
+
+
+def test_two_components_raise_the_cli_message(slab, unfold_bin, tmp_path):
+    n = len(slab.points)
+    points = np.vstack([slab.points, slab.points + [500.0, 0.0, 0.0]])
+    tets = np.vstack([slab.cells["tetra"], slab.cells["tetra"] + n])
+    path = tmp_path / "two.vtu"
+    unfold.write_mesh(path, points, {"tetra": tets})
+    cli = subprocess.run([unfold_bin, "placenta", str(path), "-o", str(tmp_path / "o")],
+                         capture_output=True, text=True)
+    assert cli.returncode != 0
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.placenta(points, tets, name=str(path))
+    assert "2 connected components" in str(e.value)
+    assert f"unfold: error: {e.value}" in cli.stderr
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"lam": -1.0}, "lam must be a finite number > 0, got -1"),
+    ({"tol": float("nan")}, "tol must be a finite number > 0"),
+    ({"template": "cube"}, "template must be planes, ellipsoid or single-plane"),
+    ({"max_iterations": 0}, "max_iterations must be at least 1"),
+])
+def test_bad_settings(slab, kwargs, message):
+    with pytest.raises(unfold.UnfoldError, match=message):
+        unfold.placenta(slab.points, slab.cells["tetra"], **kwargs)
+
+
+def test_bad_indices(slab):
+    tets = slab.cells["tetra"].copy()
+    tets[3, 2] = len(slab.points)
+    with pytest.raises(unfold.UnfoldError, match="tets row 3 refers to point"):
+        unfold.placenta(slab.points, tets)

@@ -1,0 +1,31 @@
+"""unfold: map anatomical shapes onto canonical templates, numpy in, numpy out.
+
+The functions run the same Rust library as the ``unfold`` command line, with
+its defaults and its one-line error messages:
+
+* :func:`read_mesh` / :func:`write_mesh`: every mesh format of ``unfold
+  convert`` (VTK XML and legacy, PLY, OBJ, STL, gmsh, medit) as a
+  :class:`Mesh` of numpy arrays (meshio's layout);
+* :func:`placenta`: ``unfold placenta`` on a tet mesh, returning a
+  :class:`PlacentaResult`;
+* :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo``.
+
+Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
+the command line's.
+"""
+
+from ._native import UnfoldError, __version__
+from ._mesh import Mesh, read_mesh, write_mesh
+from ._placenta import PlacentaResult, placenta
+from . import shapes
+
+__all__ = [
+    "Mesh",
+    "PlacentaResult",
+    "UnfoldError",
+    "__version__",
+    "placenta",
+    "read_mesh",
+    "shapes",
+    "write_mesh",
+]

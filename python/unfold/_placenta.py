@@ -1,0 +1,130 @@
+"""``unfold placenta`` on numpy arrays."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, Optional
+
+import numpy as np
+
+from . import _native
+from ._mesh import Mesh
+
+__all__ = ["PlacentaResult", "placenta"]
+
+
+@dataclass
+class PlacentaResult:
+    """What :func:`placenta` returns.
+
+    Attributes:
+        points: the flattened mesh's points in the template frame, float64
+            (n, 3) (``flattened.vtu`` of the command line).
+        cells: ``{"tetra": (m, 4) int64}``, the input's tets (oriented).
+        arrays: the flattened mesh's arrays under the command line's names:
+            ``side`` (per point: 0 interior, 1 fetal, 2 maternal, 3 margin),
+            ``log2_det_j`` and ``sym_dirichlet`` (per tet).
+        point_data: the per-point arrays of ``arrays``.
+        cell_data: the per-tet arrays of ``arrays``.
+        original: the input as the pipeline used it (``original.vtu``).
+        report: ``report.json``'s keys: ``mesh`` (the ``name`` given), the
+            library report's keys, ``memory`` and ``provenance``. The last two
+            differ from the command line's: ``memory`` holds the prediction
+            only (no budget, ``limit_source`` "unknown"); ``provenance`` has
+            ``interface: "python"``, no command line, no input hashes and no
+            run hash.
+    """
+
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    original: Mesh
+    report: Dict[str, Any]
+
+    @property
+    def mesh(self) -> Mesh:
+        """The flattened mesh as a :class:`Mesh` (to pass to ``write_mesh``)."""
+        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
+
+
+def placenta(
+    points,
+    tets,
+    images=None,
+    template: str = "planes",
+    lam: float = 1.0,
+    *,
+    margin_mm: float = 15.0,
+    voxel_mm: float = 3.0,
+    solver: str = "newton",
+    tol: float = 1e-4,
+    max_iterations: Optional[int] = None,
+    name: str = "mesh",
+    progress: Optional[Callable[[str, int, float], Any]] = None,
+) -> PlacentaResult:
+    """Flattens a placenta tet mesh onto a template (``unfold placenta``).
+
+    Minimizes ``phi(X, theta) = sum_m A_m T(x_m, theta) + lam sum_k V_k D(J_k)``
+    (template term over the fetal, maternal and margin boundary vertices plus
+    the symmetric Dirichlet distortion), flip-free, with the command line's
+    defaults. The GIL is released while the Rust code runs.
+
+    Args:
+        points: (n, 3) vertex positions, mm, scanner frame (RAS).
+        tets: (m, 4) vertex indices.
+        images: not yet supported in Python (pass None); pull images with the
+            command line's ``--image``.
+        template: "planes" (default), "ellipsoid" or "single-plane".
+        lam: the distortion weight lambda (``--lambda``).
+        margin_mm: ``--margin-mm``. voxel_mm: ``--voxel-mm``.
+        solver: "newton" (default) or "gd". tol: ``--tol``.
+        max_iterations: ``--max-iterations`` (None: the solver's default).
+        name: what messages and ``report["mesh"]`` call the mesh.
+        progress: called as ``progress(stage, iteration, value)`` with the GIL
+            held: at each stage (iteration 0, value NaN) and at most every
+            0.1 s during the optimization (value: the objective). An exception
+            it raises stops further calls and is raised after the run.
+
+    Raises:
+        UnfoldError: bad settings or an unusable mesh, with the command
+            line's message (e.g. several connected components).
+    """
+    if images is not None:
+        raise _native.UnfoldError(
+            "images are not supported by unfold.placenta yet; run `unfold placenta --image`"
+        )
+    p = np.ascontiguousarray(np.asarray(points, dtype=np.float64))
+    t = np.asarray(tets)
+    if t.size and t.dtype.kind not in "iu":
+        raise _native.UnfoldError(f"tets must be integers, got {t.dtype}")
+    t = np.ascontiguousarray(t, dtype=np.int64)
+    if p.ndim != 2 or t.ndim != 2:
+        raise _native.UnfoldError(
+            f"points must have shape (n, 3) and tets (m, 4), got {p.shape} and {t.shape}"
+        )
+    flat, original, report = _native.placenta(
+        p,
+        t,
+        template=template,
+        lam=float(lam),
+        margin_mm=float(margin_mm),
+        voxel_mm=float(voxel_mm),
+        solver=solver,
+        tol=float(tol),
+        max_iterations=max_iterations,
+        name=name,
+        progress=progress,
+    )
+    f = Mesh._from_tuple(flat)
+    return PlacentaResult(
+        points=f.points,
+        cells=f.cells,
+        arrays={**f.point_data, **f.cell_data},
+        point_data=f.point_data,
+        cell_data=f.cell_data,
+        original=Mesh._from_tuple(original),
+        report=json.loads(report),
+    )
