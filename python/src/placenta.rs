@@ -74,31 +74,6 @@ struct Provenance {
     started: String,
 }
 
-/// Seconds since the Unix epoch, as RFC 3339 UTC (days from the civil
-/// calendar algorithm of Howard Hinnant).
-fn rfc3339_now() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs() as i64)
-        .unwrap_or(0);
-    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
-    )
-}
-
 /// Flattens a placenta tet mesh; returns `(flattened, original,
 /// report_json)` with each mesh as `(points, cells, point_data,
 /// cell_data)`.
@@ -122,7 +97,7 @@ pub(crate) fn placenta<'py>(
     name: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = rfc3339_now();
+    let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
     let config = Config {
         lambda: positive("lam", lam)?,
         grad_tol: positive("tol", tol)?,
