@@ -44,19 +44,7 @@ fn block_key(t: CellType, size: usize) -> String {
 
 /// The cell type and size of a block key; `None` for an unknown name.
 fn parse_key(key: &str) -> Option<(CellType, Option<usize>)> {
-    let all = [
-        CellType::Vertex,
-        CellType::PolyVertex,
-        CellType::Line,
-        CellType::PolyLine,
-        CellType::Triangle,
-        CellType::Polygon,
-        CellType::Quad,
-        CellType::Tetra,
-        CellType::Hexahedron,
-        CellType::Wedge,
-        CellType::Pyramid,
-    ];
+    let all = CellType::ALL;
     // The longest name first: "polyline" before "line".
     let mut best: Option<(CellType, Option<usize>)> = None;
     let mut best_len = 0;

@@ -1530,20 +1530,6 @@ pub(crate) mod tests {
             .boxed()
     }
 
-    const ALL_TYPES: [CellType; 11] = [
-        CellType::Vertex,
-        CellType::PolyVertex,
-        CellType::Line,
-        CellType::PolyLine,
-        CellType::Triangle,
-        CellType::Polygon,
-        CellType::Quad,
-        CellType::Tetra,
-        CellType::Hexahedron,
-        CellType::Wedge,
-        CellType::Pyramid,
-    ];
-
     /// Which cells a generated mesh holds.
     #[derive(Debug, Clone, Copy)]
     pub(crate) enum Cells {
@@ -1560,8 +1546,8 @@ pub(crate) mod tests {
     /// and cell data of every type; names matching `name_re`.
     pub(crate) fn arb_mesh(kind: Cells, name_re: &'static str) -> BoxedStrategy<CellMesh> {
         let types: Vec<CellType> = match kind {
-            Cells::Any => ALL_TYPES.to_vec(),
-            _ => ALL_TYPES
+            Cells::Any => CellType::ALL.to_vec(),
+            _ => CellType::ALL
                 .into_iter()
                 .filter(|t| t.dimension() < 3)
                 .collect(),

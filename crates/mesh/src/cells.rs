@@ -34,6 +34,21 @@ pub enum CellType {
 }
 
 impl CellType {
+    /// Every cell type unfold supports, in VTK id order.
+    pub const ALL: [CellType; 11] = [
+        CellType::Vertex,
+        CellType::PolyVertex,
+        CellType::Line,
+        CellType::PolyLine,
+        CellType::Triangle,
+        CellType::Polygon,
+        CellType::Quad,
+        CellType::Tetra,
+        CellType::Hexahedron,
+        CellType::Wedge,
+        CellType::Pyramid,
+    ];
+
     /// The VTK cell type id.
     pub fn vtk_id(self) -> u8 {
         self as u8
@@ -41,21 +56,7 @@ impl CellType {
 
     /// The cell type for a VTK id, if unfold supports it.
     pub fn from_vtk_id(id: u8) -> Option<CellType> {
-        use CellType::*;
-        Some(match id {
-            1 => Vertex,
-            2 => PolyVertex,
-            3 => Line,
-            4 => PolyLine,
-            5 => Triangle,
-            7 => Polygon,
-            9 => Quad,
-            10 => Tetra,
-            12 => Hexahedron,
-            13 => Wedge,
-            14 => Pyramid,
-            _ => return None,
-        })
+        CellType::ALL.into_iter().find(|t| t.vtk_id() == id)
     }
 
     /// Topological dimension: 0 points, 1 lines, 2 surfaces, 3 volumes.
@@ -387,6 +388,21 @@ impl From<&TetMesh> for CellMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_vtk_id_maps_to_its_type_and_no_other_id_to_any() {
+        for t in CellType::ALL {
+            assert_eq!(CellType::from_vtk_id(t.vtk_id()), Some(t));
+        }
+        let known: Vec<u8> = CellType::ALL.iter().map(|t| t.vtk_id()).collect();
+        for id in 0..=u8::MAX {
+            assert_eq!(
+                CellType::from_vtk_id(id).is_some(),
+                known.contains(&id),
+                "{id}"
+            );
+        }
+    }
 
     #[test]
     fn volume_tets_drop_lower_cells_and_refuse_other_volume_cells() {
