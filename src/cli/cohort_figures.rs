@@ -382,6 +382,13 @@ fn read_rows(path: &Path) -> Result<Vec<BTreeMap<String, String>>, CliError> {
     Ok(Table::read(path)?.rows)
 }
 
+/// A segment table row's AHA segment, 1 to 17 (`None` for anything else).
+fn segment(row: &BTreeMap<String, String>) -> Option<usize> {
+    row.get("segment")
+        .and_then(|s| s.parse::<usize>().ok())
+        .filter(|k| (1..=17).contains(k))
+}
+
 /// The ventricle bull's-eyes.
 fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), CliError> {
     let seg_path = out.join("cohort").join("ventricle_segments.csv");
@@ -390,15 +397,9 @@ fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), 
     }
     let mut stats: BTreeMap<String, SegmentStatistics> = BTreeMap::new();
     for r in read_rows(&seg_path)? {
-        let (Some(array), Some(seg)) = (
-            r.get("array"),
-            r.get("segment").and_then(|s| s.parse::<usize>().ok()),
-        ) else {
+        let (Some(array), Some(seg)) = (r.get("array"), segment(&r)) else {
             continue;
         };
-        if !(1..=17).contains(&seg) {
-            continue;
-        }
         let s = stats
             .entry(array.clone())
             .or_insert_with(|| SegmentStatistics {
@@ -452,16 +453,9 @@ fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), 
     type PerSegment = ([Option<f64>; 17], [Option<f64>; 17]);
     let mut by: BTreeMap<(String, String), PerSegment> = BTreeMap::new();
     for r in read_rows(&z_path)? {
-        let (Some(id), Some(array), Some(seg)) = (
-            r.get("id"),
-            r.get("array"),
-            r.get("segment").and_then(|s| s.parse::<usize>().ok()),
-        ) else {
+        let (Some(id), Some(array), Some(seg)) = (r.get("id"), r.get("array"), segment(&r)) else {
             continue;
         };
-        if !(1..=17).contains(&seg) {
-            continue;
-        }
         let e = by
             .entry((id.clone(), array.clone()))
             .or_insert(([None; 17], [None; 17]));
