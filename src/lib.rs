@@ -3,6 +3,7 @@
 //! This facade re-exports the workspace crates; the `unfold` binary is the
 //! command-line tool built on them.
 
+pub mod cli;
 pub mod figures;
 
 pub use unfold_io as io;

@@ -1,6 +1,6 @@
 //! The `unfold` command-line tool.
 
-mod cli;
+use unfold::cli;
 
 use clap::Parser;
 use clap::error::ErrorKind;

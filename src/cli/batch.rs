@@ -388,7 +388,7 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
     let mut text = output.stdout.clone();
     text.extend_from_slice(&output.stderr);
     // the log is a convenience: a failure to write it does not fail the subject
-    let _ = unfold::io::atomic_write(&log, &text);
+    let _ = crate::io::atomic_write(&log, &text);
     let stderr = String::from_utf8_lossy(&output.stderr);
     let last = stderr
         .lines()
@@ -430,7 +430,7 @@ fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), CliError> {
         .map_err(err)?;
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
-    Ok(unfold::io::atomic_write(&path, &bytes)?)
+    Ok(crate::io::atomic_write(&path, &bytes)?)
 }
 
 /// Runs `unfold batch`.

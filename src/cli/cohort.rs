@@ -115,7 +115,7 @@ fn write_cohort_plots(
         w.write_record(&row).map_err(|e| at(&path, e))?;
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
-    unfold::io::atomic_write(&path, &bytes)?;
+    crate::io::atomic_write(&path, &bytes)?;
 
     let mut rows = Vec::with_capacity(subjects.len());
     let mut keys = std::collections::BTreeSet::new();
@@ -155,7 +155,7 @@ fn write_cohort_plots(
         w.write_record(&row).map_err(|e| at(&path, e))?;
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
-    unfold::io::atomic_write(&path, &bytes)?;
+    crate::io::atomic_write(&path, &bytes)?;
     let super::cohort_images::Statistics { written, left_out } =
         super::cohort_images::placenta_statistics(out, subjects)?;
     if !written.is_empty() {

@@ -26,16 +26,16 @@
 //! not draw are removed, so that the index lists exactly the PNGs present.
 
 use super::{CliError, at};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use unfold::figures::cohort::bullseyes::{
+use crate::figures::cohort::bullseyes::{
     SegmentStatistics, mean_bullseye, std_bullseye, z_bullseye,
 };
-use unfold::figures::cohort::distortion::{SubjectDistortion, placenta_distortion};
-use unfold::figures::cohort::energies::{ValveEnergies, mitral_energies};
-use unfold::figures::cohort::scatter::{Scatter, ScatterPoint, least_squares, scatter};
-use unfold::figures::cohort::slices::{ImageStatistics, mean_std_slices};
-use unfold::figures::{Figure, FigureOptions};
+use crate::figures::cohort::distortion::{SubjectDistortion, placenta_distortion};
+use crate::figures::cohort::energies::{ValveEnergies, mitral_energies};
+use crate::figures::cohort::scatter::{Scatter, ScatterPoint, least_squares, scatter};
+use crate::figures::cohort::slices::{ImageStatistics, mean_std_slices};
+use crate::figures::{Figure, FigureOptions};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 /// The fewest subjects (or valves, or hearts) a cohort figure is drawn for.
 pub(crate) const MIN_SUBJECTS: usize = 3;
@@ -293,7 +293,7 @@ fn scatters(
             rows.len()
         );
         if let Some(f) = fit {
-            let v = unfold::figures::render::format_value;
+            let v = crate::figures::render::format_value;
             caption.push_str(&format!(
                 " y = {} + {} x (r^2 = {}, n = {})",
                 v(f.a),
@@ -344,7 +344,7 @@ fn distortion(
             log2_edge_ratio: er,
         });
     }
-    let name = unfold::figures::cohort::distortion::DISTORTION_PNG;
+    let name = crate::figures::cohort::distortion::DISTORTION_PNG;
     if subjects.len() < MIN_SUBJECTS {
         if !subjects.is_empty() {
             drawn.skip(
@@ -416,11 +416,8 @@ fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), 
         let hearts = s.hearts.iter().copied().max().unwrap_or(0);
         if hearts < MIN_SUBJECTS {
             let why = format!("{hearts} hearts; it needs {MIN_SUBJECTS}");
-            drawn.skip(
-                unfold::figures::cohort::bullseyes::mean_name(&s.array),
-                &why,
-            );
-            drawn.skip(unfold::figures::cohort::bullseyes::std_name(&s.array), why);
+            drawn.skip(crate::figures::cohort::bullseyes::mean_name(&s.array), &why);
+            drawn.skip(crate::figures::cohort::bullseyes::std_name(&s.array), why);
             continue;
         }
         let fig = mean_bullseye(s, opts).map_err(|e| at(&seg_path, e))?;
@@ -463,7 +460,7 @@ fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), 
         e.1[seg - 1] = num(&r, "value");
     }
     for ((id, array), (z, values)) in &by {
-        let name = unfold::figures::cohort::bullseyes::z_name(id, array);
+        let name = crate::figures::cohort::bullseyes::z_name(id, array);
         if z.iter().all(Option::is_none) {
             drawn.skip(
                 name,
@@ -495,7 +492,7 @@ fn slices(
 ) -> Result<(), CliError> {
     let dir = out.join("cohort");
     for image in images {
-        let name = unfold::figures::cohort::slices::slices_name(image);
+        let name = crate::figures::cohort::slices::slices_name(image);
         let std_path = dir.join(format!("{image}_std.nii.gz"));
         if !std_path.is_file() {
             drawn.skip(name, format!("no {}", std_path.display()));
@@ -525,7 +522,7 @@ fn slices(
             std: &std.volume,
             count: count.as_ref().map(|c| &c.volume),
         };
-        let k = unfold::figures::cohort::slices::mid_depth(&stats);
+        let k = crate::figures::cohort::slices::mid_depth(&stats);
         let fig = mean_std_slices(&stats, opts).map_err(|e| at(&std_path, e))?;
         drawn.entries.push(Entry {
             figure: fig,
@@ -549,7 +546,7 @@ fn energies(
     opts: &FigureOptions,
     drawn: &mut Drawn,
 ) -> Result<(), CliError> {
-    let name = unfold::figures::cohort::energies::ENERGIES_PNG;
+    let name = crate::figures::cohort::energies::ENERGIES_PNG;
     let path = out.join("cohort").join("mitral_measurements.csv");
     if !path.is_file() {
         return Ok(());
@@ -674,7 +671,7 @@ pub(crate) fn cohort_figures(
         .collect();
     let path = fig_dir.join("index.json");
     let text = serde_json::to_string_pretty(&index).map_err(|e| at(&path, e))?;
-    unfold::io::atomic_write(&path, text.as_bytes())?;
+    crate::io::atomic_write(&path, text.as_bytes())?;
     written.push(path);
     Ok(written)
 }

@@ -27,12 +27,12 @@
 
 use super::CliError;
 use super::cohort::SubjectRow;
+use crate::io::{NiftiImage, read_tet_mesh, write_image};
+use crate::mesh::Volume;
+use crate::mesh::nalgebra::{Matrix4, Point3};
+use crate::mesh::spatial::TetLocator;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use unfold::io::{NiftiImage, read_tet_mesh, write_image};
-use unfold::mesh::Volume;
-use unfold::mesh::nalgebra::{Matrix4, Point3};
-use unfold::mesh::spatial::TetLocator;
 
 /// The suffix of a pulled-back image.
 const FLAT: &str = "_flat.nii.gz";

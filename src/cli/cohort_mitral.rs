@@ -112,6 +112,6 @@ pub(crate) fn mitral_measurements(
         w.write_record(r).map_err(|e| at(&path, e))?;
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
-    unfold::io::atomic_write(&path, &bytes)?;
+    crate::io::atomic_write(&path, &bytes)?;
     Ok(Some(path))
 }

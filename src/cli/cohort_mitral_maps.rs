@@ -23,7 +23,7 @@
 //! Each map's floating-point scalar arrays (point arrays: `length_energy`,
 //! `coaptation_distance_mm`, `tenting_mm`; cell arrays: `area_energy`,
 //! `angle_energy`) are rasterised at the cell centres
-//! ([`unfold::mesh::raster`]: point arrays linear in each flat triangle,
+//! ([`crate::mesh::raster`]: point arrays linear in each flat triangle,
 //! cell arrays constant); the label arrays (`leaflet`, `carpentier`,
 //! `u_interval`, `checker`, `coaptation`) are categories, not quantities to
 //! average, and the vectors (`u_gradient`, `uv`) are left out. Per array
@@ -44,12 +44,12 @@
 
 use super::CliError;
 use super::cohort::SubjectRow;
+use crate::io::{NiftiImage, read_mesh, write_image};
+use crate::mesh::nalgebra::Matrix4;
+use crate::mesh::raster::{Coverage, Grid2};
+use crate::mesh::{FieldValues, Fields, Volume};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use unfold::io::{NiftiImage, read_mesh, write_image};
-use unfold::mesh::nalgebra::Matrix4;
-use unfold::mesh::raster::{Coverage, Grid2};
-use unfold::mesh::{FieldValues, Fields, Volume};
 
 /// Grid cells along `u'` (`[0, 1]`).
 pub(crate) const NU: usize = 256;

@@ -603,7 +603,7 @@ pub(crate) fn write_report(
     }
     h.push_str("</body></html>\n");
     let path = out.join("index.html");
-    unfold::io::atomic_write(&path, h.as_bytes())?;
+    crate::io::atomic_write(&path, h.as_bytes())?;
     Ok(path)
 }
 

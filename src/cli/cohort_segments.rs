@@ -24,7 +24,7 @@ type SegmentMeans = BTreeMap<(String, i32), Vec<(String, f64)>>;
 /// One heart's segment means of every scalar point array of `anatomy.vtu`.
 fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, CliError> {
     let path = dir.join("anatomy.vtu");
-    let mesh = unfold::io::read_mesh(&path)?;
+    let mesh = crate::io::read_mesh(&path)?;
     let labels = mesh
         .point_data
         .get("aha")
@@ -127,9 +127,9 @@ pub(crate) fn ventricle_segments(
         }
     }
     let bytes = seg.into_inner().map_err(|e| at(&seg_path, e))?;
-    unfold::io::atomic_write(&seg_path, &bytes)?;
+    crate::io::atomic_write(&seg_path, &bytes)?;
     let bytes = zw.into_inner().map_err(|e| at(&z_path, e))?;
-    unfold::io::atomic_write(&z_path, &bytes)?;
+    crate::io::atomic_write(&z_path, &bytes)?;
     Ok(vec![seg_path, z_path])
 }
 

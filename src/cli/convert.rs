@@ -4,12 +4,12 @@
 //! formats hold.
 
 use super::CliError;
-use clap::{Args, ValueEnum};
-use std::path::PathBuf;
-use unfold::io::{
+use crate::io::{
     Datatype, FileKind, LegacyVersion, NiftiImage, StagedOutputs, WriteOptions, XmlEncoding,
     read_mesh, write_image, write_mesh,
 };
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum Encoding {

@@ -34,7 +34,7 @@
 //! Vertices used by no tet and without a target carry no term at all; they
 //! are kept where they are.
 //!
-//! The mesh is repaired first ([`unfold::mesh::repair`]: coincident vertices
+//! The mesh is repaired first ([`crate::mesh::repair`]: coincident vertices
 //! welded, duplicate, repeated-vertex and zero-volume tets dropped; an
 //! inverted tet stays an error; counts under `repair` in the report). The solve runs on the
 //! repaired mesh; targets and the output still use the input's vertex
@@ -42,14 +42,14 @@
 //! vertex counts; a vertex no tet uses goes to its target, if it has one).
 
 use super::{CliError, at};
+use crate::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
+use crate::mesh::MeshError;
+use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
+use crate::param::energy::{Arap, SymmetricDirichlet};
+use crate::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use unfold::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
-use unfold::mesh::MeshError;
-use unfold::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
-use unfold::param::energy::{Arap, SymmetricDirichlet};
-use unfold::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
 
 /// Distortion energies `D` of `unfold deform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -332,9 +332,9 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     };
     if a.solver == SolverKind::Newton {
         let pmesh =
-            unfold::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(&a.mesh, e))?;
+            crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(&a.mesh, e))?;
         let estimate =
-            unfold::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(&a.mesh, e))?;
+            crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(&a.mesh, e))?;
         drop(pmesh);
         super::memory::check(
             "deforming the mesh",

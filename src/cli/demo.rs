@@ -7,17 +7,17 @@
 
 use super::CliError;
 use super::placenta::{ImageInput, PipelineInput, run_pipeline};
-use clap::Args;
-use std::path::{Path, PathBuf};
-use unfold::io::{NiftiImage, StagedOutputs, WriteOptions, atomic_write, write_image, write_mesh};
-use unfold::mesh::geometry::bounding_box;
-use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
-use unfold::mesh::shapes::{
+use crate::io::{NiftiImage, StagedOutputs, WriteOptions, atomic_write, write_image, write_mesh};
+use crate::mesh::geometry::bounding_box;
+use crate::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
+use crate::mesh::shapes::{
     PlacentaParams, Pose, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
 };
-use unfold::mesh::spatial::TetLocator;
-use unfold::mesh::{CellMesh, CellType, Volume};
-use unfold::organs::placenta::{Pipeline, prepare_mesh};
+use crate::mesh::spatial::TetLocator;
+use crate::mesh::{CellMesh, CellType, Volume};
+use crate::organs::placenta::{Pipeline, prepare_mesh};
+use clap::Args;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `unfold demo`.
 #[derive(Debug, Args)]
@@ -36,7 +36,7 @@ pub struct DemoArgs {
     placentas: u32,
 }
 
-fn points_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
+fn points_mesh(points: &[crate::mesh::nalgebra::Point3<f64>]) -> CellMesh {
     let mut m = CellMesh::from_points(points.to_vec());
     for i in 0..points.len() as u32 {
         m.push_cell(CellType::Vertex, &[i]);
@@ -46,7 +46,7 @@ fn points_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
 
 /// A closed ring as 2-point line segments (meshio reads `line` cells, not
 /// VTK's poly-lines).
-fn ring_mesh(points: &[unfold::mesh::nalgebra::Point3<f64>]) -> CellMesh {
+fn ring_mesh(points: &[crate::mesh::nalgebra::Point3<f64>]) -> CellMesh {
     let mut m = CellMesh::from_points(points.to_vec());
     let n = points.len() as u32;
     for i in 0..n {
@@ -206,7 +206,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         segmentation: None,
         figures: true,
         displacement: None,
-        frame: unfold::io::Frame::Ras,
+        frame: crate::io::Frame::Ras,
     })?;
     println!("{summary}");
 
@@ -219,7 +219,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
     let mitral_dir = dir.join("mitral");
     let outcome = super::mitral::run_valve(
         &files,
-        &unfold::organs::mitral::Pipeline::new(),
+        &crate::organs::mitral::Pipeline::new(),
         &mitral_dir,
         true,
         staged,
@@ -235,7 +235,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
 
     // The ventricle pipeline on the built-in cup, its inner cup the anatomy.
     let ventricle_dir = dir.join("ventricle");
-    let mut config = unfold::organs::ventricle::Config::default();
+    let mut config = crate::organs::ventricle::Config::default();
     config.chart.field.grid_mm = VENTRICLE_GRID_MM;
     let anatomy = CellMesh::from(&v.anatomy);
     let result = super::ventricle::run_pipeline(&super::ventricle::PipelineInput {
@@ -243,7 +243,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         anatomy: &anatomy,
         surface_label: "built-in ventricle cup: S",
         surface: &v.surface,
-        landmarks: unfold::organs::ventricle::LandmarkPoints {
+        landmarks: crate::organs::ventricle::LandmarkPoints {
             anterior: v.anterior,
             inferior: v.inferior,
             apex: Some(v.apex),

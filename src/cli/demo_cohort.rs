@@ -17,15 +17,15 @@
 //! `DIR/study/index.html`. Rerunning skips the subjects already done.
 
 use super::CliError;
-use std::fmt::Write as _;
-use std::path::Path;
-use unfold::io::{NiftiImage, WriteOptions, write_image, write_mesh};
-use unfold::mesh::nalgebra::{Matrix4, Point3, Vector3};
-use unfold::mesh::shapes::{
+use crate::io::{NiftiImage, WriteOptions, write_image, write_mesh};
+use crate::mesh::nalgebra::{Matrix4, Point3, Vector3};
+use crate::mesh::shapes::{
     PlacentaParams, Pose, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
 };
-use unfold::mesh::spatial::TetLocator;
-use unfold::mesh::{CellMesh, CellType, Volume};
+use crate::mesh::spatial::TetLocator;
+use crate::mesh::{CellMesh, CellType, Volume};
+use std::fmt::Write as _;
+use std::path::Path;
 
 /// The common template grid of the placentas, mm, and its spacing.
 const GRID: &str = "-120,120,-120,120,-40,40";
@@ -34,7 +34,7 @@ const GRID_SPACING_MM: &str = "3";
 /// An MRI around a slab in `pose`: 2 mm voxels, the body's value
 /// `400 + 2 x - 3 y + 5 z + offset` at its rest position `(x, y, z)` inside
 /// the mesh, 50 outside.
-fn mri(mesh: &unfold::mesh::TetMesh, pose: &Pose, offset: f64) -> Result<NiftiImage, CliError> {
+fn mri(mesh: &crate::mesh::TetMesh, pose: &Pose, offset: f64) -> Result<NiftiImage, CliError> {
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -207,7 +207,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
         "valveseries,mitral,,,,,,,,,,,,inputs/valveseries,44,series,"
     );
     let manifest = dir.join("manifest.csv");
-    unfold::io::atomic_write(&manifest, csv.as_bytes())?;
+    crate::io::atomic_write(&manifest, csv.as_bytes())?;
     Ok(manifest)
 }
 

@@ -1,24 +1,24 @@
 //! `unfold info FILE [--json]`: what a mesh or image contains, and whether
 //! it is valid.
 //!
-//! An image is read header first ([`unfold::io::read_image_header`] fields)
+//! An image is read header first ([`crate::io::read_image_header`] fields)
 //! and its values are streamed once for the range
-//! ([`unfold::io::image_value_summary`]): memory stays about 1 MiB whatever
+//! ([`crate::io::image_value_summary`]): memory stays about 1 MiB whatever
 //! the image's size, and a `.nii.gz` is never inflated past what its header
 //! declares.
 
 use super::{CliError, printable};
+use crate::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
+use crate::mesh::geometry::{bounding_box, total_area, total_volume};
+use crate::mesh::topology::{
+    boundary_loops, connected_components, euler_characteristic, tet_boundary,
+};
+use crate::mesh::validate::{ValidationOptions, check_tet_mesh, check_tri_mesh};
+use crate::mesh::{CellMesh, Field, MeshError};
 use clap::Args;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use unfold::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
-use unfold::mesh::geometry::{bounding_box, total_area, total_volume};
-use unfold::mesh::topology::{
-    boundary_loops, connected_components, euler_characteristic, tet_boundary,
-};
-use unfold::mesh::validate::{ValidationOptions, check_tet_mesh, check_tri_mesh};
-use unfold::mesh::{CellMesh, Field, MeshError};
 
 /// Arguments of `unfold info`.
 #[derive(Debug, Args)]
@@ -121,7 +121,7 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
     let only = |d: u8| !dims.is_empty() && dims.iter().all(|&x| x == d);
     let mesh_type = if mesh.num_cells() == 0 {
         "points"
-    } else if counts.len() == 1 && counts[0].0 == unfold::mesh::CellType::Tetra {
+    } else if counts.len() == 1 && counts[0].0 == crate::mesh::CellType::Tetra {
         "tetrahedral"
     } else if only(2) {
         "surface"
@@ -173,7 +173,7 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
                 }
                 check_tet_mesh(&t, &opts)
             }
-            Err(e) => vec![unfold::mesh::validate::Problem { error: e, count: 1 }],
+            Err(e) => vec![crate::mesh::validate::Problem { error: e, count: 1 }],
         },
         "surface" => match mesh.to_tri_mesh() {
             Ok(t) => {
@@ -184,10 +184,10 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
                     .map(|ls| ls.iter().map(Vec::len).collect());
                 check_tri_mesh(&t, &opts)
             }
-            Err(e) => vec![unfold::mesh::validate::Problem { error: e, count: 1 }],
+            Err(e) => vec![crate::mesh::validate::Problem { error: e, count: 1 }],
         },
         // A file of bare points is valid, a file of nothing is not.
-        _ if mesh.num_points() == 0 => vec![unfold::mesh::validate::Problem {
+        _ if mesh.num_points() == 0 => vec![crate::mesh::validate::Problem {
             error: MeshError::Empty { what: "vertices" },
             count: 1,
         }],

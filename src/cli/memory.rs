@@ -13,10 +13,10 @@
 //! highest prediction and the measured peak (`VmHWM`) go into the reports.
 
 use super::CliError;
+use crate::mesh::memory::{MemoryEstimate, format_bytes};
 use serde::Serialize;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
-use unfold::mesh::memory::{MemoryEstimate, format_bytes};
 
 /// Where the limit comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -63,7 +63,7 @@ pub(crate) fn init(max_memory: Option<u64>) {
         },
     };
     let _ = BUDGET.set(budget);
-    unfold::io::set_decode_limit(room().map(|r| r as u64));
+    crate::io::set_decode_limit(room().map(|r| r as u64));
 }
 
 /// The run's budget (no limit before [`init`]).

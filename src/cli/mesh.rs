@@ -1,5 +1,5 @@
 //! `unfold mesh MASK -o MESH`: a tet mesh of a segmentation
-//! ([`unfold::mesh::mesher`]: optional dilation, Gaussian smoothing, a
+//! ([`crate::mesh::mesher`]: optional dilation, Gaussian smoothing, a
 //! level set meshed by isosurface stuffing in world coordinates).
 //!
 //! The mesh file's format follows its extension (`.vtu`, `.vtk`, `.mesh`,
@@ -7,13 +7,13 @@
 //! (with a warning naming the others' sizes) unless `--keep-all-components`.
 
 use super::{CliError, at, positive};
-use clap::Args;
-use std::path::{Path, PathBuf};
-use unfold::io::{StagedOutputs, WriteOptions, write_mesh};
-use unfold::mesh::mesher::{
+use crate::io::{StagedOutputs, WriteOptions, write_mesh};
+use crate::mesh::mesher::{
     IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, estimate_memory, mask_from_image, mesh_mask,
 };
-use unfold::mesh::{CellMesh, Volume};
+use crate::mesh::{CellMesh, Volume};
+use clap::Args;
+use std::path::{Path, PathBuf};
 
 /// How a segmentation is meshed (shared by `unfold mesh` and
 /// `unfold placenta --seg`).

@@ -21,16 +21,16 @@
 //! rows, and `provenance`, the run's, as a single valve's report has).
 
 use super::{CliError, at, organ};
+use crate::figures::FigureOptions;
+use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
+use crate::mesh::nalgebra::Point3;
+use crate::mesh::{CellMesh, CellType, TriMesh};
+use crate::organs::mitral::{
+    AnnulusMode, Config, InitMode, LeafletLayout, Outcome, Pipeline, RelaxMode, Report, ValveInput,
+};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use unfold::figures::FigureOptions;
-use unfold::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
-use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::{CellMesh, CellType, TriMesh};
-use unfold::organs::mitral::{
-    AnnulusMode, Config, InitMode, LeafletLayout, Outcome, Pipeline, RelaxMode, Report, ValveInput,
-};
 
 /// `--annulus-mode`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -286,7 +286,7 @@ pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
         // curve) are chained into the ring.
         n if lines.iter().all(|l| l.len() == 2) => {
             let segments: Vec<[u32; 2]> = lines.iter().map(|l| [l[0], l[1]]).collect();
-            let order = unfold::mesh::chain::chain_segments(&segments)
+            let order = crate::mesh::chain::chain_segments(&segments)
                 .map_err(|e| at(path, format!("its {n} line segments are not one ring: {e}")))?;
             Ok(order.iter().map(|&v| cells.positions[v as usize]).collect())
         }
@@ -388,7 +388,7 @@ pub(crate) fn write_outcome(
     .map_err(|e| at(&path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&path, format!("{json}\n").as_bytes())?;
     if figures {
-        let figs = unfold::figures::mitral::figures(outcome, &FigureOptions::default())
+        let figs = crate::figures::mitral::figures(outcome, &FigureOptions::default())
             .map_err(|e| at(dir, e))?;
         super::write_figures(dir, &figs)?;
     }

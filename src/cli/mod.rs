@@ -1,4 +1,6 @@
-//! Subcommands of the `unfold` binary, one module each.
+//! Subcommands of the `unfold` binary, one module each. They live in the
+//! library (`unfold::cli`) so the Python package runs the same code (its
+//! batch subjects and cohort tables).
 
 mod batch;
 mod cohort;
@@ -22,12 +24,12 @@ mod pushback;
 mod repair;
 mod ventricle;
 
+use crate::io::IoError;
+use crate::mesh::MeshError;
+use crate::organs::OrganError;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use thiserror::Error;
-use unfold::io::IoError;
-use unfold::mesh::MeshError;
-use unfold::organs::OrganError;
 
 /// Errors of the command-line tool (one line each when printed).
 #[derive(Debug, Error)]
@@ -40,7 +42,7 @@ pub enum CliError {
     Mesh(#[from] MeshError),
     /// An output path cannot be written, or the outputs not put in place.
     #[error(transparent)]
-    Output(#[from] unfold::io::OutputError),
+    Output(#[from] crate::io::OutputError),
     /// `info --strict` found validity problems.
     #[error("{path}: {count} validity problem(s), first: {first}")]
     Invalid {
@@ -188,7 +190,7 @@ pub fn write_peak_file() {
 }
 
 /// The report's name of a solver's stop reason (`max_iterations`, ...).
-pub(crate) fn stop_name(r: unfold::param::StopReason) -> String {
+pub(crate) fn stop_name(r: crate::param::StopReason) -> String {
     serde_json::to_value(r)
         .ok()
         .and_then(|v| v.as_str().map(str::to_string))
@@ -199,7 +201,7 @@ pub(crate) fn stop_name(r: unfold::param::StopReason) -> String {
 /// ESC, BEL, OSC, ... as found in hostile files' names and tokens) shown as
 /// `\u{1b}` escapes, so a file cannot retitle, recolour or ring the
 /// terminal; newlines become spaces (messages are one line).
-pub(crate) fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
     if !text.chars().any(char::is_control) {
         return std::borrow::Cow::Borrowed(text);
     }
@@ -215,7 +217,7 @@ pub(crate) fn printable(text: &str) -> std::borrow::Cow<'_, str> {
 }
 
 /// Reads an image after checking that its values fit the run's memory:
-/// the header alone first ([`unfold::io::read_image_header`]), then
+/// the header alone first ([`crate::io::read_image_header`]), then
 /// `voxels x 4` bytes (the values as `f32`, decoded as they are read) plus
 /// `voxels x extra_per_voxel` for what the caller derives from them (a
 /// mask: 1 byte per voxel) and a 1 MiB read buffer, checked before the
@@ -226,10 +228,10 @@ pub(crate) fn printable(text: &str) -> std::borrow::Cow<'_, str> {
 pub(crate) fn read_image_checked(
     path: &std::path::Path,
     extra_per_voxel: f64,
-) -> Result<unfold::io::NiftiImage, CliError> {
-    let header = unfold::io::read_image_header(path)?;
+) -> Result<crate::io::NiftiImage, CliError> {
+    let header = crate::io::read_image_header(path)?;
     let voxels = header.value_count() as f64;
-    let estimate = unfold::mesh::memory::MemoryEstimate::new()
+    let estimate = crate::mesh::memory::MemoryEstimate::new()
         .with("image values", voxels, 4.0 + extra_per_voxel)
         .with("read buffer", 1.0, 1024.0 * 1024.0);
     memory::check(
@@ -239,7 +241,7 @@ pub(crate) fn read_image_checked(
          --max-memory",
     )
     .map_err(|e| at(path, e))?;
-    Ok(unfold::io::read_image(path)?)
+    Ok(crate::io::read_image(path)?)
 }
 
 /// Creates `dir` (and parents) if needed.
@@ -257,7 +259,7 @@ pub(crate) fn canonical(p: &std::path::Path) -> PathBuf {
 
 /// `e` naming the paths a staged output will have after the commit
 /// instead of its staging paths (errors of a run that failed while writing).
-pub(crate) fn shown(staged: &unfold::io::StagedOutputs, e: CliError) -> CliError {
+pub(crate) fn shown(staged: &crate::io::StagedOutputs, e: CliError) -> CliError {
     match e {
         CliError::Io(e) => CliError::Io(staged.shown_error(e)),
         CliError::Fs { path, source } => CliError::Fs {
@@ -273,13 +275,11 @@ pub(crate) fn shown(staged: &unfold::io::StagedOutputs, e: CliError) -> CliError
     }
 }
 
-impl From<unfold::placenta::InputError> for CliError {
-    fn from(e: unfold::placenta::InputError) -> Self {
+impl From<crate::placenta::InputError> for CliError {
+    fn from(e: crate::placenta::InputError) -> Self {
         match e {
-            unfold::placenta::InputError::Usage(m) => CliError::Usage(m),
-            unfold::placenta::InputError::Organ { path, source } => {
-                CliError::Organ { path, source }
-            }
+            crate::placenta::InputError::Usage(m) => CliError::Usage(m),
+            crate::placenta::InputError::Organ { path, source } => CliError::Organ { path, source },
         }
     }
 }
@@ -316,7 +316,7 @@ pub(crate) fn organ(label: &str, source: impl Into<OrganError>) -> CliError {
 /// each atomically; returns the paths written.
 pub(crate) fn write_figures(
     dir: &std::path::Path,
-    figures: &[unfold::figures::Figure],
+    figures: &[crate::figures::Figure],
 ) -> Result<Vec<PathBuf>, CliError> {
     let out = dir.join("figures");
     ensure_dir(&out)?;
@@ -327,7 +327,7 @@ pub(crate) fn write_figures(
             .image
             .to_png()
             .map_err(|e| at(&path, format!("cannot encode the figure: {e}")))?;
-        unfold::io::atomic_write(&path, &png)?;
+        crate::io::atomic_write(&path, &png)?;
         written.push(path);
     }
     Ok(written)
@@ -349,13 +349,13 @@ pub(crate) enum MeshFrameArg {
 pub(crate) fn mesh_frame(
     arg: MeshFrameArg,
     path: &std::path::Path,
-) -> Result<unfold::io::Frame, CliError> {
+) -> Result<crate::io::Frame, CliError> {
     Ok(match arg {
-        MeshFrameArg::Ras => unfold::io::Frame::Ras,
-        MeshFrameArg::Lps => unfold::io::Frame::Lps,
+        MeshFrameArg::Ras => crate::io::Frame::Ras,
+        MeshFrameArg::Lps => crate::io::Frame::Lps,
         MeshFrameArg::Auto => {
             let bytes = std::fs::read(path).map_err(|e| at(path, e))?;
-            unfold::io::mesh_frame_hint(&bytes).unwrap_or(unfold::io::Frame::Ras)
+            crate::io::mesh_frame_hint(&bytes).unwrap_or(crate::io::Frame::Ras)
         }
     })
 }
@@ -364,8 +364,8 @@ pub(crate) fn mesh_frame(
 /// `(-x, -y, z)`, a half turn about z (a rotation: orientation and
 /// distances are kept).
 pub(crate) fn to_ras(
-    frame: unfold::io::Frame,
-    positions: &mut [unfold::mesh::nalgebra::Point3<f64>],
+    frame: crate::io::Frame,
+    positions: &mut [crate::mesh::nalgebra::Point3<f64>],
 ) {
     let [sx, sy, sz] = frame.to_ras_signs();
     for p in positions {

@@ -2,7 +2,7 @@
 //! mesh onto a canonical template (ALGORITHMS 2) and pulls images into the
 //! template frame.
 //!
-//! The pipeline is [`unfold::organs::placenta::flatten_with`]: it minimizes
+//! The pipeline is [`crate::organs::placenta::flatten_with`]: it minimizes
 //!
 //! ```text
 //! phi(X, theta) = sum_{m in boundary} A_m T(x_m, theta)  +  lambda sum_k V_k D(J_k)
@@ -35,6 +35,27 @@
 
 use super::mesh::{MaskArgs, describe, warn_dropped};
 use super::{CliError, at, positive};
+use crate::figures::FigureOptions;
+use crate::figures::placenta::{FlatImage, figures as placenta_figures};
+use crate::io::Frame;
+use crate::io::nifti::INTENT_VECTOR;
+use crate::io::{
+    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
+    write_mesh,
+};
+use crate::mesh::CellMesh;
+use crate::mesh::mesher::MeshQuality;
+use crate::organs::placenta::displacement::{VectorFrame, displacement_field};
+use crate::organs::placenta::images::{check_images, template_grid};
+use crate::organs::placenta::parcellation::ParcellationConfig;
+use crate::organs::placenta::pullback::PullbackTable;
+use crate::organs::placenta::segmentation::from_segmentation;
+use crate::organs::placenta::{
+    Config, GridBox, Image, Interpolation, Pipeline, PreparedMesh, PullbackError, Report,
+    SolverKind, TemplateKind, prepare_mesh,
+};
+use crate::organs::{OrganError, PipelineObserver};
+use crate::param::Iteration;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -42,27 +63,6 @@ use std::fmt;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use unfold::figures::FigureOptions;
-use unfold::figures::placenta::{FlatImage, figures as placenta_figures};
-use unfold::io::Frame;
-use unfold::io::nifti::INTENT_VECTOR;
-use unfold::io::{
-    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
-    write_mesh,
-};
-use unfold::mesh::CellMesh;
-use unfold::mesh::mesher::MeshQuality;
-use unfold::organs::placenta::displacement::{VectorFrame, displacement_field};
-use unfold::organs::placenta::images::{check_images, template_grid};
-use unfold::organs::placenta::parcellation::ParcellationConfig;
-use unfold::organs::placenta::pullback::PullbackTable;
-use unfold::organs::placenta::segmentation::from_segmentation;
-use unfold::organs::placenta::{
-    Config, GridBox, Image, Interpolation, Pipeline, PreparedMesh, PullbackError, Report,
-    SolverKind, TemplateKind, prepare_mesh,
-};
-use unfold::organs::{OrganError, PipelineObserver};
-use unfold::param::Iteration;
 
 /// Image interpolation on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -248,9 +248,9 @@ pub struct PlacentaArgs {
 }
 
 /// A pipeline error about the input `path` (the mesh, or an image), as
-/// [`unfold::placenta::organ`] words it.
+/// [`crate::placenta::organ`] words it.
 fn organ(path: &str, source: impl Into<OrganError>) -> CliError {
-    unfold::placenta::organ(path, source).into()
+    crate::placenta::organ(path, source).into()
 }
 
 impl PlacentaArgs {
@@ -735,7 +735,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
     }
 
     let report_path = dir.join(REPORT);
-    let full = unfold::placenta::FullReport {
+    let full = crate::placenta::FullReport {
         mesh: label,
         segmentation: input.segmentation,
         displacement,
@@ -758,13 +758,13 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
 }
 
 /// A pipeline error, attributed to the file it is about
-/// ([`unfold::placenta::pipeline_error`]).
+/// ([`crate::placenta::pipeline_error`]).
 fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganError) -> CliError {
     let paths: Vec<String> = images
         .iter()
         .map(|i| i.path.display().to_string())
         .collect();
-    unfold::placenta::pipeline_error(label, frame, &paths, e).into()
+    crate::placenta::pipeline_error(label, frame, &paths, e).into()
 }
 
 /// Runs `unfold placenta`.
@@ -983,12 +983,12 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
 
 /// Refuses the optimization when the predicted peak passes the budget:
 /// the factor and per-tet buffers of the mesh
-/// ([`unfold::organs::placenta::memory::estimate_memory`]) and one
+/// ([`crate::organs::placenta::memory::estimate_memory`]) and one
 /// pull-back table per image (and displacement field) on the template grid,
 /// `--grid` at the images' finest spacing, else about four times the
 /// mesh's volume in voxels (the box of the flattened mesh).
 fn check_memory(
-    mesh: &unfold::mesh::TetMesh,
+    mesh: &crate::mesh::TetMesh,
     images: &[ImageInput],
     grid: Option<&[f64; 6]>,
     displacement: bool,
@@ -1008,10 +1008,10 @@ fn check_memory(
         Some(g) => (0..3)
             .map(|a| ((g[2 * a + 1] - g[2 * a]) / voxel[a]).ceil() + 1.0)
             .product(),
-        None => 4.0 * unfold::mesh::geometry::total_volume(mesh) / (voxel[0] * voxel[1] * voxel[2]),
+        None => 4.0 * crate::mesh::geometry::total_volume(mesh) / (voxel[0] * voxel[1] * voxel[2]),
     };
     let tables = images.len() + usize::from(displacement);
-    let estimate = unfold::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
+    let estimate = crate::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
         .map_err(|e| CliError::Usage(e.to_string()))?;
     let hint = match estimate.largest() {
         Some(p) if p.what == "pull-back tables" => {

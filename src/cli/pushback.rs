@@ -2,7 +2,7 @@
 //! template-space image (an atlas, labels drawn on the flat template, a
 //! cohort mean) back onto a subject's scanner grid through the inverse of
 //! the flattening map of an `unfold placenta` run
-//! ([`unfold::organs::placenta::pushback`]).
+//! ([`crate::organs::placenta::pushback`]).
 //!
 //! The run's `DIR/original.vtu` (scanner frame) and `DIR/flattened.vtu`
 //! (template frame) give the piecewise linear map; every voxel centre of the
@@ -14,11 +14,11 @@
 
 use super::placenta::{InterpArg, nearest_datatype};
 use super::{CliError, at};
+use crate::io::{FileKind, NiftiImage, StagedOutputs, read_tet_mesh, write_image};
+use crate::organs::placenta::pushback::push_back;
+use crate::organs::placenta::{Interpolation, PullbackError};
 use clap::Args;
 use std::path::PathBuf;
-use unfold::io::{FileKind, NiftiImage, StagedOutputs, read_tet_mesh, write_image};
-use unfold::organs::placenta::pushback::push_back;
-use unfold::organs::placenta::{Interpolation, PullbackError};
 
 /// Arguments of `unfold pushback`.
 #[derive(Debug, Args)]

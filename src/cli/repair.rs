@@ -2,17 +2,17 @@
 //! welded, degenerate and duplicate elements dropped, slivers collapsed,
 //! fins dropped, non-manifold vertices split, orientation made consistent,
 //! small holes filled when asked, unused vertices dropped), with counts per
-//! kind; the steps are those of [`unfold::mesh::repair`].
+//! kind; the steps are those of [`crate::mesh::repair`].
 
 use super::{CliError, at};
+use crate::io::{StagedOutputs, WriteOptions, read_mesh, write_mesh};
+use crate::mesh::CellMesh;
+use crate::mesh::repair::{
+    RepairOptions, RepairReport, Weld, repair_tet_mesh_with, repair_tri_mesh_with,
+};
 use clap::Args;
 use serde::Serialize;
 use std::path::PathBuf;
-use unfold::io::{StagedOutputs, WriteOptions, read_mesh, write_mesh};
-use unfold::mesh::CellMesh;
-use unfold::mesh::repair::{
-    RepairOptions, RepairReport, Weld, repair_tet_mesh_with, repair_tri_mesh_with,
-};
 
 /// Arguments of `unfold repair`.
 #[derive(Debug, Args)]

@@ -2,7 +2,7 @@
 //! -o DIR`: the anatomy inside a heart chamber carried into the canonical
 //! cylinder (ALGORITHMS 3).
 //!
-//! The pipeline is [`unfold::organs::ventricle::Pipeline`]: S (a triangle mesh
+//! The pipeline is [`crate::organs::ventricle::Pipeline`]: S (a triangle mesh
 //! with disk topology, its one boundary loop the basal rim) is flattened to
 //! the unit disk (LV) or half disk (RV) with the landmarks in place, the
 //! Laplace field between S and the hemisphere H is solved on a grid, and
@@ -41,25 +41,25 @@
 //! when it is a terminal.
 
 use super::{CliError, at, organ, positive};
+use crate::io::{
+    FilePath, IoError, MarkupsError, StagedOutputs, WriteOptions, atomic_write, read_markups,
+    read_mesh, read_tri_mesh, write_mesh,
+};
+use crate::mesh::nalgebra::Point3;
+use crate::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
+use crate::mesh::{CellMesh, CellType, TriMesh};
+use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
+use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use crate::organs::ventricle::openings::RimChoice;
+use crate::organs::ventricle::{
+    Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
+};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::borrow::Cow;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use unfold::io::{
-    FilePath, IoError, MarkupsError, StagedOutputs, WriteOptions, atomic_write, read_markups,
-    read_mesh, read_tri_mesh, write_mesh,
-};
-use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
-use unfold::mesh::{CellMesh, CellType, TriMesh};
-use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
-use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
-use unfold::organs::ventricle::openings::RimChoice;
-use unfold::organs::ventricle::{
-    Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
-};
 
 /// `--chamber`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -547,11 +547,11 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
                 Some((name, field.values().to_f64()))
             }
         };
-        let figs = unfold::figures::ventricle::figures(
+        let figs = crate::figures::ventricle::figures(
             &outcome,
             input.config.chart.chamber,
             values.as_ref().map(|(n, v)| (*n, v.as_slice())),
-            &unfold::figures::FigureOptions::default(),
+            &crate::figures::FigureOptions::default(),
         )
         .map_err(|e| at(dir, e))?;
         written.extend(super::write_figures(dir, &figs)?);
