@@ -11,8 +11,15 @@
 mod arrays;
 mod placenta;
 mod progress;
+mod template;
 
 use pyo3::prelude::*;
+
+/// The allocator of the `unfold` command (see `src/main.rs`), for the
+/// Rust allocations of this module: the pipelines run as fast from Python
+/// as from the command line (`benches/python_overhead.py`).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 pyo3::create_exception!(
     unfold,
@@ -36,5 +43,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta_slab, m)?)?;
+    m.add_function(wrap_pyfunction!(template::check_template, m)?)?;
     Ok(())
 }

@@ -5,6 +5,7 @@
 
 use crate::arrays::mesh_tuple;
 use crate::progress::Callback;
+use crate::template::PyTemplate;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -29,7 +30,7 @@ fn positive(name: &str, value: f64) -> PyResult<f64> {
 }
 
 /// The template of a name ("planes", "ellipsoid", "single-plane").
-fn template(name: &str) -> PyResult<TemplateKind> {
+fn template_kind(name: &str) -> PyResult<TemplateKind> {
     match name {
         "planes" => Ok(TemplateKind::Planes),
         "ellipsoid" => Ok(TemplateKind::Ellipsoid),
@@ -37,6 +38,33 @@ fn template(name: &str) -> PyResult<TemplateKind> {
         other => Err(crate::error(format!(
             "template must be planes, ellipsoid or single-plane, got '{other}'"
         ))),
+    }
+}
+
+/// The template argument: a shipped template's name (None: planes), or a
+/// Python object implementing the template protocol ([`PyTemplate`]).
+enum TemplateArg {
+    Shipped(TemplateKind),
+    Python(PyTemplate),
+}
+
+impl TemplateArg {
+    fn new(template: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        match template {
+            None => Ok(TemplateArg::Shipped(TemplateKind::Planes)),
+            Some(t) => match t.extract::<String>() {
+                Ok(name) => template_kind(&name).map(TemplateArg::Shipped),
+                Err(_) => PyTemplate::new(t).map(TemplateArg::Python),
+            },
+        }
+    }
+
+    /// The name the report and the provenance use.
+    fn name(&self) -> &'static str {
+        match self {
+            TemplateArg::Shipped(kind) => kind.name(),
+            TemplateArg::Python(t) => unfold::param::Template::name(t),
+        }
     }
 }
 
@@ -79,7 +107,7 @@ struct Provenance {
 /// cell_data)`.
 #[pyfunction]
 #[pyo3(signature = (
-    points, tets, *, template="planes", lam=1.0, margin_mm=15.0, voxel_mm=3.0,
+    points, tets, *, template=None, lam=1.0, margin_mm=15.0, voxel_mm=3.0,
     solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -87,7 +115,7 @@ pub(crate) fn placenta<'py>(
     py: Python<'py>,
     points: PyReadonlyArray2<'py, f64>,
     tets: PyReadonlyArray2<'py, i64>,
-    template: &str,
+    template: Option<&Bound<'py, PyAny>>,
     lam: f64,
     margin_mm: f64,
     voxel_mm: f64,
@@ -115,11 +143,16 @@ pub(crate) fn placenta<'py>(
     config
         .validate()
         .map_err(|e| crate::error(format!("{e} (see margin_mm and voxel_mm)")))?;
-    let template_kind = self::template(template)?;
+    let template = TemplateArg::new(template)?;
+    let template_name = template.name();
+    let template_error = match &template {
+        TemplateArg::Python(t) => Some(t.error_slot()),
+        TemplateArg::Shipped(_) => None,
+    };
     let solver_kind = self::solver(solver)?;
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
-        "template={template:?}, lam={lam}, margin_mm={margin_mm}, voxel_mm={voxel_mm}, \
+        "template={template_name:?}, lam={lam}, margin_mm={margin_mm}, voxel_mm={voxel_mm}, \
          solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}"
     );
     let label = name.to_string();
@@ -130,15 +163,20 @@ pub(crate) fn placenta<'py>(
         let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
             .map(|e| e.total())
             .unwrap_or(0.0);
-        let pipeline = Pipeline::new()
-            .template(template_kind.build())
-            .solver(solver_kind.build())
-            .config(config);
+        let pipeline = match template {
+            TemplateArg::Shipped(kind) => Pipeline::new().template(kind.build()),
+            TemplateArg::Python(t) => Pipeline::new().template(t),
+        }
+        .solver(solver_kind.build())
+        .config(config);
         let outcome = pipeline
             .run_prepared(prepared, &[], &mut callback)
             .map_err(failed)?;
         Ok::<_, unfold::placenta::InputError>((outcome, predicted))
     });
+    if let Some(e) = template_error.and_then(|slot| slot.lock().ok()?.take()) {
+        return Err(e);
+    }
     if let Some(e) = callback.error.take() {
         return Err(e);
     }

@@ -8,6 +8,9 @@ its defaults and its one-line error messages:
   :class:`Mesh` of numpy arrays (meshio's layout);
 * :func:`placenta`: ``unfold placenta`` on a tet mesh, returning a
   :class:`PlacentaResult`;
+* :class:`Template`: a placenta template written in Python (value,
+  gradient, Hessian and parameter gradient as numpy), checked by
+  :func:`check_template`;
 * :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo``.
 
 Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
@@ -17,13 +20,17 @@ the command line's.
 from ._native import UnfoldError, __version__
 from ._mesh import Mesh, read_mesh, write_mesh
 from ._placenta import PlacentaResult, placenta
+from ._template import Side, Template, check_template
 from . import shapes
 
 __all__ = [
     "Mesh",
     "PlacentaResult",
+    "Side",
+    "Template",
     "UnfoldError",
     "__version__",
+    "check_template",
     "placenta",
     "read_mesh",
     "shapes",

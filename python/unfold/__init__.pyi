@@ -1,4 +1,5 @@
-from typing import Any, Callable, Dict, Mapping, Optional, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Union
+import enum
 import os
 import numpy as np
 from . import shapes as shapes
@@ -46,7 +47,7 @@ def placenta(
     points: np.ndarray,
     tets: np.ndarray,
     images: None = ...,
-    template: str = ...,
+    template: Union[str, Template] = ...,
     lam: float = ...,
     *,
     margin_mm: float = ...,
@@ -57,3 +58,26 @@ def placenta(
     name: str = ...,
     progress: Optional[Callable[[str, int, float], Any]] = ...,
 ) -> PlacentaResult: ...
+
+class Side(enum.IntEnum):
+    INTERIOR = 0
+    FETAL = 1
+    MATERNAL = 2
+    MARGIN = 3
+
+class Template:
+    name: str
+    parameter_names: Sequence[str]
+    symmetry: str
+    def initial_theta(self, estimates: Dict[str, float]) -> Sequence[float]: ...
+    def value(self, label: int, x: np.ndarray, theta: np.ndarray) -> float: ...
+    def gradient(self, label: int, x: np.ndarray, theta: np.ndarray) -> Any: ...
+    def hessian(self, label: int, x: np.ndarray, theta: np.ndarray) -> Any: ...
+    def theta_gradient(self, label: int, x: np.ndarray, theta: np.ndarray) -> Any: ...
+    def update_theta(
+        self, labels: np.ndarray, xs: np.ndarray, weights: np.ndarray, theta: np.ndarray
+    ) -> Optional[Sequence[float]]: ...
+
+def check_template(
+    template: Any, label: int, x: Any, theta: Any, rel: float = ...
+) -> None: ...

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, Optional
+from typing import Any, Callable, Dict, Optional, Union
 
 import numpy as np
 
@@ -54,7 +54,7 @@ def placenta(
     points,
     tets,
     images=None,
-    template: str = "planes",
+    template: Union[str, Any] = "planes",
     lam: float = 1.0,
     *,
     margin_mm: float = 15.0,
@@ -77,7 +77,9 @@ def placenta(
         tets: (m, 4) vertex indices.
         images: not yet supported in Python (pass None); pull images with the
             command line's ``--image``.
-        template: "planes" (default), "ellipsoid" or "single-plane".
+        template: "planes" (default), "ellipsoid" or "single-plane", or a
+            Python template: an :class:`unfold.Template` (any object with its
+            attributes and methods), called by the Rust solver.
         lam: the distortion weight lambda (``--lambda``).
         margin_mm: ``--margin-mm``. voxel_mm: ``--voxel-mm``.
         solver: "newton" (default) or "gd". tol: ``--tol``.
@@ -90,7 +92,11 @@ def placenta(
 
     Raises:
         UnfoldError: bad settings or an unusable mesh, with the command
-            line's message (e.g. several connected components).
+            line's message (e.g. several connected components); a Python
+            template's method returning the wrong number of values or a
+            non-finite one.
+        Exception: whatever a Python template's method raised (the run
+            stops at its first exception).
     """
     if images is not None:
         raise _native.UnfoldError(
