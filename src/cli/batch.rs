@@ -29,6 +29,13 @@
 //! report of its own, records its run hash in `OUT/<id>/series.json`.
 //! Progress: a bar on a terminal, a line per subject otherwise (cluster
 //! job logs).
+//!
+//! The steps are public for the Python package's Dask cohorts, which run
+//! them elsewhere: [`plan`] (the manifest read and checked),
+//! [`Subject::run_hash`] and [`Subject::is_done`] (the skip decision),
+//! [`run_subject`] (one subject's process into a given directory) and
+//! [`finish`] (`failures.csv` and the cohort tables); `unfold batch` is a
+//! loop over them.
 
 use super::{CliError, at};
 use clap::{Args, CommandFactory};
@@ -58,15 +65,42 @@ pub struct BatchArgs {
 /// The organs a manifest row may name.
 const ORGANS: [&str; 3] = ["placenta", "ventricle", "mitral"];
 
-/// One subject to run.
+/// One subject to run: a manifest row.
 #[derive(Debug, Clone)]
-struct Subject {
-    id: String,
-    organ: String,
-    /// The arguments after the program name, without `-o`.
-    args: Vec<String>,
+pub struct Subject {
+    /// Its id (its outputs in `OUT/<id>/`).
+    pub id: String,
+    /// Its organ (`placenta`, `ventricle`, `mitral`).
+    pub organ: String,
+    /// The arguments after the program name, without `-o`; file paths
+    /// resolved against the manifest's directory.
+    pub args: Vec<String>,
     /// Covariate columns and their values.
-    covariates: BTreeMap<String, String>,
+    pub covariates: BTreeMap<String, String>,
+}
+
+impl Subject {
+    /// The run hash of its command line and the contents of its inputs as
+    /// they are now ([`super::provenance`]).
+    pub fn run_hash(&self) -> String {
+        super::provenance::run_hash(&self.args).0
+    }
+
+    /// Whether `dir` (its output directory) holds a run with this run hash:
+    /// the batch skips it.
+    pub fn is_done(&self, dir: &Path) -> bool {
+        recorded_hash(dir).as_deref() == Some(self.run_hash().as_str())
+    }
+}
+
+/// A checked manifest: the subjects in row order and the covariate
+/// columns.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The subjects, in the manifest's order.
+    pub subjects: Vec<Subject>,
+    /// The covariate columns, in the manifest's order.
+    pub covariates: Vec<String>,
 }
 
 /// A manifest cell's problem, for one row.
@@ -159,8 +193,12 @@ pub(crate) fn valid_id(id: &str) -> bool {
 }
 
 /// Reads the manifest into subjects, every row checked before anything
-/// runs.
-fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliError> {
+/// runs (the module documentation says what a row holds).
+///
+/// # Errors
+/// The manifest cannot be read, or a row is unusable (the message names
+/// the row and the cell).
+pub fn plan(manifest: &Path) -> Result<Plan, CliError> {
     let base = match manifest.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -322,21 +360,71 @@ fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliErro
     if subjects.is_empty() {
         return Err(at(manifest, "the manifest has no subject rows"));
     }
-    Ok((subjects, covariate_names))
+    Ok(Plan {
+        subjects,
+        covariates: covariate_names,
+    })
 }
 
 /// How one subject ended.
 #[derive(Debug, Clone, Serialize)]
-struct Ended {
-    id: String,
-    organ: String,
-    /// `done`, `not converged` (outputs written), `skipped` or `failed`.
-    status: &'static str,
+pub struct Ended {
+    /// The subject's id.
+    pub id: String,
+    /// Its organ.
+    pub organ: String,
+    /// `done`, `not converged` (outputs written), `skipped` or `failed`
+    /// (one of [`STATUSES`]).
+    pub status: &'static str,
     /// The exit code (none for a skip or a signal).
-    exit_code: Option<i32>,
+    pub exit_code: Option<i32>,
     /// The one-line error of a failure.
-    message: String,
-    seconds: f64,
+    pub message: String,
+    /// Its wall-clock time, seconds.
+    pub seconds: f64,
+}
+
+/// The statuses an [`Ended`] may have.
+pub const STATUSES: [&str; 4] = ["done", "not converged", "skipped", "failed"];
+
+impl Ended {
+    /// A subject skipped because its outputs are done with the same run hash.
+    pub fn skipped(s: &Subject) -> Self {
+        Ended {
+            id: s.id.clone(),
+            organ: s.organ.clone(),
+            status: "skipped",
+            exit_code: None,
+            message: String::new(),
+            seconds: 0.0,
+        }
+    }
+}
+
+/// How a subject's command starts: the program and the arguments before
+/// the subject's own (the `unfold` binary itself, or a Python interpreter
+/// with `-m unfold`).
+#[derive(Debug, Clone)]
+pub struct Program {
+    /// The executable.
+    pub exe: PathBuf,
+    /// Arguments before the subject's.
+    pub prefix: Vec<String>,
+}
+
+impl Program {
+    /// This process's executable, no prefix (`unfold batch` runs itself).
+    ///
+    /// # Errors
+    /// The system does not tell the executable.
+    pub fn this_exe() -> Result<Self, CliError> {
+        let exe = std::env::current_exe()
+            .map_err(|e| CliError::Usage(format!("cannot find the unfold binary: {e}")))?;
+        Ok(Program {
+            exe,
+            prefix: Vec::new(),
+        })
+    }
 }
 
 /// The run hash recorded in `dir/report.json`, or for a mitral series
@@ -349,10 +437,18 @@ fn recorded_hash(dir: &Path) -> Option<String> {
     })
 }
 
-/// Runs one subject as its own process.
-fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
+/// Runs one subject as its own process of `program` into `dir`, its
+/// stdout and stderr to the file `log` (whatever `dir` holds is replaced
+/// only when the run writes its outputs; no skip check: see
+/// [`Subject::is_done`]).
+pub fn run_subject(
+    s: &Subject,
+    program: &Program,
+    dir: &Path,
+    log: &Path,
+    max_memory: Option<u64>,
+) -> Ended {
     let t = Instant::now();
-    let dir = out.join(&s.id);
     let ended = |status, exit_code, message: String| Ended {
         id: s.id.clone(),
         organ: s.organ.clone(),
@@ -361,26 +457,11 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
         message,
         seconds: t.elapsed().as_secs_f64(),
     };
-    let (hash, _) = super::provenance::run_hash(&s.args);
-    if recorded_hash(&dir).as_deref() == Some(hash.as_str()) {
-        return ended("skipped", None, String::new());
-    }
-    let exe = match std::env::current_exe() {
-        Ok(e) => e,
-        Err(e) => {
-            return ended(
-                "failed",
-                None,
-                format!("cannot find the unfold binary: {e}"),
-            );
-        }
-    };
-    let mut cmd = std::process::Command::new(exe);
-    cmd.args(&s.args).arg("-o").arg(&dir);
+    let mut cmd = std::process::Command::new(&program.exe);
+    cmd.args(&program.prefix).args(&s.args).arg("-o").arg(dir);
     if let Some(m) = max_memory {
         cmd.arg("--max-memory").arg(m.to_string());
     }
-    let log = out.join("logs").join(format!("{}.log", s.id));
     let output = match cmd.stdin(std::process::Stdio::null()).output() {
         Ok(o) => o,
         Err(e) => return ended("failed", None, format!("cannot start unfold: {e}")),
@@ -388,7 +469,7 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
     let mut text = output.stdout.clone();
     text.extend_from_slice(&output.stderr);
     // the log is a convenience: a failure to write it does not fail the subject
-    let _ = crate::io::atomic_write(&log, &text);
+    let _ = crate::io::atomic_write(log, &text);
     let stderr = String::from_utf8_lossy(&output.stderr);
     let last = stderr
         .lines()
@@ -409,6 +490,70 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
             format!("killed by a signal ({:?}); {last}", output.status),
         ),
     }
+}
+
+/// The counts of a batch's ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Counts {
+    /// Subjects in the manifest.
+    pub total: usize,
+    /// Run and converged.
+    pub ran: usize,
+    /// Run, outputs written, the solver stopped early.
+    pub not_converged: usize,
+    /// Skipped: done before with the same run hash.
+    pub skipped: usize,
+    /// Failed (in `failures.csv`).
+    pub failed: usize,
+}
+
+/// Ends a batch whose subjects ended as `ended` (any order): writes
+/// `OUT/failures.csv` (in the manifest's order) and the cohort tables of
+/// [`super::cohort`], and counts the ends.
+///
+/// # Errors
+/// An id of `ended` not in the plan or twice; writing a file.
+pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, CliError> {
+    let order: BTreeMap<&str, usize> = plan
+        .subjects
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.id.as_str(), i))
+        .collect();
+    let mut seen = HashSet::new();
+    for e in ended {
+        if !order.contains_key(e.id.as_str()) || !seen.insert(e.id.as_str()) {
+            return Err(CliError::Usage(format!(
+                "subject '{}' ended twice or is not in the manifest; pass each planned subject \
+                 once",
+                super::printable(&e.id)
+            )));
+        }
+    }
+    let mut ended = ended.to_vec();
+    ended.sort_by_key(|e| order.get(e.id.as_str()).copied().unwrap_or(usize::MAX));
+    write_failures(out, &ended)?;
+    super::cohort::write_cohort(out, &subjects_table(&plan.subjects), &plan.covariates)?;
+    let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
+    Ok(Counts {
+        total: plan.subjects.len(),
+        ran: count("done"),
+        not_converged: count("not converged"),
+        skipped: count("skipped"),
+        failed: count("failed"),
+    })
+}
+
+/// Checks `out` can be a batch's output directory and creates it with its
+/// `logs/`.
+///
+/// # Errors
+/// `out` is a file, or cannot be created.
+pub fn prepare_output(out: &Path) -> Result<(), CliError> {
+    if out.is_file() {
+        return Err(at(out, "is a file; -o names a directory"));
+    }
+    super::ensure_dir(&out.join("logs"))
 }
 
 /// Writes `OUT/failures.csv`: one row per failed subject (header only when
@@ -449,17 +594,16 @@ pub(crate) fn run_manifest(
     out: &Path,
     jobs: Option<usize>,
 ) -> Result<(), CliError> {
-    let (subjects, covariates) = read_manifest(manifest)?;
+    let plan = plan(manifest)?;
+    let subjects = &plan.subjects;
     let jobs = match jobs {
         Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     }
     .min(subjects.len());
-    if out.is_file() {
-        return Err(at(out, "is a file; -o names a directory"));
-    }
-    super::ensure_dir(&out.join("logs"))?;
+    prepare_output(out)?;
+    let program = Program::this_exe()?;
     let max_memory = super::memory::budget()
         .limit_bytes
         .map(|l| (l / jobs as f64) as u64);
@@ -481,7 +625,12 @@ pub(crate) fn run_manifest(
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(s) = subjects.get(i) else { break };
-                    let e = run_subject(s, out, max_memory);
+                    let e = if s.is_done(&out.join(&s.id)) {
+                        Ended::skipped(s)
+                    } else {
+                        let log = out.join("logs").join(format!("{}.log", s.id));
+                        run_subject(s, &program, &out.join(&s.id), &log, max_memory)
+                    };
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     let line = format!(
                         "[{k}/{total}] {} ({}): {} in {:.1} s{}",
@@ -512,28 +661,24 @@ pub(crate) fn run_manifest(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let mut ended = results.into_inner().unwrap_or_default();
-    let order: BTreeMap<&str, usize> = subjects
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.id.as_str(), i))
-        .collect();
-    ended.sort_by_key(|e| order.get(e.id.as_str()).copied().unwrap_or(usize::MAX));
-    write_failures(out, &ended)?;
-    super::cohort::write_cohort(out, &subjects_table(&subjects), &covariates)?;
-    let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
-    let (ran, unconverged) = (count("done"), count("not converged"));
-    let (skipped, failed) = (count("skipped"), count("failed"));
+    let ended = results.into_inner().unwrap_or_default();
+    let Counts {
+        total,
+        ran,
+        not_converged: unconverged,
+        skipped,
+        failed,
+    } = finish(out, &plan, &ended)?;
     println!(
         "batch: {total} subjects, {ran} run, {unconverged} not converged (outputs written), \
          {skipped} skipped (done before with the same inputs), {failed} failed; wrote {}",
         out.display()
     );
     if failed > 0 {
-        let first = ended
+        let first = subjects
             .iter()
-            .find(|e| e.status == "failed")
-            .map_or("", |e| e.id.as_str());
+            .find(|s| ended.iter().any(|e| e.id == s.id && e.status == "failed"))
+            .map_or("", |s| s.id.as_str());
         return Err(CliError::Usage(format!(
             "{failed} of {total} subjects failed (first: {first}); see {}",
             out.join("failures.csv").display()
