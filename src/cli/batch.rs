@@ -429,7 +429,7 @@ impl Program {
 
 /// The run hash recorded in `dir/report.json`, or for a mitral series
 /// (no report of its own) in `dir/series.json`, if any.
-fn recorded_hash(dir: &Path) -> Option<String> {
+pub fn recorded_hash(dir: &Path) -> Option<String> {
     ["report.json", "series.json"].iter().find_map(|f| {
         let text = std::fs::read_to_string(dir.join(f)).ok()?;
         let v: serde_json::Value = serde_json::from_str(&text).ok()?;
@@ -490,6 +490,62 @@ pub fn run_subject(
             format!("killed by a signal ({:?}); {last}", output.status),
         ),
     }
+}
+
+/// Puts a subject's outputs, run elsewhere, in place as `OUT/<id>/`:
+/// `files` (paths relative to the subject's output directory,
+/// `/`-separated, the hidden manifest of the set left out) replace the
+/// directory whole, as a run's outputs do ([`crate::io::StagedOutputs`]);
+/// `log` (the run's stdout and stderr) goes to `OUT/logs/<id>.log`.
+///
+/// # Errors
+/// An id that is not a directory name, a path that leaves the directory,
+/// `OUT/<id>` holding files that are not a previous unfold output, writing.
+pub fn place_subject(
+    out: &Path,
+    id: &str,
+    files: &[(String, Vec<u8>)],
+    log: Option<&[u8]>,
+) -> Result<(), CliError> {
+    if !valid_id(id) {
+        return Err(at(
+            out,
+            format!("'{}' is not a subject id", super::printable(id)),
+        ));
+    }
+    let dir = out.join(id);
+    if !files.is_empty() {
+        let mut staged = crate::io::StagedOutputs::new(std::iter::empty::<&Path>());
+        let staging = staged.dir(&dir)?;
+        for (rel, bytes) in files {
+            let inside = !rel.is_empty()
+                && rel != crate::io::MANIFEST
+                && Path::new(rel)
+                    .components()
+                    .all(|c| matches!(c, std::path::Component::Normal(_)));
+            if !inside {
+                return Err(at(
+                    &dir,
+                    format!(
+                        "the output '{}' is not a relative path inside the subject's \
+                         directory; pass the files as the run wrote them",
+                        super::printable(rel)
+                    ),
+                ));
+            }
+            let path = staging.join(rel);
+            if let Some(parent) = path.parent() {
+                super::ensure_dir(parent)?;
+            }
+            crate::io::atomic_write(&path, bytes).map_err(|e| staged.shown_error(e))?;
+        }
+        staged.commit()?;
+    }
+    if let Some(log) = log {
+        super::ensure_dir(&out.join("logs"))?;
+        crate::io::atomic_write(&out.join("logs").join(format!("{id}.log")), log)?;
+    }
+    Ok(())
 }
 
 /// The counts of a batch's ends.
@@ -713,6 +769,63 @@ mod tests {
         ] {
             assert!(!valid_id(bad), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn placed_outputs_replace_the_subject_directory_whole() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path();
+        let f = |p: &str, b: &str| (p.to_string(), b.as_bytes().to_vec());
+        place_subject(
+            out,
+            "s1",
+            &[f("report.json", "{}"), f("a/b.txt", "x")],
+            Some(b"log"),
+        )
+        .unwrap();
+        assert_eq!(std::fs::read(out.join("s1/a/b.txt")).unwrap(), b"x");
+        assert_eq!(std::fs::read(out.join("logs/s1.log")).unwrap(), b"log");
+        assert!(out.join("s1").join(crate::io::MANIFEST).is_file());
+        // a second set replaces the first: no file of the first is left
+        place_subject(out, "s1", &[f("report.json", "{\"x\":1}")], None).unwrap();
+        assert!(!out.join("s1/a/b.txt").exists());
+        assert_eq!(
+            std::fs::read_to_string(out.join("s1/report.json")).unwrap(),
+            "{\"x\":1}"
+        );
+        // no files: the directory is left as it is (a failed subject)
+        place_subject(out, "s1", &[], Some(b"failed")).unwrap();
+        assert!(out.join("s1/report.json").is_file());
+        for bad in ["../escape", "/abs", "", "a/../../b", crate::io::MANIFEST] {
+            let e = place_subject(out, "s2", &[f(bad, "x")], None).unwrap_err();
+            assert!(e.to_string().contains("not a relative path"), "{bad}: {e}");
+        }
+        assert!(!d.path().parent().unwrap().join("escape").exists());
+        assert!(!out.join("s2").exists());
+        let e = place_subject(out, "../s", &[f("a", "x")], None).unwrap_err();
+        assert!(e.to_string().contains("not a subject id"), "{e}");
+        // somebody's file in the directory: refused, kept
+        std::fs::write(out.join("s1/notes.txt"), "mine").unwrap();
+        assert!(place_subject(out, "s1", &[f("report.json", "{}")], None).is_err());
+        assert!(out.join("s1/notes.txt").is_file());
+    }
+
+    #[test]
+    fn finish_refuses_unplanned_or_repeated_ids() {
+        let d = tempfile::tempdir().unwrap();
+        let m = d.path().join("m.csv");
+        std::fs::write(&m, "id,organ,input\na,placenta,x.vtu\n").unwrap();
+        let plan = plan(&m).unwrap();
+        let a = Ended::skipped(&plan.subjects[0]);
+        let mut b = a.clone();
+        b.id = "b".into();
+        for ended in [vec![a.clone(), a.clone()], vec![b]] {
+            let e = finish(d.path(), &plan, &ended).unwrap_err();
+            assert!(e.to_string().contains("not in the manifest"), "{e}");
+        }
+        let counts = finish(d.path(), &plan, &[a]).unwrap();
+        assert_eq!((counts.total, counts.skipped, counts.failed), (1, 1, 0));
+        assert!(d.path().join("failures.csv").is_file());
     }
 
     #[test]
