@@ -46,9 +46,7 @@ impl Plan {
 /// Reads and checks a manifest (every row, before anything runs).
 #[pyfunction]
 pub(crate) fn plan(py: Python<'_>, manifest: PathBuf) -> PyResult<Plan> {
-    let plan = py
-        .detach(|| batch::plan(&manifest))
-        .map_err(crate::error)?;
+    let plan = py.detach(|| batch::plan(&manifest)).map_err(crate::error)?;
     Ok(Plan { plan })
 }
 
@@ -68,13 +66,15 @@ pub(crate) fn recorded_hash(dir: PathBuf) -> Option<String> {
 /// The run hash of a subject's arguments and its inputs' contents now.
 #[pyfunction]
 pub(crate) fn run_hash(py: Python<'_>, args: Vec<String>) -> String {
-    py.detach(|| Subject {
-        id: String::new(),
-        organ: String::new(),
-        args,
-        covariates: Default::default(),
-    }
-    .run_hash())
+    py.detach(|| {
+        Subject {
+            id: String::new(),
+            organ: String::new(),
+            args,
+            covariates: Default::default(),
+        }
+        .run_hash()
+    })
 }
 
 /// Runs one subject as a process of `program` (`[executable, *prefix]`)

@@ -9,6 +9,9 @@ its defaults and its one-line error messages:
 * :func:`placenta`: ``unfold placenta`` on a tet mesh, returning a
   :class:`PlacentaResult`;
 * :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo``.
+* :mod:`unfold.dask`: ``unfold batch`` + ``unfold cohort`` on a Dask cluster
+  (imported on its own: ``import unfold.dask``; needs the ``dask`` extra);
+* ``python -m unfold ARGS``: the ``unfold`` command line itself.
 
 Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
 the command line's.

@@ -543,7 +543,7 @@ pub fn place_subject(
     }
     if let Some(log) = log {
         super::ensure_dir(&out.join("logs"))?;
-        crate::io::atomic_write(&out.join("logs").join(format!("{id}.log")), log)?;
+        crate::io::atomic_write(out.join("logs").join(format!("{id}.log")), log)?;
     }
     Ok(())
 }
