@@ -166,6 +166,19 @@ def test_an_output_that_is_a_file_is_refused(manifest, client, tmp_path):
         run_cohort(manifest, client, tmp_path / "o", jobs=0)
 
 
+def test_a_directory_holding_somebodys_files_fails_alone(manifest, client, tmp_path):
+    out = tmp_path / "out"
+    (out / "s1").mkdir(parents=True)
+    (out / "s1" / "notes.txt").write_text("mine")
+    summary = run_cohort(manifest, client, out)
+    assert sorted(summary.failed) == ["bad", "s1"]
+    assert "notes.txt" in summary.failed["s1"]
+    assert summary.ran == ["s2"]
+    assert (out / "s1" / "notes.txt").read_text() == "mine"
+    _, rows = read_table(out / "failures.csv")
+    assert [r[0] for r in rows] == ["s1", "bad"]
+
+
 def test_python_m_unfold_is_the_command_line(manifest, unfold_bin):
     for args in (["info", str(manifest.parent / "a.vtu")], ["info", "--bogus"]):
         py = subprocess.run([sys.executable, "-m", "unfold", *args], capture_output=True, text=True)

@@ -143,8 +143,7 @@ def run_cohort(
 
     Raises:
         UnfoldError: an unusable manifest (before anything runs), an
-            ``out_dir`` that is a file or holds files unfold did not write,
-            or writing the cohort tables.
+            ``out_dir`` that is a file, or writing the cohort tables.
         ImportError: dask.distributed is not installed.
         ValueError: ``jobs`` < 1 or ``max_memory`` < 1.
     """
@@ -190,7 +189,10 @@ def run_cohort(
                  "message": f"the task failed on the cluster: {type(e).__name__}: {e}",
                  "files": {}, "log": None}
         if r["files"] or r["log"] is not None:
-            _native.place_subject(str(out), sid, list(r["files"].items()), r["log"])
+            try:
+                _native.place_subject(str(out), sid, list(r["files"].items()), r["log"])
+            except _native.UnfoldError as e:  # out_dir/<id> holds somebody's files
+                r = dict(r, status="failed", exit_code=None, message=str(e))
         ended.append((sid, r["status"], r["exit_code"], r["message"], r["seconds"]))
         if r["status"] == "failed":
             summary.failed[sid] = r["message"]
