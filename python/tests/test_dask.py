@@ -126,6 +126,19 @@ def test_the_maps_are_equal(both):
         assert rb["iterations"] == ra["iterations"]
 
 
+def test_the_cohort_step_is_the_command_lines(both, unfold_bin):
+    cli, dask, _ = both
+    before = (dask / "cohort.csv").read_text()
+    unfold._native.cohort(str(dask), [])
+    assert (dask / "cohort.csv").read_text() == before
+    bad = subprocess.run([unfold_bin, "cohort", str(cli), "--plot", "nope"],
+                         capture_output=True, text=True)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold._native.cohort(str(dask), ["nope"])
+    assert bad.returncode == 2
+    assert "'nope' is not MEASURE:COVARIATE" in bad.stderr and "'nope' is not" in str(e.value)
+
+
 def test_a_rerun_skips_what_is_done(both, manifest, client):
     _, dask, _ = both
     before = (dask / "s1" / "report.json").read_bytes()
