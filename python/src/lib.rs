@@ -9,6 +9,7 @@
 //! (`numpy.asarray`) before they get here.
 
 mod arrays;
+mod batch;
 mod placenta;
 mod progress;
 mod template;
@@ -44,5 +45,19 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(placenta::placenta, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta_slab, m)?)?;
     m.add_function(wrap_pyfunction!(template::check_template, m)?)?;
+    m.add_class::<batch::Plan>()?;
+    for f in [
+        wrap_pyfunction!(batch::main, m)?,
+        wrap_pyfunction!(batch::plan, m)?,
+        wrap_pyfunction!(batch::prepare_output, m)?,
+        wrap_pyfunction!(batch::recorded_hash, m)?,
+        wrap_pyfunction!(batch::run_hash, m)?,
+        wrap_pyfunction!(batch::run_subject, m)?,
+        wrap_pyfunction!(batch::place_subject, m)?,
+        wrap_pyfunction!(batch::finish, m)?,
+        wrap_pyfunction!(batch::cohort, m)?,
+    ] {
+        m.add_function(f)?;
+    }
     Ok(())
 }

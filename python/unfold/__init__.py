@@ -12,6 +12,9 @@ its defaults and its one-line error messages:
   gradient, Hessian and parameter gradient as numpy), checked by
   :func:`check_template`;
 * :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo``.
+* :mod:`unfold.dask`: ``unfold batch`` + ``unfold cohort`` on a Dask cluster
+  (imported on its own: ``import unfold.dask``; needs the ``dask`` extra);
+* ``python -m unfold ARGS``: the ``unfold`` command line itself.
 
 Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
 the command line's.

@@ -29,6 +29,13 @@
 //! report of its own, records its run hash in `OUT/<id>/series.json`.
 //! Progress: a bar on a terminal, a line per subject otherwise (cluster
 //! job logs).
+//!
+//! The steps are public for the Python package's Dask cohorts, which run
+//! them elsewhere: [`plan`] (the manifest read and checked),
+//! [`Subject::run_hash`] and [`Subject::is_done`] (the skip decision),
+//! [`run_subject`] (one subject's process into a given directory) and
+//! [`finish`] (`failures.csv` and the cohort tables); `unfold batch` is a
+//! loop over them.
 
 use super::{CliError, at};
 use clap::{Args, CommandFactory};
@@ -58,15 +65,42 @@ pub struct BatchArgs {
 /// The organs a manifest row may name.
 const ORGANS: [&str; 3] = ["placenta", "ventricle", "mitral"];
 
-/// One subject to run.
+/// One subject to run: a manifest row.
 #[derive(Debug, Clone)]
-struct Subject {
-    id: String,
-    organ: String,
-    /// The arguments after the program name, without `-o`.
-    args: Vec<String>,
+pub struct Subject {
+    /// Its id (its outputs in `OUT/<id>/`).
+    pub id: String,
+    /// Its organ (`placenta`, `ventricle`, `mitral`).
+    pub organ: String,
+    /// The arguments after the program name, without `-o`; file paths
+    /// resolved against the manifest's directory.
+    pub args: Vec<String>,
     /// Covariate columns and their values.
-    covariates: BTreeMap<String, String>,
+    pub covariates: BTreeMap<String, String>,
+}
+
+impl Subject {
+    /// The run hash of its command line and the contents of its inputs as
+    /// they are now ([`super::provenance`]).
+    pub fn run_hash(&self) -> String {
+        super::provenance::run_hash(&self.args).0
+    }
+
+    /// Whether `dir` (its output directory) holds a run with this run hash:
+    /// the batch skips it.
+    pub fn is_done(&self, dir: &Path) -> bool {
+        recorded_hash(dir).as_deref() == Some(self.run_hash().as_str())
+    }
+}
+
+/// A checked manifest: the subjects in row order and the covariate
+/// columns.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The subjects, in the manifest's order.
+    pub subjects: Vec<Subject>,
+    /// The covariate columns, in the manifest's order.
+    pub covariates: Vec<String>,
 }
 
 /// A manifest cell's problem, for one row.
@@ -159,8 +193,12 @@ pub(crate) fn valid_id(id: &str) -> bool {
 }
 
 /// Reads the manifest into subjects, every row checked before anything
-/// runs.
-fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliError> {
+/// runs (the module documentation says what a row holds).
+///
+/// # Errors
+/// The manifest cannot be read, or a row is unusable (the message names
+/// the row and the cell).
+pub fn plan(manifest: &Path) -> Result<Plan, CliError> {
     let base = match manifest.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -322,26 +360,76 @@ fn read_manifest(manifest: &Path) -> Result<(Vec<Subject>, Vec<String>), CliErro
     if subjects.is_empty() {
         return Err(at(manifest, "the manifest has no subject rows"));
     }
-    Ok((subjects, covariate_names))
+    Ok(Plan {
+        subjects,
+        covariates: covariate_names,
+    })
 }
 
 /// How one subject ended.
 #[derive(Debug, Clone, Serialize)]
-struct Ended {
-    id: String,
-    organ: String,
-    /// `done`, `not converged` (outputs written), `skipped` or `failed`.
-    status: &'static str,
+pub struct Ended {
+    /// The subject's id.
+    pub id: String,
+    /// Its organ.
+    pub organ: String,
+    /// `done`, `not converged` (outputs written), `skipped` or `failed`
+    /// (one of [`STATUSES`]).
+    pub status: &'static str,
     /// The exit code (none for a skip or a signal).
-    exit_code: Option<i32>,
+    pub exit_code: Option<i32>,
     /// The one-line error of a failure.
-    message: String,
-    seconds: f64,
+    pub message: String,
+    /// Its wall-clock time, seconds.
+    pub seconds: f64,
+}
+
+/// The statuses an [`Ended`] may have.
+pub const STATUSES: [&str; 4] = ["done", "not converged", "skipped", "failed"];
+
+impl Ended {
+    /// A subject skipped because its outputs are done with the same run hash.
+    pub fn skipped(s: &Subject) -> Self {
+        Ended {
+            id: s.id.clone(),
+            organ: s.organ.clone(),
+            status: "skipped",
+            exit_code: None,
+            message: String::new(),
+            seconds: 0.0,
+        }
+    }
+}
+
+/// How a subject's command starts: the program and the arguments before
+/// the subject's own (the `unfold` binary itself, or a Python interpreter
+/// with `-m unfold`).
+#[derive(Debug, Clone)]
+pub struct Program {
+    /// The executable.
+    pub exe: PathBuf,
+    /// Arguments before the subject's.
+    pub prefix: Vec<String>,
+}
+
+impl Program {
+    /// This process's executable, no prefix (`unfold batch` runs itself).
+    ///
+    /// # Errors
+    /// The system does not tell the executable.
+    pub fn this_exe() -> Result<Self, CliError> {
+        let exe = std::env::current_exe()
+            .map_err(|e| CliError::Usage(format!("cannot find the unfold binary: {e}")))?;
+        Ok(Program {
+            exe,
+            prefix: Vec::new(),
+        })
+    }
 }
 
 /// The run hash recorded in `dir/report.json`, or for a mitral series
 /// (no report of its own) in `dir/series.json`, if any.
-fn recorded_hash(dir: &Path) -> Option<String> {
+pub fn recorded_hash(dir: &Path) -> Option<String> {
     ["report.json", "series.json"].iter().find_map(|f| {
         let text = std::fs::read_to_string(dir.join(f)).ok()?;
         let v: serde_json::Value = serde_json::from_str(&text).ok()?;
@@ -349,10 +437,18 @@ fn recorded_hash(dir: &Path) -> Option<String> {
     })
 }
 
-/// Runs one subject as its own process.
-fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
+/// Runs one subject as its own process of `program` into `dir`, its
+/// stdout and stderr to the file `log` (whatever `dir` holds is replaced
+/// only when the run writes its outputs; no skip check: see
+/// [`Subject::is_done`]).
+pub fn run_subject(
+    s: &Subject,
+    program: &Program,
+    dir: &Path,
+    log: &Path,
+    max_memory: Option<u64>,
+) -> Ended {
     let t = Instant::now();
-    let dir = out.join(&s.id);
     let ended = |status, exit_code, message: String| Ended {
         id: s.id.clone(),
         organ: s.organ.clone(),
@@ -361,26 +457,11 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
         message,
         seconds: t.elapsed().as_secs_f64(),
     };
-    let (hash, _) = super::provenance::run_hash(&s.args);
-    if recorded_hash(&dir).as_deref() == Some(hash.as_str()) {
-        return ended("skipped", None, String::new());
-    }
-    let exe = match std::env::current_exe() {
-        Ok(e) => e,
-        Err(e) => {
-            return ended(
-                "failed",
-                None,
-                format!("cannot find the unfold binary: {e}"),
-            );
-        }
-    };
-    let mut cmd = std::process::Command::new(exe);
-    cmd.args(&s.args).arg("-o").arg(&dir);
+    let mut cmd = std::process::Command::new(&program.exe);
+    cmd.args(&program.prefix).args(&s.args).arg("-o").arg(dir);
     if let Some(m) = max_memory {
         cmd.arg("--max-memory").arg(m.to_string());
     }
-    let log = out.join("logs").join(format!("{}.log", s.id));
     let output = match cmd.stdin(std::process::Stdio::null()).output() {
         Ok(o) => o,
         Err(e) => return ended("failed", None, format!("cannot start unfold: {e}")),
@@ -388,7 +469,7 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
     let mut text = output.stdout.clone();
     text.extend_from_slice(&output.stderr);
     // the log is a convenience: a failure to write it does not fail the subject
-    let _ = crate::io::atomic_write(&log, &text);
+    let _ = crate::io::atomic_write(log, &text);
     let stderr = String::from_utf8_lossy(&output.stderr);
     let last = stderr
         .lines()
@@ -409,6 +490,126 @@ fn run_subject(s: &Subject, out: &Path, max_memory: Option<u64>) -> Ended {
             format!("killed by a signal ({:?}); {last}", output.status),
         ),
     }
+}
+
+/// Puts a subject's outputs, run elsewhere, in place as `OUT/<id>/`:
+/// `files` (paths relative to the subject's output directory,
+/// `/`-separated, the hidden manifest of the set left out) replace the
+/// directory whole, as a run's outputs do ([`crate::io::StagedOutputs`]);
+/// `log` (the run's stdout and stderr) goes to `OUT/logs/<id>.log`.
+///
+/// # Errors
+/// An id that is not a directory name, a path that leaves the directory,
+/// `OUT/<id>` holding files that are not a previous unfold output, writing.
+pub fn place_subject(
+    out: &Path,
+    id: &str,
+    files: &[(String, Vec<u8>)],
+    log: Option<&[u8]>,
+) -> Result<(), CliError> {
+    if !valid_id(id) {
+        return Err(at(
+            out,
+            format!("'{}' is not a subject id", super::printable(id)),
+        ));
+    }
+    let dir = out.join(id);
+    if !files.is_empty() {
+        let mut staged = crate::io::StagedOutputs::new(std::iter::empty::<&Path>());
+        let staging = staged.dir(&dir)?;
+        for (rel, bytes) in files {
+            let inside = !rel.is_empty()
+                && rel != crate::io::MANIFEST
+                && Path::new(rel)
+                    .components()
+                    .all(|c| matches!(c, std::path::Component::Normal(_)));
+            if !inside {
+                return Err(at(
+                    &dir,
+                    format!(
+                        "the output '{}' is not a relative path inside the subject's \
+                         directory; pass the files as the run wrote them",
+                        super::printable(rel)
+                    ),
+                ));
+            }
+            let path = staging.join(rel);
+            if let Some(parent) = path.parent() {
+                super::ensure_dir(parent)?;
+            }
+            crate::io::atomic_write(&path, bytes).map_err(|e| staged.shown_error(e))?;
+        }
+        staged.commit()?;
+    }
+    if let Some(log) = log {
+        super::ensure_dir(&out.join("logs"))?;
+        crate::io::atomic_write(out.join("logs").join(format!("{id}.log")), log)?;
+    }
+    Ok(())
+}
+
+/// The counts of a batch's ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Counts {
+    /// Subjects in the manifest.
+    pub total: usize,
+    /// Run and converged.
+    pub ran: usize,
+    /// Run, outputs written, the solver stopped early.
+    pub not_converged: usize,
+    /// Skipped: done before with the same run hash.
+    pub skipped: usize,
+    /// Failed (in `failures.csv`).
+    pub failed: usize,
+}
+
+/// Ends a batch whose subjects ended as `ended` (any order): writes
+/// `OUT/failures.csv` (in the manifest's order) and the cohort tables of
+/// [`super::cohort`], and counts the ends.
+///
+/// # Errors
+/// An id of `ended` not in the plan or twice; writing a file.
+pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, CliError> {
+    let order: BTreeMap<&str, usize> = plan
+        .subjects
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.id.as_str(), i))
+        .collect();
+    let mut seen = HashSet::new();
+    for e in ended {
+        if !order.contains_key(e.id.as_str()) || !seen.insert(e.id.as_str()) {
+            return Err(CliError::Usage(format!(
+                "subject '{}' ended twice or is not in the manifest; pass each planned subject \
+                 once",
+                super::printable(&e.id)
+            )));
+        }
+    }
+    let mut ended = ended.to_vec();
+    ended.sort_by_key(|e| order.get(e.id.as_str()).copied().unwrap_or(usize::MAX));
+    write_failures(out, &ended)?;
+    super::cohort::write_cohort(out, &subjects_table(&plan.subjects), &plan.covariates)?;
+    let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
+    Ok(Counts {
+        total: plan.subjects.len(),
+        ran: count("done"),
+        not_converged: count("not converged"),
+        skipped: count("skipped"),
+        failed: count("failed"),
+    })
+}
+
+/// Checks `out` can be a batch's output directory and creates it with its
+/// `logs/`.
+///
+/// # Errors
+/// `out` is a file, or cannot be created.
+pub fn prepare_output(out: &Path) -> Result<(), CliError> {
+    if out.is_file() {
+        return Err(at(out, "is a file; -o names a directory"));
+    }
+    super::ensure_dir(&out.join("logs"))
 }
 
 /// Writes `OUT/failures.csv`: one row per failed subject (header only when
@@ -449,17 +650,16 @@ pub(crate) fn run_manifest(
     out: &Path,
     jobs: Option<usize>,
 ) -> Result<(), CliError> {
-    let (subjects, covariates) = read_manifest(manifest)?;
+    let plan = plan(manifest)?;
+    let subjects = &plan.subjects;
     let jobs = match jobs {
         Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     }
     .min(subjects.len());
-    if out.is_file() {
-        return Err(at(out, "is a file; -o names a directory"));
-    }
-    super::ensure_dir(&out.join("logs"))?;
+    prepare_output(out)?;
+    let program = Program::this_exe()?;
     let max_memory = super::memory::budget()
         .limit_bytes
         .map(|l| (l / jobs as f64) as u64);
@@ -481,7 +681,12 @@ pub(crate) fn run_manifest(
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(s) = subjects.get(i) else { break };
-                    let e = run_subject(s, out, max_memory);
+                    let e = if s.is_done(&out.join(&s.id)) {
+                        Ended::skipped(s)
+                    } else {
+                        let log = out.join("logs").join(format!("{}.log", s.id));
+                        run_subject(s, &program, &out.join(&s.id), &log, max_memory)
+                    };
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     let line = format!(
                         "[{k}/{total}] {} ({}): {} in {:.1} s{}",
@@ -512,28 +717,24 @@ pub(crate) fn run_manifest(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let mut ended = results.into_inner().unwrap_or_default();
-    let order: BTreeMap<&str, usize> = subjects
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.id.as_str(), i))
-        .collect();
-    ended.sort_by_key(|e| order.get(e.id.as_str()).copied().unwrap_or(usize::MAX));
-    write_failures(out, &ended)?;
-    super::cohort::write_cohort(out, &subjects_table(&subjects), &covariates)?;
-    let count = |s: &str| ended.iter().filter(|e| e.status == s).count();
-    let (ran, unconverged) = (count("done"), count("not converged"));
-    let (skipped, failed) = (count("skipped"), count("failed"));
+    let ended = results.into_inner().unwrap_or_default();
+    let Counts {
+        total,
+        ran,
+        not_converged: unconverged,
+        skipped,
+        failed,
+    } = finish(out, &plan, &ended)?;
     println!(
         "batch: {total} subjects, {ran} run, {unconverged} not converged (outputs written), \
          {skipped} skipped (done before with the same inputs), {failed} failed; wrote {}",
         out.display()
     );
     if failed > 0 {
-        let first = ended
+        let first = subjects
             .iter()
-            .find(|e| e.status == "failed")
-            .map_or("", |e| e.id.as_str());
+            .find(|s| ended.iter().any(|e| e.id == s.id && e.status == "failed"))
+            .map_or("", |s| s.id.as_str());
         return Err(CliError::Usage(format!(
             "{failed} of {total} subjects failed (first: {first}); see {}",
             out.join("failures.csv").display()
@@ -568,6 +769,63 @@ mod tests {
         ] {
             assert!(!valid_id(bad), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn placed_outputs_replace_the_subject_directory_whole() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path();
+        let f = |p: &str, b: &str| (p.to_string(), b.as_bytes().to_vec());
+        place_subject(
+            out,
+            "s1",
+            &[f("report.json", "{}"), f("a/b.txt", "x")],
+            Some(b"log"),
+        )
+        .unwrap();
+        assert_eq!(std::fs::read(out.join("s1/a/b.txt")).unwrap(), b"x");
+        assert_eq!(std::fs::read(out.join("logs/s1.log")).unwrap(), b"log");
+        assert!(out.join("s1").join(crate::io::MANIFEST).is_file());
+        // a second set replaces the first: no file of the first is left
+        place_subject(out, "s1", &[f("report.json", "{\"x\":1}")], None).unwrap();
+        assert!(!out.join("s1/a/b.txt").exists());
+        assert_eq!(
+            std::fs::read_to_string(out.join("s1/report.json")).unwrap(),
+            "{\"x\":1}"
+        );
+        // no files: the directory is left as it is (a failed subject)
+        place_subject(out, "s1", &[], Some(b"failed")).unwrap();
+        assert!(out.join("s1/report.json").is_file());
+        for bad in ["../escape", "/abs", "", "a/../../b", crate::io::MANIFEST] {
+            let e = place_subject(out, "s2", &[f(bad, "x")], None).unwrap_err();
+            assert!(e.to_string().contains("not a relative path"), "{bad}: {e}");
+        }
+        assert!(!d.path().parent().unwrap().join("escape").exists());
+        assert!(!out.join("s2").exists());
+        let e = place_subject(out, "../s", &[f("a", "x")], None).unwrap_err();
+        assert!(e.to_string().contains("not a subject id"), "{e}");
+        // somebody's file in the directory: refused, kept
+        std::fs::write(out.join("s1/notes.txt"), "mine").unwrap();
+        assert!(place_subject(out, "s1", &[f("report.json", "{}")], None).is_err());
+        assert!(out.join("s1/notes.txt").is_file());
+    }
+
+    #[test]
+    fn finish_refuses_unplanned_or_repeated_ids() {
+        let d = tempfile::tempdir().unwrap();
+        let m = d.path().join("m.csv");
+        std::fs::write(&m, "id,organ,input\na,placenta,x.vtu\n").unwrap();
+        let plan = plan(&m).unwrap();
+        let a = Ended::skipped(&plan.subjects[0]);
+        let mut b = a.clone();
+        b.id = "b".into();
+        for ended in [vec![a.clone(), a.clone()], vec![b]] {
+            let e = finish(d.path(), &plan, &ended).unwrap_err();
+            assert!(e.to_string().contains("not in the manifest"), "{e}");
+        }
+        let counts = finish(d.path(), &plan, &[a]).unwrap();
+        assert_eq!((counts.total, counts.skipped, counts.failed), (1, 1, 0));
+        assert!(d.path().join("failures.csv").is_file());
     }
 
     #[test]

@@ -21,6 +21,7 @@
 //! scatter plots). Last, the visual report `OUT/index.html`
 //! ([`super::cohort_report`]).
 
+pub use super::cohort_figures::PlotSpec;
 use super::{CliError, at};
 use clap::Args;
 use std::collections::BTreeMap;
@@ -197,7 +198,18 @@ fn write_cohort_plots(
 
 /// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
 pub fn run(a: &CohortArgs) -> Result<(), CliError> {
-    let path = a.output.join("subjects.csv");
+    gather(&a.output, &a.plot)
+}
+
+/// `unfold cohort OUT --plot ...`: reads `OUT/subjects.csv` (written by a
+/// batch) and writes `OUT/cohort.csv`, the statistics, the figures (the
+/// scatter plots `plots`; none: the defaults) and `OUT/index.html`.
+///
+/// # Errors
+/// `OUT/subjects.csv` missing or malformed; writing a file; a `plots`
+/// entry naming an unknown column.
+pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), CliError> {
+    let path = output.join("subjects.csv");
     let mut reader = csv::Reader::from_path(&path).map_err(|e| {
         at(
             &path,
@@ -236,10 +248,10 @@ pub fn run(a: &CohortArgs) -> Result<(), CliError> {
                 .collect(),
         });
     }
-    write_cohort_plots(&a.output, &subjects, &covariates, &a.plot)?;
+    write_cohort_plots(output, &subjects, &covariates, plots)?;
     println!(
         "{}: {} subjects",
-        a.output.join("cohort.csv").display(),
+        output.join("cohort.csv").display(),
         subjects.len()
     );
     Ok(())

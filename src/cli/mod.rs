@@ -2,8 +2,8 @@
 //! library (`unfold::cli`) so the Python package runs the same code (its
 //! batch subjects and cohort tables).
 
-mod batch;
-mod cohort;
+pub mod batch;
+pub mod cohort;
 mod cohort_figures;
 mod cohort_images;
 mod cohort_mitral;
@@ -144,8 +144,18 @@ enum Command {
     Mitral(mitral::MitralArgs),
 }
 
-/// Runs a parsed command line.
+/// Runs a parsed command line (the process's arguments are its
+/// provenance's command line).
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    let command_line = std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    run_command_line(cli, command_line)
+}
+
+/// Runs `cli`, parsed from `command_line` (program name first), which the
+/// reports record as their provenance.
+pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliError> {
     memory::init(cli.max_memory);
     // only the commands whose reports carry provenance hash their inputs
     // (a batch hashes each subject's in the subject's own process)
@@ -157,7 +167,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             | Command::Deform(_)
             | Command::Demo(_)
     ) {
-        provenance::init(&cli.command);
+        provenance::init(command_line, &cli.command);
     }
     match cli.command {
         Command::Info(a) => info::run(&a),
@@ -173,6 +183,69 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Batch(a) => batch::run(&a),
         Command::Cohort(a) => cohort::run(&a),
     }
+}
+
+/// A clap parse error as one line: the message lines before the usage
+/// block, joined, without clap's `error: ` prefix.
+fn one_line_usage_error(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let msg: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+        .filter(|l| !l.is_empty())
+        .collect();
+    let msg = msg.join(" ");
+    let msg = msg.strip_prefix("error: ").unwrap_or(&msg);
+    format!("{msg} (see --help)")
+}
+
+/// The `unfold` program on the command line `argv` (program name first):
+/// parses it, runs it, prints a failure as one line `unfold: error: ...` on
+/// stderr and returns the exit code: 0 done, 1 failed, 2 a usage error, 3
+/// outputs written but the solver did not converge. The `unfold` binary
+/// is this function; the Python package runs it as `python -m unfold`.
+pub fn main(argv: Vec<std::ffi::OsString>) -> u8 {
+    use clap::error::ErrorKind;
+    let command_line = argv
+        .iter()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    let args = match Cli::try_parse_from(argv) {
+        Ok(args) => args,
+        Err(e) => match e.kind() {
+            // Help and version go to stdout as clap prints them.
+            ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+                // printing help can only fail on a closed stdout: nothing to report it on
+                let _ = e.print();
+                return u8::try_from(e.exit_code()).unwrap_or(2);
+            }
+            _ => {
+                let msg = one_line_usage_error(&e);
+                eprintln!("unfold: error: {}", printable(&msg));
+                write_peak_file();
+                return 2;
+            }
+        },
+    };
+    let code = match run_command_line(args, command_line) {
+        Ok(()) => 0,
+        Err(e) => {
+            // One line on stderr, so scripts and users see exactly what failed.
+            let msg = e.to_string();
+            eprintln!("unfold: error: {}", printable(&msg));
+            // 3: outputs written, but the solver did not converge
+            if matches!(e, CliError::NotConverged { .. }) {
+                3
+            } else {
+                1
+            }
+        }
+    };
+    write_peak_file();
+    code
 }
 
 /// With `UNFOLD_PEAK_FILE=PATH` in the environment, writes the process's

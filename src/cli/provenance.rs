@@ -47,14 +47,13 @@ pub(crate) struct Provenance {
 
 static THIS_RUN: std::sync::OnceLock<Provenance> = std::sync::OnceLock::new();
 
-/// Records this process's run before any work: the command line, the
-/// parsed command's `Debug` text as `parameters`, the inputs' hashes now
-/// (before anything could change them), the start time. The first call
-/// wins.
-pub(crate) fn init(parameters: &dyn std::fmt::Debug) {
+/// Records this process's run before any work: the command line
+/// `command_line` (program name first), the parsed command's `Debug` text
+/// as `parameters`, the inputs' hashes now (before anything could change
+/// them), the start time. The first call wins.
+pub(crate) fn init(command_line: Vec<String>, parameters: &dyn std::fmt::Debug) {
     THIS_RUN.get_or_init(|| {
         let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
-        let command_line: Vec<String> = std::env::args().collect();
         let (run_hash, inputs) = run_hash(command_line.get(1..).unwrap_or_default());
         Provenance {
             unfold_version: env!("CARGO_PKG_VERSION"),
