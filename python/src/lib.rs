@@ -5,12 +5,19 @@
 //! one-line message on any failure.
 //!
 //! The Python wrappers in `python/unfold/` turn the tuples returned here
-//! into `Mesh` and `PlacentaResult` objects and coerce arguments
+//! into `Mesh` and result objects and coerce arguments
 //! (`numpy.asarray`) before they get here.
 
 mod arrays;
+mod deform;
+mod inputs;
+mod mitral;
 mod placenta;
 mod progress;
+mod report;
+mod shapes;
+mod tet_mesh;
+mod ventricle;
 
 use pyo3::prelude::*;
 
@@ -36,5 +43,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta_slab, m)?)?;
+    m.add_function(wrap_pyfunction!(tet_mesh::tet_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(ventricle::ventricle, m)?)?;
+    m.add_function(wrap_pyfunction!(mitral::mitral, m)?)?;
+    m.add_function(wrap_pyfunction!(deform::deform, m)?)?;
+    m.add_function(wrap_pyfunction!(shapes::ventricle_cup_shape, m)?)?;
+    m.add_function(wrap_pyfunction!(shapes::mitral_valve_shape, m)?)?;
     Ok(())
 }

@@ -43,8 +43,8 @@
 
 use super::{CliError, at};
 use crate::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
-use crate::mesh::{CellMesh, MeshError, TetMesh};
 use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
+use crate::mesh::{CellMesh, MeshError, TetMesh};
 use crate::param::energy::{Arap, SymmetricDirichlet};
 use crate::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
 use clap::{Args, ValueEnum};
@@ -388,8 +388,7 @@ pub fn deform_mesh(
     };
     if settings.solver == SolverKind::Newton {
         let pmesh = crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(mesh, e))?;
-        let estimate =
-            crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(mesh, e))?;
+        let estimate = crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(mesh, e))?;
         drop(pmesh);
         super::memory::check(
             "deforming the mesh",
