@@ -519,6 +519,45 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
 mod tests {
     use super::*;
 
+    /// `unfold deform` alone, to parse its flags.
+    #[derive(clap::Parser)]
+    struct DeformCmd {
+        #[command(flatten)]
+        args: DeformArgs,
+    }
+
+    fn settings_of(args: &[&str]) -> DeformSettings {
+        use clap::Parser;
+        let base = ["deform", "m.vtu", "--targets", "t.csv", "-o", "o.vtu"];
+        let a = DeformCmd::try_parse_from(base.iter().chain(args))
+            .unwrap()
+            .args;
+        DeformSettings {
+            weight: a.weight,
+            energy: a.energy,
+            solver: a.solver,
+            tol: a.tol,
+            max_iterations: a.max_iterations,
+        }
+    }
+
+    #[test]
+    fn settings_default_to_the_flags_defaults() {
+        assert_eq!(settings_of(&[]), DeformSettings::default());
+        let s = settings_of(&["--energy", "arap", "--weight", "2"]);
+        assert_eq!((s.energy, s.weight), (Energy::Arap, 2.0));
+        assert!(
+            DeformSettings {
+                weight: 0.0,
+                ..DeformSettings::default()
+            }
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("--weight must be a finite positive number, got 0")
+        );
+    }
+
     fn parse(text: &str, n: usize) -> Result<Vec<(usize, [f64; 3])>, String> {
         parse_targets(text, Path::new("t.csv"), n).map_err(|e| e.to_string())
     }

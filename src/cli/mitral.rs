@@ -772,6 +772,34 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
 mod tests {
     use super::*;
 
+    /// `unfold mitral` alone, to parse its flags.
+    #[derive(clap::Parser)]
+    struct Mitral {
+        #[command(flatten)]
+        args: MitralArgs,
+    }
+
+    #[test]
+    fn settings_default_to_the_flags_defaults() {
+        use clap::Parser;
+        let m = Mitral::try_parse_from(["mitral", "--series", "d", "-o", "o"]).unwrap();
+        assert_eq!(m.args.settings(), MitralSettings::default());
+        let m = Mitral::try_parse_from([
+            "mitral",
+            "--series",
+            "d",
+            "-o",
+            "o",
+            "--relax",
+            "spring",
+            "--coaptation-mm",
+            "3",
+        ])
+        .unwrap();
+        assert_eq!(m.args.settings().relax, RelaxArg::Spring);
+        assert_eq!(m.args.settings().coaptation_mm, 3.0);
+    }
+
     #[test]
     fn ring_text_accepts_commas_spaces_comments_and_a_header() {
         let p = Path::new("ring.csv");
