@@ -113,3 +113,16 @@ def test_bad_images(slab):
         unfold.placenta(slab.points, slab.cells["tetra"], images=[(data, affine)])
     with pytest.raises(unfold.UnfoldError, match="interp must be linear or nearest"):
         unfold.placenta(slab.points, slab.cells["tetra"], interp="cubic")
+
+
+def test_a_4d_image_keeps_its_frames(slab):
+    data, affine = mri(slab.points)
+    series = np.stack([data, 2.0 * data], axis=-1)
+    r = unfold.placenta(slab.points, slab.cells["tetra"],
+                        images={"series": (series, affine), "mri": (data, affine)},
+                        spacing_mm=4.0)
+    pulled, _ = r.images["series"]
+    assert pulled.ndim == 4 and pulled.shape[3] == 2
+    np.testing.assert_allclose(pulled[..., 1], 2.0 * pulled[..., 0], rtol=1e-6)
+    np.testing.assert_array_equal(pulled[..., 0], r.images["mri"][0])
+    assert [i["name"] for i in r.report["images"]] == ["series", "mri"]

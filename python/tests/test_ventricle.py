@@ -115,3 +115,27 @@ def test_bad_inputs(cup):
         unfold.ventricle(s.points, s.cells["triangle"], to_surface=s, **kw)
     with pytest.raises(unfold.UnfoldError, match="surface triangles must have shape"):
         unfold.ventricle(s.points, s.cells["triangle"][:, :2], **kw)
+
+
+def test_a_transfer_to_a_second_surface_equals_the_cli(cup, unfold_bin, tmp_path):
+    # The second heart: the cup scaled by 1.2 about the origin (its landmarks with it).
+    s = cup.surface
+    s2 = unfold.Mesh(s.points * 1.2, s.cells)
+    unfold.write_mesh(tmp_path / "s.vtu", s)
+    unfold.write_mesh(tmp_path / "s2.vtu", s2)
+    pts = cup.anatomy_points[::4]
+    unfold.write_mesh(tmp_path / "pts.vtu", pts, {"vertex": np.arange(len(pts))[:, None]})
+    cli(unfold_bin, "ventricle", tmp_path / "pts.vtu", "--surface", tmp_path / "s.vtu",
+        *landmark_flags(cup), "--grid-mm", GRID, "--to-surface", tmp_path / "s2.vtu",
+        "--to-anterior", coords(cup.anterior * 1.2), "--to-inferior", coords(cup.inferior * 1.2),
+        "-o", tmp_path / "out", "--no-figures")
+    r = unfold.ventricle(s.points, s.cells["triangle"], anterior=cup.anterior,
+                         inferior=cup.inferior, apex=cup.apex, anatomy=pts, grid_mm=GRID,
+                         to_surface=s2, to_anterior=cup.anterior * 1.2,
+                         to_inferior=cup.inferior * 1.2, to_name=str(tmp_path / "s2.vtu"))
+    t = r.transferred
+    assert_mesh_equal(meshio.read(tmp_path / "out" / "transferred.vtu"), t.points, t.cells,
+                      {**t.point_data, **t.cell_data})
+    assert r.report["transfer"]["surface"] == str(tmp_path / "s2.vtu")
+    # Scaling the heart scales the carried points (to the grid's accuracy).
+    assert np.abs(t.points - 1.2 * pts).max() < 0.5 * GRID
