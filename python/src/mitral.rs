@@ -38,13 +38,18 @@ pub(crate) fn mitral<'py>(
     annulus_mode: &str,
     init: &str,
     relax: &str,
-    iterations: usize,
+    iterations: i64,
     step_scale: Option<f64>,
     coaptation_mm: f64,
     tolerance_mm: Option<f64>,
     cut_posteromedial: bool,
     name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let Ok(iterations) = usize::try_from(iterations) else {
+        return Err(crate::error(format!(
+            "--iterations must be a whole number >= 0, got {iterations}"
+        )));
+    };
     let settings = MitralSettings {
         annulus_mode: choice::<AnnulusArg>("--annulus-mode", annulus_mode)?,
         init: choice::<InitArg>("--init", init)?,

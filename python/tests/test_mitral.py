@@ -77,6 +77,8 @@ def test_bad_coaptation_raises_the_cli_message(valve, unfold_bin, tmp_path):
 def test_bad_inputs(valve):
     with pytest.raises(unfold.UnfoldError, match="--relax must be one of spring, sd, got 'x'"):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus, relax="x")
+    with pytest.raises(unfold.UnfoldError, match="--iterations must be a whole number >= 0, got -2"):
+        unfold.mitral(valve.anterior, valve.posterior, valve.annulus, iterations=-2)
     with pytest.raises(unfold.UnfoldError, match="annulus must have shape"):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus[:, :2])
     bad = unfold.Mesh(valve.anterior.points, {"triangle": valve.anterior.cells["triangle"] + 10**6})

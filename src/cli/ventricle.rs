@@ -444,8 +444,10 @@ pub fn settings(
 }
 
 /// Runs the pipeline on `anatomy` inside `surface` (named by the labels in
-/// messages) and the optional transfer; nothing is written. The Laplace
-/// field's estimate is checked against the memory budget.
+/// messages): every anatomy point `v` goes to `psi(v) = (phi(v_S), d(v))`
+/// (module doc), and with a transfer on to `psi_2^-1(psi(v))` in the second
+/// heart; nothing is written. The Laplace field's estimate is checked
+/// against the memory budget.
 ///
 /// # Errors
 /// The pipeline's, about `anatomy + surface`, and the transfer's, about
