@@ -5,14 +5,21 @@
 //! one-line message on any failure.
 //!
 //! The Python wrappers in `python/unfold/` turn the tuples returned here
-//! into `Mesh` and `PlacentaResult` objects and coerce arguments
+//! into `Mesh` and result objects and coerce arguments
 //! (`numpy.asarray`) before they get here.
 
 mod arrays;
 mod batch;
+mod deform;
+mod inputs;
+mod mitral;
 mod placenta;
 mod progress;
+mod report;
+mod shapes;
 mod template;
+mod tet_mesh;
+mod ventricle;
 
 use pyo3::prelude::*;
 
@@ -59,5 +66,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     ] {
         m.add_function(f)?;
     }
+    m.add_function(wrap_pyfunction!(tet_mesh::tet_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(ventricle::ventricle, m)?)?;
+    m.add_function(wrap_pyfunction!(mitral::mitral, m)?)?;
+    m.add_function(wrap_pyfunction!(deform::deform, m)?)?;
+    m.add_function(wrap_pyfunction!(shapes::ventricle_cup_shape, m)?)?;
+    m.add_function(wrap_pyfunction!(shapes::mitral_valve_shape, m)?)?;
     Ok(())
 }

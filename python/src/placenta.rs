@@ -4,18 +4,21 @@
 //! layout ([`unfold::placenta::FullReport`]).
 
 use crate::arrays::mesh_tuple;
+use crate::inputs::{volume, volume_arrays};
 use crate::progress::Callback;
+use crate::report::{Memory, Provenance};
 use crate::template::PyTemplate;
-use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
-use serde::Serialize;
+use pyo3::types::{PyDict, PyTuple};
 use unfold::io::Frame;
 use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab as slab};
 use unfold::mesh::{CellMesh, TetMesh};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
-use unfold::organs::placenta::{Config, Pipeline, SolverKind, TemplateKind, prepare_mesh};
+use unfold::organs::placenta::{
+    Config, Image, Interpolation, Pipeline, SolverKind, TemplateKind, prepare_mesh,
+};
 
 /// `value` if finite and positive, else the command line's message for its
 /// flag, naming the Python argument `name`.
@@ -68,6 +71,25 @@ impl TemplateArg {
     }
 }
 
+/// The interpolation of a name ("linear", "nearest").
+fn interpolation(name: &str) -> PyResult<Interpolation> {
+    match name {
+        "linear" => Ok(Interpolation::Linear),
+        "nearest" => Ok(Interpolation::Nearest),
+        other => Err(crate::error(format!(
+            "interp must be linear or nearest, got '{other}'"
+        ))),
+    }
+}
+
+/// An image to pull back: its name, its values (3D or 4D float32) and its
+/// 4x4 affine (voxel indices to RAS mm).
+type ImageArrays<'py> = (
+    String,
+    PyReadonlyArrayDyn<'py, f32>,
+    PyReadonlyArray2<'py, f64>,
+);
+
 /// The solver of a name ("newton", "gd").
 fn solver(name: &str) -> PyResult<SolverKind> {
     match name {
@@ -79,36 +101,15 @@ fn solver(name: &str) -> PyResult<SolverKind> {
     }
 }
 
-/// `memory` in the Python report: the keys of the command line's; the
-/// prediction is not checked against a budget (there is none in Python).
-#[derive(Serialize)]
-struct Memory {
-    predicted_peak_bytes: u64,
-    peak_bytes: Option<u64>,
-    limit_bytes: Option<u64>,
-    limit_source: &'static str,
-}
-
-/// `provenance` in the Python report: the command line's keys where they
-/// apply (no command line, no input files).
-#[derive(Serialize)]
-struct Provenance {
-    unfold_version: &'static str,
-    interface: &'static str,
-    command_line: Vec<String>,
-    parameters: String,
-    inputs: Vec<String>,
-    run_hash: String,
-    started: String,
-}
-
-/// Flattens a placenta tet mesh; returns `(flattened, original,
-/// report_json)` with each mesh as `(points, cells, point_data,
-/// cell_data)`.
+/// Flattens a placenta tet mesh and pulls `images` into the template;
+/// returns `(flattened, original, report_json, flat_images)` with each mesh
+/// as `(points, cells, point_data, cell_data)` and `flat_images` a dict
+/// name -> `(data, affine)`.
 #[pyfunction]
 #[pyo3(signature = (
     points, tets, *, template=None, lam=1.0, margin_mm=15.0, voxel_mm=3.0,
-    solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None
+    solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None,
+    images=Vec::new(), interp="linear", spacing_mm=None, frame_check=true
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn placenta<'py>(
@@ -124,6 +125,10 @@ pub(crate) fn placenta<'py>(
     max_iterations: Option<usize>,
     name: &str,
     progress: Option<Py<PyAny>>,
+    images: Vec<ImageArrays<'py>>,
+    interp: &str,
+    spacing_mm: Option<f64>,
+    frame_check: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
     let config = Config {
@@ -135,6 +140,9 @@ pub(crate) fn placenta<'py>(
             voxel_mm: positive("voxel_mm", voxel_mm)?,
             ..ParcellationConfig::default()
         },
+        spacing_mm: spacing_mm.map(|s| positive("spacing_mm", s)).transpose()?,
+        interpolation: interpolation(interp)?,
+        frame_check,
         ..Config::default()
     };
     if max_iterations == Some(0) {
@@ -153,12 +161,22 @@ pub(crate) fn placenta<'py>(
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
         "template={template_name:?}, lam={lam}, margin_mm={margin_mm}, voxel_mm={voxel_mm}, \
-         solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}"
+         solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
+         spacing_mm={spacing_mm:?}, frame_check={frame_check}"
     );
+    let volumes = images
+        .iter()
+        .map(|(n, data, affine)| Ok((n.clone(), volume(data, affine, n)?)))
+        .collect::<PyResult<Vec<_>>>()?;
+    let names: Vec<String> = volumes.iter().map(|(n, _)| n.clone()).collect();
     let label = name.to_string();
     let mut callback = Callback::new(progress);
     let run = py.detach(|| {
-        let failed = |e| unfold::placenta::pipeline_error(&label, Frame::Ras, &[], e);
+        let failed = |e| unfold::placenta::pipeline_error(&label, Frame::Ras, &names, e);
+        let images: Vec<Image<'_>> = volumes
+            .iter()
+            .map(|(name, volume)| Image { name, volume })
+            .collect();
         let prepared = prepare_mesh(&mesh).map_err(|e| unfold::placenta::organ(&label, e))?;
         let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
             .map(|e| e.total())
@@ -170,7 +188,7 @@ pub(crate) fn placenta<'py>(
         .solver(solver_kind.build())
         .config(config);
         let outcome = pipeline
-            .run_prepared(prepared, &[], &mut callback)
+            .run_prepared(prepared, &images, &mut callback)
             .map_err(failed)?;
         Ok::<_, unfold::placenta::InputError>((outcome, predicted))
     });
@@ -180,7 +198,10 @@ pub(crate) fn placenta<'py>(
     if let Some(e) = callback.error.take() {
         return Err(e);
     }
-    let (outcome, predicted) = run.map_err(crate::error)?;
+    let (mut outcome, predicted) = run.map_err(crate::error)?;
+    for entry in &mut outcome.report.images {
+        entry.input = Some(entry.name.clone());
+    }
     let full = unfold::placenta::FullReport::<(), (), _, _> {
         mesh: name,
         segmentation: None,
@@ -205,12 +226,17 @@ pub(crate) fn placenta<'py>(
     let json = full.to_json().map_err(crate::error)?;
     let flattened = mesh_tuple(py, &CellMesh::from(&outcome.flattened))?;
     let original = mesh_tuple(py, &CellMesh::from(&outcome.original))?;
+    let flat_images = PyDict::new(py);
+    for image in &outcome.images {
+        flat_images.set_item(&image.name, volume_arrays(py, &image.volume)?)?;
+    }
     PyTuple::new(
         py,
         [
             flattened.into_any(),
             original.into_any(),
             json.into_pyobject(py)?.into_any(),
+            flat_images.into_any(),
         ],
     )
 }

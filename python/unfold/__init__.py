@@ -6,15 +6,27 @@ its defaults and its one-line error messages:
 * :func:`read_mesh` / :func:`write_mesh`: every mesh format of ``unfold
   convert`` (VTK XML and legacy, PLY, OBJ, STL, gmsh, medit) as a
   :class:`Mesh` of numpy arrays (meshio's layout);
-* :func:`placenta`: ``unfold placenta`` on a tet mesh, returning a
-  :class:`PlacentaResult`;
+* :func:`tet_mesh`: ``unfold mesh`` on a mask, returning a
+  :class:`TetMeshResult`;
+* :func:`placenta`: ``unfold placenta`` on a tet mesh (and images), returning
+  a :class:`PlacentaResult`;
+* :func:`ventricle`: ``unfold ventricle`` on an enclosing surface, its
+  landmarks and an anatomy, returning a :class:`VentricleResult`;
+* :func:`mitral`: ``unfold mitral`` on one valve, returning a
+  :class:`MitralResult`;
+* :func:`deform`: ``unfold deform`` on a tet mesh and targets, returning a
+  :class:`DeformResult`;
 * :class:`Template`: a placenta template written in Python (value,
   gradient, Hessian and parameter gradient as numpy), checked by
   :func:`check_template`;
-* :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo``.
+* :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo`` and a mask;
 * :mod:`unfold.dask`: ``unfold batch`` + ``unfold cohort`` on a Dask cluster
   (imported on its own: ``import unfold.dask``; needs the ``dask`` extra);
 * ``python -m unfold ARGS``: the ``unfold`` command line itself.
+
+Each result has ``points`` (the mapped points, float64 (n, 3)), ``cells``,
+``arrays`` (the command line's output arrays by name) and ``report`` (the
+keys of the command line's report).
 
 Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
 the command line's.
@@ -24,18 +36,30 @@ from ._native import UnfoldError, __version__
 from ._mesh import Mesh, read_mesh, write_mesh
 from ._placenta import PlacentaResult, placenta
 from ._template import Side, Template, check_template
+from ._tet_mesh import TetMeshResult, tet_mesh
+from ._ventricle import VentricleResult, ventricle
+from ._mitral import MitralResult, mitral
+from ._deform import DeformResult, deform
 from . import shapes
 
 __all__ = [
+    "DeformResult",
     "Mesh",
+    "MitralResult",
     "PlacentaResult",
     "Side",
     "Template",
+    "TetMeshResult",
     "UnfoldError",
+    "VentricleResult",
     "__version__",
     "check_template",
+    "deform",
+    "mitral",
     "placenta",
     "read_mesh",
     "shapes",
+    "tet_mesh",
+    "ventricle",
     "write_mesh",
 ]

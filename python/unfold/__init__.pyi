@@ -1,4 +1,4 @@
-from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Union
 import enum
 import os
 import numpy as np
@@ -29,8 +29,55 @@ class PlacentaResult:
     cell_data: Dict[str, np.ndarray]
     original: Mesh
     report: Dict[str, Any]
+    images: Dict[str, Tuple[np.ndarray, np.ndarray]]
     @property
     def mesh(self) -> Mesh: ...
+
+class TetMeshResult:
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    report: Dict[str, Any]
+    @property
+    def mesh(self) -> Mesh: ...
+
+class VentricleResult:
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    anatomy: Mesh
+    disk: Mesh
+    transferred: Optional[Mesh]
+    report: Dict[str, Any]
+    @property
+    def mesh(self) -> Mesh: ...
+
+class MitralResult:
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    original: Mesh
+    report: Dict[str, Any]
+    @property
+    def mesh(self) -> Mesh: ...
+
+class DeformResult:
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    report: Dict[str, Any]
+    @property
+    def mesh(self) -> Mesh: ...
+
+_Point = Union[Sequence[float], np.ndarray]
+_Image = Union[Tuple[np.ndarray, np.ndarray], Any]
+_Surface = Union[Mesh, Tuple[np.ndarray, np.ndarray]]
 
 def read_mesh(path: Union[str, os.PathLike[str]]) -> Mesh: ...
 def write_mesh(
@@ -46,7 +93,7 @@ def write_mesh(
 def placenta(
     points: np.ndarray,
     tets: np.ndarray,
-    images: None = ...,
+    images: Optional[Mapping[str, _Image]] = ...,
     template: Union[str, Template] = ...,
     lam: float = ...,
     *,
@@ -57,6 +104,9 @@ def placenta(
     max_iterations: Optional[int] = ...,
     name: str = ...,
     progress: Optional[Callable[[str, int, float], Any]] = ...,
+    interp: str = ...,
+    spacing_mm: Optional[float] = ...,
+    frame_check: bool = ...,
 ) -> PlacentaResult: ...
 
 class Side(enum.IntEnum):
@@ -81,3 +131,72 @@ class Template:
 def check_template(
     template: Any, label: int, x: Any, theta: Any, rel: float = ...
 ) -> None: ...
+
+def tet_mesh(
+    mask: Any,
+    affine: Optional[np.ndarray] = ...,
+    *,
+    size_mm: Optional[float] = ...,
+    smooth_voxels: float = ...,
+    dilate: int = ...,
+    threshold: Optional[float] = ...,
+    level: Optional[float] = ...,
+    grade: bool = ...,
+    keep_all_components: bool = ...,
+    name: str = ...,
+) -> TetMeshResult: ...
+def ventricle(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    *,
+    anterior: _Point,
+    inferior: _Point,
+    apex: Optional[_Point] = ...,
+    rim_near: Optional[_Point] = ...,
+    anatomy: Union[Mesh, np.ndarray, None] = ...,
+    chamber: str = ...,
+    grid_mm: Optional[float] = ...,
+    hemisphere_mm: Optional[float] = ...,
+    display_exponent: Optional[float] = ...,
+    snap_mm: Optional[float] = ...,
+    to_surface: Optional[_Surface] = ...,
+    to_anterior: Optional[_Point] = ...,
+    to_inferior: Optional[_Point] = ...,
+    to_apex: Optional[_Point] = ...,
+    to_rim_near: Optional[_Point] = ...,
+    to_hemisphere: Optional[float] = ...,
+    anatomy_name: str = ...,
+    surface_name: str = ...,
+    to_name: str = ...,
+) -> VentricleResult: ...
+def mitral(
+    anterior: _Surface,
+    posterior: _Surface,
+    annulus: np.ndarray,
+    *,
+    annulus_mode: str = ...,
+    init: str = ...,
+    relax: str = ...,
+    iterations: int = ...,
+    step_scale: Optional[float] = ...,
+    coaptation_mm: float = ...,
+    tolerance_mm: Optional[float] = ...,
+    cut_posteromedial: bool = ...,
+    name: str = ...,
+) -> MitralResult: ...
+def deform(
+    points: np.ndarray,
+    tets: Union[np.ndarray, Mapping[str, np.ndarray]],
+    vertices: np.ndarray,
+    targets: np.ndarray,
+    *,
+    weight: float = ...,
+    energy: str = ...,
+    solver: str = ...,
+    tol: float = ...,
+    max_iterations: Optional[int] = ...,
+    point_data: Optional[Mapping[str, np.ndarray]] = ...,
+    cell_data: Optional[Mapping[str, np.ndarray]] = ...,
+    name: str = ...,
+    targets_name: str = ...,
+) -> DeformResult: ...

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
-from typing import Any, Callable, Dict, Optional, Union
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
 from . import _native
+from ._convert import image
 from ._mesh import Mesh
 
 __all__ = ["PlacentaResult", "placenta"]
@@ -28,6 +29,11 @@ class PlacentaResult:
         point_data: the per-point arrays of ``arrays``.
         cell_data: the per-tet arrays of ``arrays``.
         original: the input as the pipeline used it (``original.vtu``).
+        images: each image of ``images`` pulled into the template grid,
+            name -> ``(data, affine)``: float32 data (nx, ny, nz) or (nx, ny,
+            nz, nt) indexed ``[i, j, k, t]`` as nibabel's, and its 4x4 RAS
+            affine; the command line's ``<name>_flat.nii.gz`` (which stores
+            label maps pulled by nearest neighbour in their integer type).
         report: ``report.json``'s keys: ``mesh`` (the ``name`` given), the
             library report's keys, ``memory`` and ``provenance``. The last two
             differ from the command line's: ``memory`` holds the prediction
@@ -43,6 +49,7 @@ class PlacentaResult:
     cell_data: Dict[str, np.ndarray]
     original: Mesh
     report: Dict[str, Any]
+    images: Dict[str, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def mesh(self) -> Mesh:
@@ -64,6 +71,9 @@ def placenta(
     max_iterations: Optional[int] = None,
     name: str = "mesh",
     progress: Optional[Callable[[str, int, float], Any]] = None,
+    interp: str = "linear",
+    spacing_mm: Optional[float] = None,
+    frame_check: bool = True,
 ) -> PlacentaResult:
     """Flattens a placenta tet mesh onto a template (``unfold placenta``).
 
@@ -75,8 +85,11 @@ def placenta(
     Args:
         points: (n, 3) vertex positions, mm, scanner frame (RAS).
         tets: (m, 4) vertex indices.
-        images: not yet supported in Python (pass None); pull images with the
-            command line's ``--image``.
+        images: images in the mesh's scanner frame to pull into the template
+            (``--image``): a dict name -> image, each a ``(data, affine)``
+            pair (data 3D or 4D indexed ``[i, j, k, t]``, affine 4x4
+            voxel-to-RAS) or a nibabel image (``get_fdata()`` and
+            ``affine``). The result's ``images`` holds them by name.
         template: "planes" (default), "ellipsoid" or "single-plane", or a
             Python template: an :class:`unfold.Template` (any object with its
             attributes and methods), called by the Rust solver.
@@ -89,6 +102,15 @@ def placenta(
             held: at each stage (iteration 0, value NaN) and at most every
             0.1 s during the optimization (value: the objective). An exception
             it raises stops further calls and is raised after the run.
+        interp: how the images are sampled, "linear" (default) or "nearest"
+            (label maps) (``--interp``).
+        spacing_mm: isotropic voxel size of the template-space images, mm
+            (``--spacing-mm``; None: each image's own spacing).
+        frame_check: check that the mesh lies in each image's foreground
+            (False: ``--no-frame-check``).
+
+    Returns:
+        A :class:`PlacentaResult`.
 
     Raises:
         UnfoldError: bad settings or an unusable mesh, with the command
@@ -98,10 +120,12 @@ def placenta(
         Exception: whatever a Python template's method raised (the run
             stops at its first exception).
     """
-    if images is not None:
+    if images is not None and not isinstance(images, Mapping):
         raise _native.UnfoldError(
-            "images are not supported by unfold.placenta yet; run `unfold placenta --image`"
+            f"images must be a dict name -> (data, affine) or nibabel image, got "
+            f"{type(images).__name__}"
         )
+    pulled = [(str(k), *image(v, str(k))) for k, v in (images or {}).items()]
     p = np.ascontiguousarray(np.asarray(points, dtype=np.float64))
     t = np.asarray(tets)
     if t.size and t.dtype.kind not in "iu":
@@ -111,7 +135,7 @@ def placenta(
         raise _native.UnfoldError(
             f"points must have shape (n, 3) and tets (m, 4), got {p.shape} and {t.shape}"
         )
-    flat, original, report = _native.placenta(
+    flat, original, report, flat_images = _native.placenta(
         p,
         t,
         template=template,
@@ -123,6 +147,10 @@ def placenta(
         max_iterations=max_iterations,
         name=name,
         progress=progress,
+        images=pulled,
+        interp=interp,
+        spacing_mm=None if spacing_mm is None else float(spacing_mm),
+        frame_check=bool(frame_check),
     )
     f = Mesh._from_tuple(flat)
     return PlacentaResult(
@@ -133,4 +161,5 @@ def placenta(
         cell_data=f.cell_data,
         original=Mesh._from_tuple(original),
         report=json.loads(report),
+        images=dict(flat_images),
     )

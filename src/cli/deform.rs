@@ -43,8 +43,8 @@
 
 use super::{CliError, at};
 use crate::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
-use crate::mesh::MeshError;
 use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
+use crate::mesh::{CellMesh, MeshError, TetMesh};
 use crate::param::energy::{Arap, SymmetricDirichlet};
 use crate::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
 use clap::{Args, ValueEnum};
@@ -53,7 +53,7 @@ use std::path::{Path, PathBuf};
 
 /// Distortion energies `D` of `unfold deform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum Energy {
+pub enum Energy {
     /// `|J|_F^2 + |J^-1|_F^2` (a barrier: infinite at flips; minimum 6).
     SymmetricDirichlet,
     /// As-rigid-as-possible `|J - R|_F^2` (minimum 0).
@@ -62,7 +62,7 @@ enum Energy {
 
 /// Solvers of `unfold deform`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum SolverKind {
+pub enum SolverKind {
     /// Projected Newton (sparse Cholesky of the PSD-projected Hessian).
     Newton,
     /// Gradient descent (the placenta paper's baseline; slow).
@@ -101,21 +101,90 @@ pub struct DeformArgs {
     max_iterations: Option<usize>,
 }
 
-/// What `OUT.report.json` holds: the files, then the library's report.
+/// What `OUT.report.json` holds: the files, then the library's report,
+/// then the run's provenance (the command line's, or the Python package's:
+/// a type parameter, so both write one layout).
 #[derive(Debug, Serialize)]
-struct Report<'a> {
+pub struct Report<'a, P> {
     /// The input mesh.
-    mesh: String,
+    pub mesh: String,
     /// The targets file.
-    targets_file: String,
+    pub targets_file: String,
     /// The output mesh.
-    output: String,
+    pub output: String,
     /// What the repair of the input mesh changed.
-    repair: RepairReport,
+    pub repair: RepairReport,
+    /// The library's report.
     #[serde(flatten)]
-    report: &'a DeformReport,
+    pub report: &'a DeformReport,
     /// Version, command line, parameters, input hashes, start time.
-    provenance: super::provenance::Provenance,
+    pub provenance: P,
+}
+
+/// The settings of `unfold deform` other than its files (the flags'
+/// defaults: [`DeformSettings::default`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeformSettings {
+    /// `--weight`: W of the target term.
+    pub weight: f64,
+    /// `--energy`.
+    pub energy: Energy,
+    /// `--solver`.
+    pub solver: SolverKind,
+    /// `--tol`: the gradient norm to stop at.
+    pub tol: f64,
+    /// `--max-iterations` (none: the solver's default).
+    pub max_iterations: Option<usize>,
+}
+
+impl Default for DeformSettings {
+    /// The command line's defaults: W = 1, symmetric Dirichlet, Newton,
+    /// tol 1e-4, the solver's iteration limit.
+    fn default() -> Self {
+        DeformSettings {
+            weight: 1.0,
+            energy: Energy::SymmetricDirichlet,
+            solver: SolverKind::Newton,
+            tol: 1e-4,
+            max_iterations: None,
+        }
+    }
+}
+
+impl DeformSettings {
+    /// Checks every setting.
+    ///
+    /// # Errors
+    /// [`CliError::Usage`] naming the flag: a weight or tolerance not
+    /// finite and positive.
+    pub fn check(&self) -> Result<(), CliError> {
+        if !(self.weight.is_finite() && self.weight > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--weight must be a finite positive number, got {}",
+                self.weight
+            )));
+        }
+        if !(self.tol.is_finite() && self.tol > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--tol must be a finite positive number, got {}",
+                self.tol
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A deformed mesh and what the run found.
+#[derive(Debug, Clone)]
+pub struct Deformed {
+    /// The input mesh (cells and arrays) with the positions replaced.
+    pub mesh: CellMesh,
+    /// Tets of the input mesh.
+    pub tets: usize,
+    /// What the repair of the input mesh changed.
+    pub repair: RepairReport,
+    /// The library's report.
+    pub report: DeformReport,
 }
 
 /// `path` with `.report.json` appended to its file name.
@@ -210,12 +279,12 @@ fn parse_targets(
     Ok(pairs)
 }
 
-/// A pipeline error, worded for this command and attributed to the file
-/// it is about.
-fn deform_problem(a: &DeformArgs, e: ParamError) -> CliError {
+/// A pipeline error, worded for this command and attributed to the input
+/// it is about (`mesh` or `targets`).
+fn deform_problem(mesh: &Path, targets: &Path, solver: SolverKind, e: ParamError) -> CliError {
     match e {
         ParamError::Mesh(MeshError::InvertedElement { element, volume }) => at(
-            &a.mesh,
+            mesh,
             format!(
                 "tet {element} is inverted (signed volume {volume:e}); the input shape is the \
                  rest state and the starting point, so every tet must be positively oriented"
@@ -223,11 +292,11 @@ fn deform_problem(a: &DeformArgs, e: ParamError) -> CliError {
         ),
         e @ (ParamError::TargetNotFinite { .. }
         | ParamError::TargetRepeated { .. }
-        | ParamError::Length { .. }) => at(&a.targets, e),
-        e @ (ParamError::Mesh(_) | ParamError::Setting { .. }) => at(&a.mesh, e),
+        | ParamError::Length { .. }) => at(targets, e),
+        e @ (ParamError::Mesh(_) | ParamError::Setting { .. }) => at(mesh, e),
         e => at(
-            &a.mesh,
-            format!("the {} solver failed: {e}", solver_name(a.solver)),
+            mesh,
+            format!("the {} solver failed: {e}", solver_name(solver)),
         ),
     }
 }
@@ -239,20 +308,126 @@ fn solver_name(s: SolverKind) -> &'static str {
     }
 }
 
+/// The tets of `cells` (named `mesh` in messages).
+///
+/// # Errors
+/// A mesh with other cells than tets ("not a tetrahedral mesh"), or bad
+/// indices, at `mesh`.
+pub fn tet_mesh_of(cells: &CellMesh, mesh: &Path) -> Result<TetMesh, CliError> {
+    cells.to_tet_mesh().map_err(|e| match e {
+        MeshError::WrongCellType { cell, found, .. } => at(
+            mesh,
+            format!(
+                "not a tetrahedral mesh (cell {cell} is a {found:?}); unfold deform needs a tet mesh"
+            ),
+        ),
+        e => at(mesh, e),
+    })
+}
+
+/// Deforms the tet mesh `cells` (its tets `tet_mesh`, by [`tet_mesh_of`];
+/// named `mesh` in messages) towards the targets `pairs` (`(vertex,
+/// target)`, vertices of `cells`, each at most once; named `targets`):
+/// repairs the mesh, solves on the repaired mesh (the memory budget checked
+/// before a Newton factor) and puts the solution back on the input's vertex
+/// numbers (module doc).
+///
+/// # Errors
+/// A mesh that cannot be repaired, an inverted tet, a target vertex out of
+/// range, the solver's failures; each at the input it is about.
+pub fn deform_mesh(
+    cells: CellMesh,
+    tet_mesh: &TetMesh,
+    pairs: &[(usize, [f64; 3])],
+    settings: &DeformSettings,
+    mesh: &Path,
+    targets: &Path,
+) -> Result<Deformed, CliError> {
+    settings.check()?;
+    let n = tet_mesh.num_vertices();
+    if let Some(&(v, _)) = pairs.iter().find(|(v, _)| *v >= n) {
+        return Err(at(
+            targets,
+            format!("vertex {v} is out of range (the mesh has {n} vertices, numbered from 0)"),
+        ));
+    }
+    let repaired = repair_tet_mesh_traced(
+        tet_mesh,
+        &RepairOptions {
+            weld: Weld::Relative,
+            keep_tet_orientation: true,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| at(mesh, e))?;
+    let of_input = &repaired.vertex_of_input;
+    let mut targeted = vec![false; repaired.mesh.num_vertices()];
+    let solve_pairs: Vec<(usize, [f64; 3])> = pairs
+        .iter()
+        .filter_map(|&(v, t)| {
+            let r = of_input[v]? as usize;
+            (!std::mem::replace(&mut targeted[r], true)).then_some((r, t))
+        })
+        .collect();
+    let mut stopping = match settings.solver {
+        SolverKind::Newton => ProjectedNewton::default().default_stopping(),
+        SolverKind::Gd => GradientDescent.default_stopping(),
+    };
+    stopping.grad_tol = settings.tol;
+    if let Some(n) = settings.max_iterations {
+        stopping.max_iterations = n;
+    }
+    let pipeline = Deform::new().weight(settings.weight).stopping(stopping);
+    let pipeline = match settings.energy {
+        Energy::SymmetricDirichlet => pipeline.energy(SymmetricDirichlet),
+        Energy::Arap => pipeline.energy(Arap),
+    };
+    let pipeline = match settings.solver {
+        SolverKind::Newton => pipeline.solver(ProjectedNewton::default()),
+        SolverKind::Gd => pipeline.solver(GradientDescent),
+    };
+    if settings.solver == SolverKind::Newton {
+        let pmesh = crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(mesh, e))?;
+        let estimate = crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(mesh, e))?;
+        drop(pmesh);
+        super::memory::check(
+            "deforming the mesh",
+            &estimate,
+            "coarsen the mesh, or use --solver gd (no factor)",
+        )?;
+    }
+    let outcome = pipeline
+        .run(&repaired.mesh, &solve_pairs)
+        .map_err(|e| deform_problem(mesh, targets, settings.solver, e))?;
+    let mut deformed = cells;
+    for (i, p) in deformed.positions.iter_mut().enumerate() {
+        if let Some(r) = of_input[i] {
+            *p = outcome.positions[r as usize];
+        }
+    }
+    for &(v, t) in pairs {
+        if of_input[v].is_none() {
+            deformed.positions[v] = t.into();
+        }
+    }
+    Ok(Deformed {
+        mesh: deformed,
+        tets: tet_mesh.num_tets(),
+        repair: repaired.report,
+        report: outcome.report,
+    })
+}
+
 /// Runs `unfold deform`.
 pub fn run(a: &DeformArgs) -> Result<(), CliError> {
-    if !(a.weight.is_finite() && a.weight > 0.0) {
-        return Err(CliError::Usage(format!(
-            "--weight must be a finite positive number, got {}",
-            a.weight
-        )));
-    }
-    if !(a.tol.is_finite() && a.tol > 0.0) {
-        return Err(CliError::Usage(format!(
-            "--tol must be a finite positive number, got {}",
-            a.tol
-        )));
-    }
+    let settings = DeformSettings {
+        weight: a.weight,
+        energy: a.energy,
+        solver: a.solver,
+        tol: a.tol,
+        max_iterations: a.max_iterations,
+    };
+    settings.check()?;
     let report_file = report_path(&a.output);
     let (out, rep) = (super::canonical(&a.output), super::canonical(&report_file));
     for input in [&a.mesh, &a.targets] {
@@ -279,92 +454,27 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     let mut staged = StagedOutputs::new([&a.mesh, &a.targets]);
     let (mesh_target, report_target) = (staged.file(&a.output)?, staged.file(&report_file)?);
     let cells = read_mesh(&a.mesh)?;
-    let tet_mesh = cells.to_tet_mesh().map_err(|e| match e {
-        MeshError::WrongCellType { cell, found, .. } => at(
-            &a.mesh,
-            format!(
-                "not a tetrahedral mesh (cell {cell} is a {found:?}); unfold deform needs a tet mesh"
-            ),
-        ),
-        e => at(&a.mesh, e),
-    })?;
+    let tet_mesh = tet_mesh_of(&cells, &a.mesh)?;
     let n = tet_mesh.num_vertices();
     let text = std::fs::read_to_string(&a.targets).map_err(|source| CliError::Fs {
         path: a.targets.display().to_string(),
         source,
     })?;
     let pairs = parse_targets(&text, &a.targets, n)?;
-    let repaired = repair_tet_mesh_traced(
-        &tet_mesh,
-        &RepairOptions {
-            weld: Weld::Relative,
-            keep_tet_orientation: true,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| at(&a.mesh, e))?;
-    let of_input = &repaired.vertex_of_input;
-    let mut targeted = vec![false; repaired.mesh.num_vertices()];
-    let solve_pairs: Vec<(usize, [f64; 3])> = pairs
-        .iter()
-        .filter_map(|&(v, t)| {
-            let r = of_input[v]? as usize;
-            (!std::mem::replace(&mut targeted[r], true)).then_some((r, t))
-        })
-        .collect();
-
-    let mut stopping = match a.solver {
-        SolverKind::Newton => ProjectedNewton::default().default_stopping(),
-        SolverKind::Gd => GradientDescent.default_stopping(),
-    };
-    stopping.grad_tol = a.tol;
-    if let Some(n) = a.max_iterations {
-        stopping.max_iterations = n;
-    }
-    let pipeline = Deform::new().weight(a.weight).stopping(stopping);
-    let pipeline = match a.energy {
-        Energy::SymmetricDirichlet => pipeline.energy(SymmetricDirichlet),
-        Energy::Arap => pipeline.energy(Arap),
-    };
-    let pipeline = match a.solver {
-        SolverKind::Newton => pipeline.solver(ProjectedNewton::default()),
-        SolverKind::Gd => pipeline.solver(GradientDescent),
-    };
-    if a.solver == SolverKind::Newton {
-        let pmesh =
-            crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(&a.mesh, e))?;
-        let estimate =
-            crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(&a.mesh, e))?;
-        drop(pmesh);
-        super::memory::check(
-            "deforming the mesh",
-            &estimate,
-            "coarsen the mesh, or use --solver gd (no factor)",
-        )?;
-    }
-    let outcome = pipeline
-        .run(&repaired.mesh, &solve_pairs)
-        .map_err(|e| deform_problem(a, e))?;
-    let report = &outcome.report;
-
-    let mut deformed = cells;
-    for (i, p) in deformed.positions.iter_mut().enumerate() {
-        if let Some(r) = of_input[i] {
-            *p = outcome.positions[r as usize];
-        }
-    }
-    for &(v, t) in &pairs {
-        if of_input[v].is_none() {
-            deformed.positions[v] = t.into();
-        }
-    }
+    let Deformed {
+        mesh: deformed,
+        tets,
+        repair,
+        report,
+    } = deform_mesh(cells, &tet_mesh, &pairs, &settings, &a.mesh, &a.targets)?;
+    let report = &report;
     write_mesh(&mesh_target, &deformed, &WriteOptions::default())
         .map_err(|e| staged.shown_error(e))?;
     let full = Report {
         mesh: a.mesh.display().to_string(),
         targets_file: a.targets.display().to_string(),
         output: a.output.display().to_string(),
-        repair: repaired.report,
+        repair,
         report,
         provenance: super::provenance::this_run(),
     };
@@ -384,7 +494,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
          objective {:.10e} (distortion {:.6e}), {} inverted tets",
         a.mesh.display(),
         a.output.display(),
-        tet_mesh.num_tets(),
+        tets,
         report.targets,
         report.solver,
         report.energy,
@@ -408,6 +518,45 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `unfold deform` alone, to parse its flags.
+    #[derive(clap::Parser)]
+    struct DeformCmd {
+        #[command(flatten)]
+        args: DeformArgs,
+    }
+
+    fn settings_of(args: &[&str]) -> DeformSettings {
+        use clap::Parser;
+        let base = ["deform", "m.vtu", "--targets", "t.csv", "-o", "o.vtu"];
+        let a = DeformCmd::try_parse_from(base.iter().chain(args))
+            .unwrap()
+            .args;
+        DeformSettings {
+            weight: a.weight,
+            energy: a.energy,
+            solver: a.solver,
+            tol: a.tol,
+            max_iterations: a.max_iterations,
+        }
+    }
+
+    #[test]
+    fn settings_default_to_the_flags_defaults() {
+        assert_eq!(settings_of(&[]), DeformSettings::default());
+        let s = settings_of(&["--energy", "arap", "--weight", "2"]);
+        assert_eq!((s.energy, s.weight), (Energy::Arap, 2.0));
+        assert!(
+            DeformSettings {
+                weight: 0.0,
+                ..DeformSettings::default()
+            }
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("--weight must be a finite positive number, got 0")
+        );
+    }
 
     fn parse(text: &str, n: usize) -> Result<Vec<(usize, [f64; 3])>, String> {
         parse_targets(text, Path::new("t.csv"), n).map_err(|e| e.to_string())

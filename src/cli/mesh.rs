@@ -15,10 +15,10 @@ use crate::mesh::{CellMesh, Volume};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
-/// How a segmentation is meshed (shared by `unfold mesh` and
-/// `unfold placenta --seg`).
+/// How a segmentation is meshed (shared by `unfold mesh`, `unfold placenta
+/// --seg` and the Python package's `unfold.tet_mesh`).
 #[derive(Debug, Clone, Args)]
-pub(crate) struct MaskArgs {
+pub struct MaskArgs {
     /// Lattice cube side, mm (tet edges are this and 0.87 of it)
     /// [default: the smallest voxel spacing].
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
@@ -52,7 +52,10 @@ pub(crate) struct MaskArgs {
 
 impl MaskArgs {
     /// The mesher's options, every flag checked.
-    pub(crate) fn options(&self, keep_all_components: bool) -> Result<MaskMeshOptions, CliError> {
+    ///
+    /// # Errors
+    /// [`CliError::Usage`] naming the flag out of range.
+    pub fn options(&self, keep_all_components: bool) -> Result<MaskMeshOptions, CliError> {
         if let Some(s) = self.size_mm {
             positive("--size-mm", s)?;
         }
@@ -91,7 +94,17 @@ impl MaskArgs {
     /// Reads the mask image at `path` (3D, binary or thresholded).
     pub(crate) fn read_mask(&self, path: &Path) -> Result<Volume<bool>, CliError> {
         let image = super::read_image_checked(path, 1.0)?;
-        mask_from_image(&image.volume, self.threshold).map_err(|e| {
+        self.mask_of(path, &image.volume)
+    }
+
+    /// The mask of the image `volume` (named `path` in messages): its
+    /// voxels above `--threshold`, or its 1s when it holds only 0 and 1.
+    ///
+    /// # Errors
+    /// [`mask_from_image`]'s (an image not binary without a threshold, or
+    /// with several frames), at `path`.
+    pub fn mask_of(&self, path: &Path, volume: &Volume<f32>) -> Result<Volume<bool>, CliError> {
+        mask_from_image(volume, self.threshold).map_err(|e| {
             let msg = e
                 .to_string()
                 .replace("give a threshold", "give --threshold");
@@ -117,9 +130,13 @@ impl MaskArgs {
         )
     }
 
-    /// Meshes the mask read from `path`; warns on stderr about dropped
-    /// components.
-    pub(crate) fn mesh(
+    /// Meshes the mask read from `path` (the memory budget checked first);
+    /// warns on stderr about dropped components.
+    ///
+    /// # Errors
+    /// The options' errors, [`CliError::Memory`], and the mesher's at
+    /// `path`.
+    pub fn mesh(
         &self,
         path: &Path,
         mask: &Volume<bool>,

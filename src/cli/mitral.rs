@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 /// `--annulus-mode`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum AnnulusArg {
+pub enum AnnulusArg {
     /// `v = 0`, `u` = 3D arc length.
     Straight,
     /// Heights above the least-squares plane of the annulus.
@@ -46,7 +46,7 @@ enum AnnulusArg {
 
 /// `--init`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum InitArg {
+pub enum InitArg {
     /// Longitudes when the leaflet has them, else Tutte.
     Auto,
     /// The longitude layout (error if a leaflet has none).
@@ -57,7 +57,7 @@ enum InitArg {
 
 /// `--relax`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum RelaxArg {
+pub enum RelaxArg {
     /// Mass-spring (the source's method; may flip triangles).
     Spring,
     /// Symmetric Dirichlet, projected Newton, flip-free.
@@ -119,9 +119,72 @@ pub struct MitralArgs {
 }
 
 impl MitralArgs {
-    /// The pipeline of the flags: the layout mode as the initializer, the
-    /// published pieces otherwise, every setting checked.
+    /// The settings of the flags.
+    fn settings(&self) -> MitralSettings {
+        MitralSettings {
+            annulus_mode: self.annulus_mode,
+            init: self.init,
+            relax: self.relax,
+            iterations: self.iterations,
+            step_scale: self.step_scale,
+            coaptation_mm: self.coaptation_mm,
+            tolerance_mm: self.tolerance_mm,
+            cut_posteromedial: self.cut_posteromedial,
+        }
+    }
+
+    /// The pipeline of the flags ([`MitralSettings::pipeline`]).
     fn pipeline(&self) -> Result<Pipeline, CliError> {
+        self.settings().pipeline()
+    }
+}
+
+/// The settings of `unfold mitral` other than its files (the flags'
+/// defaults: [`MitralSettings::default`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MitralSettings {
+    /// `--annulus-mode`.
+    pub annulus_mode: AnnulusArg,
+    /// `--init`.
+    pub init: InitArg,
+    /// `--relax`.
+    pub relax: RelaxArg,
+    /// `--iterations` (spring relaxation steps).
+    pub iterations: usize,
+    /// `--step-scale` (none: the library's).
+    pub step_scale: Option<f64>,
+    /// `--coaptation-mm`.
+    pub coaptation_mm: f64,
+    /// `--tolerance-mm` (none: the library's).
+    pub tolerance_mm: Option<f64>,
+    /// `--cut-posteromedial`.
+    pub cut_posteromedial: bool,
+}
+
+impl Default for MitralSettings {
+    /// The command line's defaults: landmark annulus, auto init, sd
+    /// relaxation, 5 spring steps, coaptation 2 mm.
+    fn default() -> Self {
+        MitralSettings {
+            annulus_mode: AnnulusArg::Landmark,
+            init: InitArg::Auto,
+            relax: RelaxArg::Sd,
+            iterations: 5,
+            step_scale: None,
+            coaptation_mm: 2.0,
+            tolerance_mm: None,
+            cut_posteromedial: false,
+        }
+    }
+}
+
+impl MitralSettings {
+    /// The pipeline of the settings: the layout mode as the initializer,
+    /// the published pieces otherwise, every setting checked.
+    ///
+    /// # Errors
+    /// [`CliError::Usage`] naming the flag out of range.
+    pub fn pipeline(&self) -> Result<Pipeline, CliError> {
         let init = LeafletLayout {
             mode: match self.init {
                 InitArg::Auto => InitMode::Auto,
@@ -178,7 +241,16 @@ impl MitralArgs {
 /// A leaflet file as a triangle mesh (surface cells only; lines and points
 /// are dropped, volume cells are an error).
 pub(crate) fn read_leaflet(path: &Path) -> Result<TriMesh, CliError> {
-    let cells = read_mesh(path)?;
+    leaflet_of(&read_mesh(path)?, path)
+}
+
+/// The leaflet in `cells` (named `path` in messages) as a triangle mesh:
+/// its surface cells and point arrays (lines and points are dropped).
+///
+/// # Errors
+/// Volume cells, no triangles, or cells that do not make a triangle mesh,
+/// at `path`.
+pub fn leaflet_of(cells: &CellMesh, path: &Path) -> Result<TriMesh, CliError> {
     let mut surface = CellMesh::from_points(cells.positions.clone());
     let mut volume = 0;
     for (t, vs) in cells.cells() {
@@ -338,25 +410,43 @@ pub(crate) fn run_valve(
         annulus: out.shown(&files.annulus),
     }
     .label();
-    let outcome = pipeline
-        .run(&ValveInput {
-            anterior: &anterior,
-            posterior: &posterior,
-            annulus: &ring,
-        })
-        .map_err(|e| organ(&label, e))?;
+    let outcome = map_valve(pipeline, &anterior, &posterior, &ring, &label)?;
     write_outcome(&outcome, dir, &label, figures)?;
     Ok(outcome)
 }
 
-/// `report.json` with the inputs named.
+/// Runs `pipeline` on one valve (named `label` in messages).
+///
+/// # Errors
+/// The pipeline's, about `label` (settings as usage errors).
+pub fn map_valve(
+    pipeline: &Pipeline,
+    anterior: &TriMesh,
+    posterior: &TriMesh,
+    annulus: &[Point3<f64>],
+    label: &str,
+) -> Result<Outcome, CliError> {
+    pipeline
+        .run(&ValveInput {
+            anterior,
+            posterior,
+            annulus,
+        })
+        .map_err(|e| organ(label, e))
+}
+
+/// `report.json` with the inputs named: `inputs`, every key of the
+/// library's [`Report`], `provenance` (the command line's or the Python
+/// package's: a type parameter, so both write one layout).
 #[derive(Serialize)]
-struct FullReport<'a> {
-    inputs: &'a str,
+pub struct FullReport<'a, P> {
+    /// The inputs' names.
+    pub inputs: &'a str,
+    /// The library's report.
     #[serde(flatten)]
-    report: &'a Report,
+    pub report: &'a Report,
     /// Version, command line, parameters, input hashes, start time.
-    provenance: super::provenance::Provenance,
+    pub provenance: P,
 }
 
 /// Writes one outcome's files into `dir` (created if missing), with its
@@ -681,6 +771,34 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `unfold mitral` alone, to parse its flags.
+    #[derive(clap::Parser)]
+    struct Mitral {
+        #[command(flatten)]
+        args: MitralArgs,
+    }
+
+    #[test]
+    fn settings_default_to_the_flags_defaults() {
+        use clap::Parser;
+        let m = Mitral::try_parse_from(["mitral", "--series", "d", "-o", "o"]).unwrap();
+        assert_eq!(m.args.settings(), MitralSettings::default());
+        let m = Mitral::try_parse_from([
+            "mitral",
+            "--series",
+            "d",
+            "-o",
+            "o",
+            "--relax",
+            "spring",
+            "--coaptation-mm",
+            "3",
+        ])
+        .unwrap();
+        assert_eq!(m.args.settings().relax, RelaxArg::Spring);
+        assert_eq!(m.args.settings().coaptation_mm, 3.0);
+    }
 
     #[test]
     fn ring_text_accepts_commas_spaces_comments_and_a_header() {

@@ -261,26 +261,15 @@ fn parse_point(s: &str) -> Result<Point3<f64>, String> {
 }
 
 impl VentricleArgs {
-    /// The pipeline settings, every flag checked.
+    /// The pipeline settings, every flag checked ([`settings`]).
     fn config(&self) -> Result<Config, CliError> {
-        let defaults = Config::default();
-        let display_exponent = match self.display_exponent {
-            Some(n) => positive("--display-exponent", n)?,
-            None => defaults.display_exponent,
-        };
-        Ok(Config {
-            chart: ChartConfig {
-                chamber: self.chamber.into(),
-                field: FieldConfig {
-                    grid_mm: positive("--grid-mm", self.grid_mm)?,
-                    hemisphere_mm: positive("--hemisphere-mm", self.hemisphere_mm)?,
-                    ..defaults.chart.field
-                },
-                snap_mm: positive("--snap-mm", self.snap_mm)?,
-                ..defaults.chart
-            },
-            display_exponent,
-        })
+        settings(
+            self.chamber.into(),
+            self.grid_mm,
+            self.hemisphere_mm,
+            self.display_exponent,
+            self.snap_mm,
+        )
     }
 }
 
@@ -302,7 +291,7 @@ const REPORT: &str = "report.json";
 
 /// The second heart of a transfer.
 #[derive(Debug, Clone)]
-pub(crate) struct TransferInput<'a> {
+pub struct TransferInput<'a> {
     /// Its name in messages and the report (its path, usually).
     pub label: &'a str,
     /// Its enclosing surface.
@@ -337,30 +326,37 @@ pub(crate) struct PipelineInput<'a> {
     pub bullseye_array: Option<&'a str>,
 }
 
-/// `report.json`: `inputs`, the library's report and the optional transfer.
+/// `report.json`: `inputs`, the library's report, the optional transfer,
+/// `memory` and `provenance` (the sections the command line and the Python
+/// package fill differently are type parameters, so both write one layout).
 #[derive(Serialize)]
-struct FullReport<'a> {
-    inputs: Inputs<'a>,
+pub struct FullReport<'a, M, P> {
+    /// The inputs' names.
+    pub inputs: Inputs<'a>,
+    /// The library's report.
     #[serde(flatten)]
-    report: &'a Report,
+    pub report: &'a Report,
+    /// The transfer into a second heart, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
-    transfer: Option<&'a TransferReport>,
+    pub transfer: Option<&'a TransferReport>,
     /// Predicted and measured peak memory of the run.
-    memory: super::memory::MemoryReport,
+    pub memory: M,
     /// Version, command line, parameters, input hashes, start time.
-    provenance: super::provenance::Provenance,
+    pub provenance: P,
 }
 
 /// The inputs named in `report.json`.
 #[derive(Serialize)]
-struct Inputs<'a> {
-    anatomy: &'a str,
-    surface: &'a str,
+pub struct Inputs<'a> {
+    /// The anatomy's name.
+    pub anatomy: &'a str,
+    /// The enclosing surface's name.
+    pub surface: &'a str,
 }
 
 /// `transfer` in `report.json`.
 #[derive(Debug, Clone, Serialize)]
-pub(crate) struct TransferReport {
+pub struct TransferReport {
     /// The second heart's enclosing surface.
     pub surface: String,
     /// Points carried over.
@@ -393,7 +389,7 @@ pub(crate) struct RunResult {
 
 /// `mesh`, or a copy with one vertex cell per point when it has no cells
 /// (viewers show nothing of a mesh without cells).
-fn with_vertex_cells(mesh: &CellMesh) -> Cow<'_, CellMesh> {
+pub fn with_vertex_cells(mesh: &CellMesh) -> Cow<'_, CellMesh> {
     if mesh.num_cells() > 0 {
         return Cow::Borrowed(mesh);
     }
@@ -404,10 +400,75 @@ fn with_vertex_cells(mesh: &CellMesh) -> Cow<'_, CellMesh> {
     Cow::Owned(m)
 }
 
-/// Runs the pipeline (and the transfer) and writes the outputs into
-/// `input.dir`: the meshes first, `report.json` last. Nothing is written
-/// when the pipeline or the transfer fails.
-pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliError> {
+/// The anatomy mapped, and carried into the second heart when asked for.
+#[derive(Debug)]
+pub struct Mapped {
+    /// The library's outcome.
+    pub outcome: Outcome,
+    /// The anatomy in the second heart (its cells and arrays kept) and the
+    /// transfer's report.
+    pub transferred: Option<(CellMesh, TransferReport)>,
+}
+
+/// The settings of `unfold ventricle`, every flag checked: `chamber`,
+/// `--grid-mm`, `--hemisphere-mm`, `--display-exponent` (none: 1/3),
+/// `--snap-mm`.
+///
+/// # Errors
+/// [`CliError::Usage`] naming the flag that is not a finite number > 0.
+pub fn settings(
+    chamber: Chamber,
+    grid_mm: f64,
+    hemisphere_mm: f64,
+    display_exponent: Option<f64>,
+    snap_mm: f64,
+) -> Result<Config, CliError> {
+    let defaults = Config::default();
+    let display_exponent = match display_exponent {
+        Some(n) => positive("--display-exponent", n)?,
+        None => defaults.display_exponent,
+    };
+    Ok(Config {
+        chart: ChartConfig {
+            chamber,
+            field: FieldConfig {
+                grid_mm: positive("--grid-mm", grid_mm)?,
+                hemisphere_mm: positive("--hemisphere-mm", hemisphere_mm)?,
+                ..defaults.chart.field
+            },
+            snap_mm: positive("--snap-mm", snap_mm)?,
+            ..defaults.chart
+        },
+        display_exponent,
+    })
+}
+
+/// Runs the pipeline on `anatomy` inside `surface` (named by the labels in
+/// messages): every anatomy point `v` goes to `psi(v) = (phi(v_S), d(v))`
+/// (module doc), and with a transfer on to `psi_2^-1(psi(v))` in the second
+/// heart; nothing is written. The Laplace field's estimate is checked
+/// against the memory budget.
+///
+/// # Errors
+/// The pipeline's, about `anatomy + surface`, and the transfer's, about
+/// the second heart.
+pub fn map_anatomy(
+    anatomy_label: &str,
+    anatomy: &CellMesh,
+    surface_label: &str,
+    surface: &TriMesh,
+    landmarks: &LandmarkPoints,
+    config: Config,
+    transfer: Option<&TransferInput<'_>>,
+) -> Result<Mapped, CliError> {
+    let input = MapInput {
+        anatomy_label,
+        anatomy,
+        surface_label,
+        surface,
+        landmarks,
+        config,
+    };
     let label = format!("{} + {}", input.anatomy_label, input.surface_label);
     progress(|| {
         format!(
@@ -427,7 +488,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
     let pipeline = Pipeline::new().config(config);
     let resident = super::memory::resident_bytes().unwrap_or(0.0);
     let outcome = pipeline
-        .run(input.anatomy, input.surface, &input.landmarks)
+        .run(input.anatomy, input.surface, input.landmarks)
         .map_err(|e| organ(&label, e))?;
     super::memory::record(resident + outcome.report.field.estimated_bytes);
     let r = &outcome.report;
@@ -445,7 +506,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         )
     });
 
-    let transferred = match &input.transfer {
+    let transferred = match transfer {
         None => None,
         Some(t) => {
             progress(|| {
@@ -492,6 +553,38 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         }
     };
 
+    Ok(Mapped {
+        outcome,
+        transferred,
+    })
+}
+
+/// The inputs of [`map_anatomy`] (for its progress lines).
+struct MapInput<'a> {
+    anatomy_label: &'a str,
+    anatomy: &'a CellMesh,
+    surface_label: &'a str,
+    surface: &'a TriMesh,
+    landmarks: &'a LandmarkPoints,
+    config: Config,
+}
+
+/// Runs the pipeline (and the transfer) and writes the outputs into
+/// `input.dir`: the meshes first, `report.json` last. Nothing is written
+/// when the pipeline or the transfer fails.
+pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliError> {
+    let Mapped {
+        outcome,
+        transferred,
+    } = map_anatomy(
+        input.anatomy_label,
+        input.anatomy,
+        input.surface_label,
+        input.surface,
+        &input.landmarks,
+        input.config,
+        input.transfer.as_ref(),
+    )?;
     let dir = input.dir;
     super::ensure_dir(dir)?;
     let opts = WriteOptions::default();
@@ -627,7 +720,10 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
 /// The hemisphere of radius `r` (mm) as an enclosing surface: the built-in
 /// cup with equal radius and length, cut at the equator (its base centre at
 /// the origin, apex on +z).
-fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
+///
+/// # Errors
+/// The shape's, as a usage error of `--to-hemisphere`.
+pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
     ventricle_cup(&VentricleParams {
         radius: r,
         length: r,

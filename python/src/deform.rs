@@ -1,0 +1,138 @@
+//! `unfold.deform`: `unfold deform` on numpy arrays
+//! ([`unfold::cli::deform::deform_mesh`], the command line's own repair,
+//! solve, messages and `OUT.report.json` layout).
+
+use crate::arrays::{cell_mesh, mesh_tuple};
+use clap::ValueEnum;
+use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use std::path::Path;
+use unfold::cli::deform::{
+    DeformSettings, Deformed, Energy, Report, SolverKind, deform_mesh, tet_mesh_of,
+};
+
+/// A value of a command-line enum by its flag value (e.g.
+/// "symmetric-dirichlet"), else the message listing the choices.
+pub(crate) fn choice<T: ValueEnum>(flag: &str, value: &str) -> PyResult<T> {
+    T::from_str(value, false).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+            .collect();
+        crate::error(format!(
+            "{flag} must be one of {}, got '{value}'",
+            names.join(", ")
+        ))
+    })
+}
+
+/// Deforms a tet mesh towards targets; returns `(deformed, report_json)`,
+/// the mesh as `(points, cells, point_data, cell_data)`.
+#[pyfunction]
+#[pyo3(signature = (
+    points, cells, vertices, targets, *, point_data=None, cell_data=None, weight=1.0,
+    energy="symmetric-dirichlet", solver="newton", tol=1e-4, max_iterations=None,
+    name="mesh", targets_name="targets"
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn deform<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    cells: &Bound<'py, PyDict>,
+    vertices: PyReadonlyArray1<'py, i64>,
+    targets: PyReadonlyArray2<'py, f64>,
+    point_data: Option<&Bound<'py, PyDict>>,
+    cell_data: Option<&Bound<'py, PyDict>>,
+    weight: f64,
+    energy: &str,
+    solver: &str,
+    tol: f64,
+    max_iterations: Option<usize>,
+    name: &str,
+    targets_name: &str,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let settings = DeformSettings {
+        weight,
+        energy: choice::<Energy>("--energy", energy)?,
+        solver: choice::<SolverKind>("--solver", solver)?,
+        tol,
+        max_iterations,
+    };
+    settings.check().map_err(crate::error)?;
+    let mesh_path = Path::new(name);
+    let targets_path = Path::new(targets_name);
+    let cells = cell_mesh(points, cells, point_data, cell_data)?;
+    let tets = tet_mesh_of(&cells, mesh_path).map_err(crate::error)?;
+    let pairs = target_pairs(&vertices, &targets, cells.positions.len(), targets_name)?;
+    let parameters = format!("{settings:?}");
+    let Deformed {
+        mesh,
+        repair,
+        report,
+        ..
+    } = py
+        .detach(|| deform_mesh(cells, &tets, &pairs, &settings, mesh_path, targets_path))
+        .map_err(crate::error)?;
+    let json = crate::report::json(&Report {
+        mesh: name.to_string(),
+        targets_file: targets_name.to_string(),
+        output: String::new(),
+        repair,
+        report: &report,
+        provenance: crate::report::Provenance::now(parameters),
+    })?;
+    let mesh = mesh_tuple(py, &mesh)?;
+    PyTuple::new(py, [mesh.into_any(), json.into_pyobject(py)?.into_any()])
+}
+
+/// `(vertex, target)` pairs, checked as the command line checks its
+/// targets file (a row for a line): in range, finite, each vertex once.
+fn target_pairs(
+    vertices: &PyReadonlyArray1<'_, i64>,
+    targets: &PyReadonlyArray2<'_, f64>,
+    n: usize,
+    what: &str,
+) -> PyResult<Vec<(usize, [f64; 3])>> {
+    let k = vertices.len();
+    if targets.shape() != [k, 3] {
+        return Err(crate::error(format!(
+            "{what}: expected {k} target points of shape ({k}, 3) for the {k} vertices, got {:?}",
+            targets.shape()
+        )));
+    }
+    if k == 0 {
+        return Err(crate::error(format!(
+            "{what}: no targets (expected vertices and their target points)"
+        )));
+    }
+    let mut row_of = vec![usize::MAX; n];
+    let t = targets.as_array();
+    let mut pairs = Vec::with_capacity(k);
+    for (row, &v) in vertices.as_array().iter().enumerate() {
+        if v < 0 || v as u64 >= n as u64 {
+            return Err(crate::error(format!(
+                "{what}: row {row}: vertex {v} is out of range (the mesh has {n} vertices, \
+                 numbered from 0)"
+            )));
+        }
+        let v = v as usize;
+        let p = [t[[row, 0]], t[[row, 1]], t[[row, 2]]];
+        if let Some(c) = p.iter().position(|x| !x.is_finite()) {
+            return Err(crate::error(format!(
+                "{what}: row {row}: bad {} coordinate `{}` (expected a finite number)",
+                ["x", "y", "z"][c],
+                p[c]
+            )));
+        }
+        if row_of[v] != usize::MAX {
+            return Err(crate::error(format!(
+                "{what}: row {row}: vertex {v} is listed twice (first on row {})",
+                row_of[v]
+            )));
+        }
+        row_of[v] = row;
+        pairs.push((v, p));
+    }
+    Ok(pairs)
+}

@@ -1,0 +1,132 @@
+//! numpy inputs turned into the library's types, every shape and index
+//! checked: points, triangle meshes, landmark points, image volumes and
+//! their affines (and volumes back into numpy).
+
+use numpy::ndarray::{Array, IxDyn};
+use numpy::{IntoPyArray, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use unfold::mesh::nalgebra::{Matrix4, Point3};
+use unfold::mesh::{TriMesh, Volume};
+
+/// The rows of an `(n, 3)` array as points; `what` names it in messages.
+pub(crate) fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<Point3<f64>>> {
+    if a.shape()[1] != 3 {
+        return Err(crate::error(format!(
+            "{what} must have shape (n, 3), got {:?}",
+            a.shape()
+        )));
+    }
+    Ok(a.as_array()
+        .rows()
+        .into_iter()
+        .map(|r| Point3::new(r[0], r[1], r[2]))
+        .collect())
+}
+
+/// A point from three coordinates, each finite; `what` names it.
+pub(crate) fn point(p: [f64; 3], what: &str) -> PyResult<Point3<f64>> {
+    if p.iter().all(|x| x.is_finite()) {
+        Ok(Point3::new(p[0], p[1], p[2]))
+    } else {
+        Err(crate::error(format!(
+            "{what} must be three finite coordinates, got {p:?}"
+        )))
+    }
+}
+
+/// An optional point ([`point`]).
+pub(crate) fn opt_point(p: Option<[f64; 3]>, what: &str) -> PyResult<Option<Point3<f64>>> {
+    p.map(|p| point(p, what)).transpose()
+}
+
+/// A triangle mesh from `(n, 3)` points and `(m, 3)` triangles; `what`
+/// names it in messages.
+pub(crate) fn tri_mesh(
+    points: &PyReadonlyArray2<'_, f64>,
+    triangles: &PyReadonlyArray2<'_, i64>,
+    what: &str,
+) -> PyResult<TriMesh> {
+    let positions = self::points(points, &format!("{what} points"))?;
+    if triangles.shape()[1] != 3 {
+        return Err(crate::error(format!(
+            "{what} triangles must have shape (m, 3), got {:?}",
+            triangles.shape()
+        )));
+    }
+    let n = positions.len();
+    let mut tris = Vec::with_capacity(triangles.shape()[0]);
+    for (t, r) in triangles.as_array().rows().into_iter().enumerate() {
+        let mut tri = [0u32; 3];
+        for (slot, &v) in tri.iter_mut().zip(r) {
+            if v < 0 || v as u64 >= n as u64 {
+                return Err(crate::error(format!(
+                    "{what} triangles row {t} refers to point {v}, but there are {n} points"
+                )));
+            }
+            *slot = v as u32;
+        }
+        tris.push(tri);
+    }
+    Ok(TriMesh::new(positions, tris))
+}
+
+/// A 4x4 affine (voxel indices to RAS mm); `what` names it.
+pub(crate) fn affine(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Matrix4<f64>> {
+    if a.shape() != [4, 4] {
+        return Err(crate::error(format!(
+            "{what}: the affine must be a 4x4 array, got shape {:?}",
+            a.shape()
+        )));
+    }
+    let v = a.as_array();
+    Ok(Matrix4::from_fn(|r, c| v[[r, c]]))
+}
+
+/// A volume from a 3D `(nx, ny, nz)` or 4D `(nx, ny, nz, nt)` array
+/// (indexed as nibabel's `get_fdata()`: `[i, j, k, t]`) and its affine.
+pub(crate) fn volume(
+    data: &PyReadonlyArrayDyn<'_, f32>,
+    affine: &PyReadonlyArray2<'_, f64>,
+    what: &str,
+) -> PyResult<Volume<f32>> {
+    let shape = data.shape();
+    let dims = match *shape {
+        [x, y, z] => [x, y, z, 1],
+        [x, y, z, t] => [x, y, z, t],
+        _ => {
+            return Err(crate::error(format!(
+                "{what}: expected a 3D or 4D array, got shape {shape:?}"
+            )));
+        }
+    };
+    let a = data.as_array();
+    // i fastest, as the volume stores its voxels.
+    let values: Vec<f32> = a.reversed_axes().iter().copied().collect();
+    Volume::new(dims, self::affine(affine, what)?, values)
+        .map_err(|e| crate::error(format!("{what}: {e}")))
+}
+
+/// A volume as `(data, affine)`: data `(nx, ny, nz)` (one frame) or `(nx,
+/// ny, nz, nt)`, float32; the affine 4x4 float64.
+pub(crate) fn volume_arrays<'py>(
+    py: Python<'py>,
+    v: &Volume<f32>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let [x, y, z, t] = v.dims();
+    let reversed: Vec<usize> = if t == 1 {
+        vec![z, y, x]
+    } else {
+        vec![t, z, y, x]
+    };
+    let data = Array::from_shape_vec(IxDyn(&reversed), v.data().to_vec())
+        .map_err(crate::error)?
+        .reversed_axes()
+        .as_standard_layout()
+        .into_owned();
+    let m = v.affine();
+    let affine = Array::from_shape_fn((4, 4), |(r, c)| m[(r, c)]);
+    Ok((
+        data.into_pyarray(py).into_any(),
+        affine.into_pyarray(py).into_any(),
+    ))
+}

@@ -1,0 +1,64 @@
+//! The sections of a Python run's report that differ from the command
+//! line's: `memory` (the prediction only, no budget) and `provenance` (no
+//! command line, no input files), with the command line's keys.
+
+use serde::Serialize;
+
+/// `memory` in a Python report: the keys of the command line's; the
+/// prediction is not checked against a budget (there is none in Python).
+#[derive(Serialize)]
+pub(crate) struct Memory {
+    pub predicted_peak_bytes: u64,
+    pub peak_bytes: Option<u64>,
+    pub limit_bytes: Option<u64>,
+    pub limit_source: &'static str,
+}
+
+impl Memory {
+    /// A prediction of `bytes` (0 when not finite or negative).
+    pub fn predicted(bytes: f64) -> Self {
+        Memory {
+            predicted_peak_bytes: if bytes.is_finite() && bytes > 0.0 {
+                bytes as u64
+            } else {
+                0
+            },
+            peak_bytes: None,
+            limit_bytes: None,
+            limit_source: "unknown",
+        }
+    }
+}
+
+/// `provenance` in a Python report: the command line's keys where they
+/// apply (no command line, no input files).
+#[derive(Serialize)]
+pub(crate) struct Provenance {
+    pub unfold_version: &'static str,
+    pub interface: &'static str,
+    pub command_line: Vec<String>,
+    pub parameters: String,
+    pub inputs: Vec<String>,
+    pub run_hash: String,
+    pub started: String,
+}
+
+impl Provenance {
+    /// A Python run started now, with `parameters` (the call's settings).
+    pub fn now(parameters: String) -> Self {
+        Provenance {
+            unfold_version: env!("CARGO_PKG_VERSION"),
+            interface: "python",
+            command_line: Vec::new(),
+            parameters,
+            inputs: Vec::new(),
+            run_hash: String::new(),
+            started: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+        }
+    }
+}
+
+/// `report` as indented JSON (the layout of `report.json`).
+pub(crate) fn json(report: &impl Serialize) -> pyo3::PyResult<String> {
+    serde_json::to_string_pretty(report).map_err(crate::error)
+}

@@ -1,0 +1,191 @@
+//! `unfold.ventricle`: `unfold ventricle` on numpy arrays
+//! ([`unfold::cli::ventricle::map_anatomy`]: the command line's settings
+//! checks, pipeline, transfer, messages and `report.json` layout).
+
+use crate::arrays::{cell_mesh, mesh_tuple};
+use crate::inputs::{opt_point, point, tri_mesh};
+use crate::report::{Memory, Provenance};
+use numpy::PyReadonlyArray2;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use unfold::cli::ventricle::{
+    FullReport, Inputs, Mapped, TransferInput, hemisphere, map_anatomy, settings, with_vertex_cells,
+};
+use unfold::mesh::CellMesh;
+use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
+use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::organs::ventricle::{Chamber, LandmarkPoints};
+
+/// The anatomy given as `(points, cells, point_data, cell_data)`.
+type Anatomy<'py> = (
+    PyReadonlyArray2<'py, f64>,
+    Bound<'py, PyDict>,
+    Option<Bound<'py, PyDict>>,
+    Option<Bound<'py, PyDict>>,
+);
+
+/// The chamber of a name ("lv", "rv").
+fn chamber(name: &str) -> PyResult<Chamber> {
+    match name.to_ascii_lowercase().as_str() {
+        "lv" => Ok(Chamber::Lv),
+        "rv" => Ok(Chamber::Rv),
+        _ => Err(crate::error(format!(
+            "--chamber must be one of lv, rv, got '{name}'"
+        ))),
+    }
+}
+
+/// Maps an anatomy into the canonical cylinder; returns `(normalized,
+/// anatomy, disk, transferred or None, report_json)`, each mesh as
+/// `(points, cells, point_data, cell_data)`.
+#[pyfunction]
+#[pyo3(signature = (
+    points, triangles, anatomy, *, anterior, inferior, apex=None, rim_near=None,
+    chamber="lv", grid_mm=None, hemisphere_mm=None, display_exponent=None, snap_mm=None,
+    to_points=None, to_triangles=None, to_anterior=None, to_inferior=None, to_apex=None,
+    to_rim_near=None, to_hemisphere=None, anatomy_name="anatomy", surface_name="surface",
+    to_name="second surface"
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn ventricle<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    triangles: PyReadonlyArray2<'py, i64>,
+    anatomy: Anatomy<'py>,
+    anterior: [f64; 3],
+    inferior: [f64; 3],
+    apex: Option<[f64; 3]>,
+    rim_near: Option<[f64; 3]>,
+    chamber: &str,
+    grid_mm: Option<f64>,
+    hemisphere_mm: Option<f64>,
+    display_exponent: Option<f64>,
+    snap_mm: Option<f64>,
+    to_points: Option<PyReadonlyArray2<'py, f64>>,
+    to_triangles: Option<PyReadonlyArray2<'py, i64>>,
+    to_anterior: Option<[f64; 3]>,
+    to_inferior: Option<[f64; 3]>,
+    to_apex: Option<[f64; 3]>,
+    to_rim_near: Option<[f64; 3]>,
+    to_hemisphere: Option<f64>,
+    anatomy_name: &str,
+    surface_name: &str,
+    to_name: &str,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let config = settings(
+        self::chamber(chamber)?,
+        grid_mm.unwrap_or(DEFAULT_GRID_MM),
+        hemisphere_mm.unwrap_or(DEFAULT_HEMISPHERE_MM),
+        display_exponent,
+        snap_mm.unwrap_or(DEFAULT_SNAP_MM),
+    )
+    .map_err(crate::error)?;
+    let parameters = format!("{config:?}");
+    let surface = tri_mesh(&points, &triangles, surface_name)?;
+    let (ap, ac, apd, acd) = anatomy;
+    let anatomy = cell_mesh(ap, &ac, apd.as_ref(), acd.as_ref())?;
+    if anatomy.positions.is_empty() {
+        return Err(crate::error(format!(
+            "{anatomy_name}: has no points; the anatomy to map is a mesh or points inside S"
+        )));
+    }
+    let landmarks = LandmarkPoints {
+        anterior: point(anterior, "anterior")?,
+        inferior: point(inferior, "inferior")?,
+        apex: opt_point(apex, "apex")?,
+        rim_near: opt_point(rim_near, "rim_near")?,
+    };
+    if to_hemisphere.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+        return Err(crate::error(format!(
+            "--to-hemisphere must be a finite number > 0, got {}",
+            to_hemisphere.unwrap_or(f64::NAN)
+        )));
+    }
+    let second = match (to_points, to_triangles, to_hemisphere) {
+        (Some(_), _, Some(_)) => {
+            return Err(crate::error("give to_surface or to_hemisphere, not both"));
+        }
+        (Some(p), Some(t), None) => {
+            let (Some(a), Some(i)) = (to_anterior, to_inferior) else {
+                return Err(crate::error(
+                    "--to-surface needs --to-anterior and --to-inferior (the second heart's \
+                     rim landmarks)",
+                ));
+            };
+            Some((
+                tri_mesh(&p, &t, to_name)?,
+                LandmarkPoints {
+                    anterior: point(a, "to_anterior")?,
+                    inferior: point(i, "to_inferior")?,
+                    apex: opt_point(to_apex, "to_apex")?,
+                    rim_near: opt_point(to_rim_near, "to_rim_near")?,
+                },
+                to_name.to_string(),
+            ))
+        }
+        (None, _, Some(r)) => {
+            let h = hemisphere(r).map_err(crate::error)?;
+            Some((
+                h.surface,
+                LandmarkPoints {
+                    anterior: h.anterior,
+                    inferior: h.inferior,
+                    apex: Some(h.apex),
+                    rim_near: None,
+                },
+                format!("the hemisphere of radius {r} mm"),
+            ))
+        }
+        _ => None,
+    };
+    let Mapped {
+        outcome,
+        transferred,
+    } = py
+        .detach(|| {
+            let transfer = second
+                .as_ref()
+                .map(|(surface, landmarks, label)| TransferInput {
+                    label,
+                    surface,
+                    landmarks: *landmarks,
+                });
+            map_anatomy(
+                anatomy_name,
+                &anatomy,
+                surface_name,
+                &surface,
+                &landmarks,
+                config,
+                transfer.as_ref(),
+            )
+        })
+        .map_err(crate::error)?;
+    let json = crate::report::json(&FullReport {
+        inputs: Inputs {
+            anatomy: anatomy_name,
+            surface: surface_name,
+        },
+        report: &outcome.report,
+        transfer: transferred.as_ref().map(|(_, r)| r),
+        memory: Memory::predicted(outcome.report.field.estimated_bytes),
+        provenance: Provenance::now(parameters),
+    })?;
+    let normalized = mesh_tuple(py, &with_vertex_cells(&outcome.normalized))?;
+    let anatomy = mesh_tuple(py, &with_vertex_cells(&outcome.anatomy))?;
+    let disk = mesh_tuple(py, &CellMesh::from(&outcome.disk))?;
+    let transferred = match &transferred {
+        Some((mesh, _)) => mesh_tuple(py, &with_vertex_cells(mesh))?.into_any(),
+        None => py.None().into_bound(py),
+    };
+    PyTuple::new(
+        py,
+        [
+            normalized.into_any(),
+            anatomy.into_any(),
+            disk.into_any(),
+            transferred,
+            json.into_pyobject(py)?.into_any(),
+        ],
+    )
+}

@@ -1,0 +1,115 @@
+"""unfold.deform against `unfold deform` on the same slab and targets."""
+
+import json
+
+import meshio
+import numpy as np
+import pytest
+
+import unfold
+from conftest import assert_mesh_equal, cli, coords
+
+
+@pytest.fixture(scope="module")
+def problem():
+    slab = unfold.shapes.placenta_slab(4)
+    p = slab.points
+    # The fetal side (side 1) lifted by 1 mm at one end.
+    vertices = np.flatnonzero(slab.point_data["side"] == 1)[::3]
+    targets = p[vertices] + np.outer(p[vertices, 0] > 0, [0.0, 0.0, 1.0])
+    return slab, vertices, targets
+
+
+def write_targets(path, vertices, targets):
+    lines = ["vertex,x,y,z"] + [f"{v},{coords(t)}" for v, t in zip(vertices, targets)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.fixture(scope="module")
+def both(problem, unfold_bin, tmp_path_factory):
+    slab, vertices, targets = problem
+    d = tmp_path_factory.mktemp("deform")
+    unfold.write_mesh(d / "slab.vtu", slab)
+    write_targets(d / "t.csv", vertices, targets)
+    cli(unfold_bin, "deform", d / "slab.vtu", "--targets", d / "t.csv", "-o", d / "out.vtu")
+    result = unfold.deform(slab.points, slab.cells["tetra"], vertices, targets,
+                           point_data=slab.point_data, name=str(d / "slab.vtu"),
+                           targets_name=str(d / "t.csv"))
+    return result, d
+
+
+def test_points_and_arrays_equal_the_cli(both):
+    result, d = both
+    assert result.points.dtype == np.float64
+    assert_mesh_equal(meshio.read(d / "out.vtu"), result.points, result.cells, result.arrays)
+
+
+def test_report_has_the_cli_keys(both, problem):
+    result, d = both
+    cli_report = json.loads((d / "out.vtu.report.json").read_text())
+    assert set(result.report) == set(cli_report)
+    for key in ("mesh", "targets_file", "iterations", "converged", "targets", "repair",
+                "inverted_tets"):
+        assert result.report[key] == cli_report[key], key
+    assert abs(result.report["objective"] - cli_report["objective"]) <= 1e-12
+    assert result.report["provenance"]["interface"] == "python"
+    assert result.report["converged"] and result.report["inverted_tets"] == 0
+    _, vertices, targets = problem
+    assert np.abs(result.points[vertices] - targets).max() < 0.5
+
+
+def test_a_cell_dict_and_other_settings(problem):
+    slab, vertices, targets = problem
+    r = unfold.deform(slab.points, {"tetra": slab.cells["tetra"]}, vertices, targets,
+                      energy="arap", weight=10.0)
+    assert r.report["energy"] != "symmetric-dirichlet" and r.report["converged"]
+    assert r.arrays == {}
+
+
+def test_a_target_out_of_range_raises_the_cli_message(problem, unfold_bin, tmp_path):
+    slab, vertices, targets = problem
+    n = len(slab.points)
+    unfold.write_mesh(tmp_path / "slab.vtu", slab)
+    write_targets(tmp_path / "t.csv", [n + 5], targets[:1])
+    out = cli(unfold_bin, "deform", tmp_path / "slab.vtu", "--targets", tmp_path / "t.csv",
+              "-o", tmp_path / "o.vtu", ok=False)
+    message = f"vertex {n + 5} is out of range (the mesh has {n} vertices, numbered from 0)"
+    assert message in out.stderr
+    with pytest.raises(unfold.UnfoldError, match=r"targets: row 0: vertex \d+ is out of range"):
+        unfold.deform(slab.points, slab.cells["tetra"], [n + 5], targets[:1])
+    with pytest.raises(unfold.UnfoldError, match="vertex 3 is listed twice"):
+        unfold.deform(slab.points, slab.cells["tetra"], [3, 3], targets[:2])
+
+
+def test_an_inverted_tet_raises_the_cli_message(problem, unfold_bin, tmp_path):
+    slab, vertices, targets = problem
+    tets = slab.cells["tetra"].copy()
+    tets[7, [0, 1]] = tets[7, [1, 0]]
+    path = tmp_path / "inv.vtu"
+    unfold.write_mesh(path, slab.points, {"tetra": tets})
+    write_targets(tmp_path / "t.csv", vertices, targets)
+    out = cli(unfold_bin, "deform", path, "--targets", tmp_path / "t.csv",
+              "-o", tmp_path / "o.vtu", ok=False)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.deform(slab.points, tets, vertices, targets, name=str(path))
+    assert "tet 7 is inverted" in str(e.value)
+    assert f"unfold: error: {e.value}" in out.stderr
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"weight": -1.0}, "--weight must be a finite positive number, got -1"),
+    ({"tol": float("nan")}, "--tol must be a finite positive number, got NaN"),
+    ({"energy": "rigid"}, "--energy must be one of symmetric-dirichlet, arap, got 'rigid'"),
+    ({"solver": "lbfgs"}, "--solver must be one of newton, gd, got 'lbfgs'"),
+])
+def test_bad_settings(problem, kwargs, message):
+    slab, vertices, targets = problem
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.deform(slab.points, slab.cells["tetra"], vertices, targets, **kwargs)
+    assert str(e.value) == message
+
+
+def test_triangles_are_not_a_tet_mesh(problem):
+    slab, vertices, targets = problem
+    with pytest.raises(unfold.UnfoldError, match="not a tetrahedral mesh"):
+        unfold.deform(slab.points, {"triangle": slab.cells["tetra"][:, :3]}, vertices, targets)

@@ -1,0 +1,140 @@
+"""``unfold mitral`` on one valve given as numpy arrays."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any, Dict, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _native
+from ._convert import fields, indices, points as _points
+from ._mesh import Mesh
+
+__all__ = ["MitralResult", "mitral"]
+
+Leaflet = Union[Mesh, Tuple[np.ndarray, np.ndarray]]
+
+
+def _leaflet(x, what: str):
+    if isinstance(x, Mesh):
+        if "triangle" not in x.cells:
+            raise _native.UnfoldError(f"{what}: has no triangles; a leaflet is a triangle surface")
+        return (_points(x.points, f"{what} points"),
+                {"triangle": indices(x.cells["triangle"], 3, f"{what} triangles")},
+                fields(x.point_data))
+    try:
+        p, t = x
+    except (TypeError, ValueError):
+        raise _native.UnfoldError(
+            f"{what}: expected a Mesh or (points, triangles), got {type(x).__name__}"
+        ) from None
+    return (_points(p, f"{what} points"), {"triangle": indices(t, 3, f"{what} triangles")}, {})
+
+
+@dataclass
+class MitralResult:
+    """What :func:`mitral` returns.
+
+    Attributes:
+        points: the valve laid out in 2D at ``(u, v, 0)``, float64 (n, 3)
+            (``valve2d.vtu``): the anterior leaflet's vertices, then the
+            posterior's.
+        cells: ``{"triangle": (m, 3) int64}``, both leaflets.
+        arrays: the command line's arrays (``leaflet``, ``u_gradient``,
+            ``u_interval``, ``checker``, ``carpentier``, ``area_energy``,
+            ``angle_energy``, ``length_energy``, ``coaptation``,
+            ``coaptation_distance_mm``, ``tenting_mm``, ``uv``, ...).
+        point_data: the per-point arrays of ``arrays``.
+        cell_data: the per-triangle arrays of ``arrays``.
+        original: the valve in 3D with the same arrays (``valve3d.vtu``).
+        report: ``report.json``'s keys: ``inputs`` (the ``name`` given), the
+            library report's (measurements, distortion, ...) and
+            ``provenance`` (``interface: "python"``).
+    """
+
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    original: Mesh
+    report: Dict[str, Any]
+
+    @property
+    def mesh(self) -> Mesh:
+        """The 2D valve as a :class:`Mesh` (to pass to ``write_mesh``)."""
+        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
+
+
+def mitral(
+    anterior: Leaflet,
+    posterior: Leaflet,
+    annulus,
+    *,
+    annulus_mode: str = "landmark",
+    init: str = "auto",
+    relax: str = "sd",
+    iterations: int = 5,
+    step_scale: Optional[float] = None,
+    coaptation_mm: float = 2.0,
+    tolerance_mm: Optional[float] = None,
+    cut_posteromedial: bool = False,
+    name: str = "valve",
+) -> MitralResult:
+    """Lays one mitral valve out in 2D (``unfold mitral``).
+
+    The annulus first (arc length ``u`` and height ``v`` above its plane),
+    the leaflets below it, relaxed flip-free (symmetric Dirichlet, projected
+    Newton) by default; clinical maps and measurements. The GIL is released
+    while the Rust code runs.
+
+    Args:
+        anterior: the anterior leaflet, a triangle surface with disk topology:
+            a :class:`Mesh` (its triangles and point arrays) or ``(points,
+            triangles)``.
+        posterior: the posterior leaflet, likewise.
+        annulus: (k, 3) the annulus ring's points in ring order.
+        annulus_mode: "landmark" (default), "least-squares" or "straight".
+        init: "auto" (default), "longitudes" or "tutte".
+        relax: "sd" (default) or "spring".
+        iterations: spring relaxation steps (``--iterations``).
+        step_scale: spring step scale (None: the library's).
+        coaptation_mm: coaptation threshold, mm.
+        tolerance_mm: distance within which a leaflet boundary vertex lies on
+            the ring, mm (None: the library's).
+        cut_posteromedial: a second cut at the posteromedial commissure.
+        name: what messages and ``report["inputs"]`` call the valve.
+
+    Returns:
+        A :class:`MitralResult`.
+
+    Raises:
+        UnfoldError: a bad setting, leaflet or ring, with the command line's
+            message.
+    """
+    valve2d, valve3d, report = _native.mitral(
+        _leaflet(anterior, f"{name}: anterior leaflet"),
+        _leaflet(posterior, f"{name}: posterior leaflet"),
+        _points(annulus, "annulus"),
+        annulus_mode=annulus_mode,
+        init=init,
+        relax=relax,
+        iterations=int(iterations),
+        step_scale=None if step_scale is None else float(step_scale),
+        coaptation_mm=float(coaptation_mm),
+        tolerance_mm=None if tolerance_mm is None else float(tolerance_mm),
+        cut_posteromedial=bool(cut_posteromedial),
+        name=name,
+    )
+    flat = Mesh._from_tuple(valve2d)
+    return MitralResult(
+        points=flat.points,
+        cells=flat.cells,
+        arrays={**flat.point_data, **flat.cell_data},
+        point_data=flat.point_data,
+        cell_data=flat.cell_data,
+        original=Mesh._from_tuple(valve3d),
+        report=json.loads(report),
+    )

@@ -1,0 +1,181 @@
+"""``unfold ventricle`` on numpy arrays."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any, Dict, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _native
+from ._convert import indices, mesh_args, point3, points as _points
+from ._mesh import Mesh
+
+__all__ = ["VentricleResult", "ventricle"]
+
+
+@dataclass
+class VentricleResult:
+    """What :func:`ventricle` returns.
+
+    Attributes:
+        points: the anatomy in the canonical cylinder, ``(X, Y, depth)``,
+            float64 (n, 3) (``normalized.vtu``).
+        cells: the anatomy's cells (one ``"vertex"`` cell per point when it
+            has none, as the command line writes them).
+        arrays: the command line's arrays: ``xi``, ``zeta``, ``depth`` and
+            (LV) ``aha`` per point, plus the anatomy's own.
+        point_data: the per-point arrays of ``arrays``.
+        cell_data: the per-cell arrays of ``arrays``.
+        anatomy: the input anatomy with the same arrays (``anatomy.vtu``).
+        disk: the surface S flattened to the disk, arrays ``xi``, ``zeta``
+            (``disk.vtu``).
+        transferred: the anatomy carried into the second heart
+            (``transferred.vtu``), or None without a transfer.
+        report: ``report.json``'s keys: ``inputs``, the library report's,
+            ``transfer`` (with one), ``memory`` (the field's prediction only)
+            and ``provenance`` (``interface: "python"``).
+    """
+
+    points: np.ndarray
+    cells: Dict[str, np.ndarray]
+    arrays: Dict[str, np.ndarray]
+    point_data: Dict[str, np.ndarray]
+    cell_data: Dict[str, np.ndarray]
+    anatomy: Mesh
+    disk: Mesh
+    transferred: Optional[Mesh]
+    report: Dict[str, Any]
+
+    @property
+    def mesh(self) -> Mesh:
+        """The normalized anatomy as a :class:`Mesh` (to pass to ``write_mesh``)."""
+        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
+
+
+def _surface(s, what: str) -> Tuple[np.ndarray, np.ndarray]:
+    if isinstance(s, Mesh):
+        if "triangle" not in s.cells:
+            raise _native.UnfoldError(f"{what}: has no triangles; S is a triangle surface")
+        return _points(s.points, f"{what} points"), indices(s.cells["triangle"], 3, f"{what} triangles")
+    try:
+        p, t = s
+    except (TypeError, ValueError):
+        raise _native.UnfoldError(
+            f"{what}: expected a Mesh or (points, triangles), got {type(s).__name__}"
+        ) from None
+    return _points(p, f"{what} points"), indices(t, 3, f"{what} triangles")
+
+
+def ventricle(
+    points,
+    triangles,
+    *,
+    anterior,
+    inferior,
+    apex=None,
+    rim_near=None,
+    anatomy: Union[Mesh, np.ndarray, None] = None,
+    chamber: str = "lv",
+    grid_mm: Optional[float] = None,
+    hemisphere_mm: Optional[float] = None,
+    display_exponent: Optional[float] = None,
+    snap_mm: Optional[float] = None,
+    to_surface: Union[Mesh, Tuple[np.ndarray, np.ndarray], None] = None,
+    to_anterior=None,
+    to_inferior=None,
+    to_apex=None,
+    to_rim_near=None,
+    to_hemisphere: Optional[float] = None,
+    anatomy_name: str = "anatomy",
+    surface_name: str = "surface",
+    to_name: str = "second surface",
+) -> VentricleResult:
+    """Carries the anatomy inside a heart chamber into the canonical cylinder
+    (``unfold ventricle``).
+
+    The enclosing surface S (disk topology, its boundary loop the basal rim)
+    is flattened to the unit disk (LV) or half disk (RV) with the landmarks in
+    place, the Laplace field between S and a hemisphere H is solved on a
+    grid, and every anatomy point ``v`` goes to ``psi(v) = (phi(v_S), d(v))``,
+    ``d(v) = len(v_S -> v) / len(v_S -> v_H)`` along the streamline through
+    ``v``. The GIL is released while the Rust code runs.
+
+    Args:
+        points: (n, 3) vertices of S, mm (RAS).
+        triangles: (m, 3) triangles of S.
+        anterior: the anterior RV insertion point (LV) or first septal corner
+            (RV), X, Y, Z on the rim of S (``--anterior``).
+        inferior: the inferior RV insertion point or second septal corner.
+        apex: the apex (None: the vertex of S farthest from the rim's
+            centroid).
+        rim_near: a point near the basal rim when S has several openings.
+        anatomy: what to map: a :class:`Mesh` (its points are mapped, its
+            cells and arrays kept) or (k, 3) points; None maps S's own
+            vertices.
+        chamber: "lv" (default) or "rv".
+        grid_mm: Laplace grid spacing, mm (None: the command line's default).
+        hemisphere_mm: radius of H, mm (None: the default).
+        display_exponent: LV disk display exponent (None: 1/3).
+        snap_mm: largest distance from a rim landmark to the rim, mm (None:
+            the default).
+        to_surface: a second heart's S (a :class:`Mesh` or ``(points,
+            triangles)``) to carry the anatomy into, with ``to_anterior``,
+            ``to_inferior`` (required) and ``to_apex``, ``to_rim_near``.
+        to_hemisphere: instead, carry the anatomy onto a hemisphere of this
+            radius, mm.
+        anatomy_name, surface_name, to_name: what messages and ``report``
+            call the inputs.
+
+    Returns:
+        A :class:`VentricleResult`.
+
+    Raises:
+        UnfoldError: a bad setting, surface, landmark or anatomy, with the
+            command line's message.
+    """
+    sp, st = _surface((points, triangles), surface_name)
+    if anatomy is None:
+        anatomy = Mesh(sp, {"triangle": st})
+    elif not isinstance(anatomy, Mesh):
+        anatomy = Mesh(_points(anatomy, f"{anatomy_name} points"), {})
+    to_points = to_triangles = None
+    if to_surface is not None:
+        to_points, to_triangles = _surface(to_surface, to_name)
+    normalized, anat, disk, transferred, report = _native.ventricle(
+        sp,
+        st,
+        mesh_args(anatomy),
+        anterior=point3(anterior, "anterior"),
+        inferior=point3(inferior, "inferior"),
+        apex=point3(apex, "apex"),
+        rim_near=point3(rim_near, "rim_near"),
+        chamber=chamber,
+        grid_mm=None if grid_mm is None else float(grid_mm),
+        hemisphere_mm=None if hemisphere_mm is None else float(hemisphere_mm),
+        display_exponent=None if display_exponent is None else float(display_exponent),
+        snap_mm=None if snap_mm is None else float(snap_mm),
+        to_points=to_points,
+        to_triangles=to_triangles,
+        to_anterior=point3(to_anterior, "to_anterior"),
+        to_inferior=point3(to_inferior, "to_inferior"),
+        to_apex=point3(to_apex, "to_apex"),
+        to_rim_near=point3(to_rim_near, "to_rim_near"),
+        to_hemisphere=None if to_hemisphere is None else float(to_hemisphere),
+        anatomy_name=anatomy_name,
+        surface_name=surface_name,
+        to_name=to_name,
+    )
+    n = Mesh._from_tuple(normalized)
+    return VentricleResult(
+        points=n.points,
+        cells=n.cells,
+        arrays={**n.point_data, **n.cell_data},
+        point_data=n.point_data,
+        cell_data=n.cell_data,
+        anatomy=Mesh._from_tuple(anat),
+        disk=Mesh._from_tuple(disk),
+        transferred=None if transferred is None else Mesh._from_tuple(transferred),
+        report=json.loads(report),
+    )
