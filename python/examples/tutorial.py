@@ -93,10 +93,28 @@ print(f"{rc['template']}: h = {rc['theta']['h']:.4f} mm, template error "
       f"{rc['template_error_mm']:.4f} mm, inverted tets {rc['inverted_tets']}")
 unfold.write_mesh(out / "cylinders.vtu", curved.mesh)
 
-# %% 4. Errors are Python exceptions with the command line's messages.
+# %% 4. The heart and the valve: the same pattern.
+# A ventricle's enclosing surface with its landmarks: everything inside
+# (here the cup's own anatomy mesh) is carried into the cylinder, with the
+# AHA segment of every point.
+cup = unfold.shapes.ventricle_cup()
+heart = unfold.ventricle(cup.surface.points, cup.surface.cells["triangle"],
+                         anterior=cup.anterior, inferior=cup.inferior, apex=cup.apex,
+                         anatomy=cup.anatomy, grid_mm=2.0)
+segments = np.unique(heart.arrays["aha"])
+print(f"ventricle: {len(heart.points)} points in the cylinder, AHA segments {segments.tolist()}")
+unfold.write_mesh(out / "ventricle.vtu", heart.mesh)
+
+# A mitral valve: two leaflets and the annulus ring, laid out flat.
+valve = unfold.shapes.mitral_valve()
+flat = unfold.mitral(valve.anterior, valve.posterior, valve.annulus)
+print(f"mitral: {len(flat.points)} points, arrays {sorted(flat.arrays)}")
+unfold.write_mesh(out / "valve2d.vtu", flat.mesh)
+
+# %% 5. Errors are Python exceptions with the command line's messages.
 try:
     unfold.placenta(points, tets, lam=-1.0)
 except unfold.UnfoldError as e:
     print(f"UnfoldError: {e}")
 
-print(f"wrote {out / 'flattened.vtu'} and {out / 'cylinders.vtu'}")
+print(f"wrote flattened.vtu, cylinders.vtu, ventricle.vtu and valve2d.vtu in {out}")

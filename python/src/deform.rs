@@ -48,7 +48,7 @@ pub(crate) fn deform<'py>(
     energy: &str,
     solver: &str,
     tol: f64,
-    max_iterations: Option<usize>,
+    max_iterations: Option<i64>,
     name: &str,
     targets_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
@@ -57,7 +57,7 @@ pub(crate) fn deform<'py>(
         energy: choice::<Energy>("--energy", energy)?,
         solver: choice::<SolverKind>("--solver", solver)?,
         tol,
-        max_iterations,
+        max_iterations: crate::inputs::max_iterations(max_iterations, 0, "--max-iterations")?,
     };
     settings.check().map_err(crate::error)?;
     let mesh_path = Path::new(name);

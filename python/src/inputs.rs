@@ -130,3 +130,21 @@ pub(crate) fn volume_arrays<'py>(
         affine.into_pyarray(py).into_any(),
     ))
 }
+
+/// An optional iteration cap (`--max-iterations`): None, or a whole number
+/// of at least `least`; `what` names it in the message.
+pub(crate) fn max_iterations(
+    value: Option<i64>,
+    least: usize,
+    what: &str,
+) -> PyResult<Option<usize>> {
+    match value {
+        None => Ok(None),
+        Some(v) => match usize::try_from(v) {
+            Ok(n) if n >= least => Ok(Some(n)),
+            _ => Err(crate::error(format!(
+                "{what} must be a whole number >= {least}, got {v}"
+            ))),
+        },
+    }
+}

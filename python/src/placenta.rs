@@ -122,7 +122,7 @@ pub(crate) fn placenta<'py>(
     voxel_mm: f64,
     solver: &str,
     tol: f64,
-    max_iterations: Option<usize>,
+    max_iterations: Option<i64>,
     name: &str,
     progress: Option<Py<PyAny>>,
     images: Vec<ImageArrays<'py>>,
@@ -130,6 +130,7 @@ pub(crate) fn placenta<'py>(
     spacing_mm: Option<f64>,
     frame_check: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let max_iterations = crate::inputs::max_iterations(max_iterations, 1, "max_iterations")?;
     let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
     let config = Config {
         lambda: positive("lam", lam)?,
@@ -145,9 +146,6 @@ pub(crate) fn placenta<'py>(
         frame_check,
         ..Config::default()
     };
-    if max_iterations == Some(0) {
-        return Err(crate::error("max_iterations must be at least 1"));
-    }
     config
         .validate()
         .map_err(|e| crate::error(format!("{e} (see margin_mm and voxel_mm)")))?;

@@ -94,7 +94,8 @@ def test_two_components_raise_the_cli_message(slab, unfold_bin, tmp_path):
     ({"lam": -1.0}, "lam must be a finite number > 0, got -1"),
     ({"tol": float("nan")}, "tol must be a finite number > 0"),
     ({"template": "cube"}, "template must be planes, ellipsoid or single-plane"),
-    ({"max_iterations": 0}, "max_iterations must be at least 1"),
+    ({"max_iterations": 0}, "max_iterations must be a whole number >= 1, got 0"),
+    ({"max_iterations": -3}, "max_iterations must be a whole number >= 1, got -3"),
 ])
 def test_bad_settings(slab, kwargs, message):
     with pytest.raises(unfold.UnfoldError, match=message):

@@ -16,6 +16,9 @@ def test_the_tutorial_runs(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "UnfoldError: lam must be a finite number > 0, got -1" in done.stdout
     assert "cylinders: h = " in done.stdout
+    assert "ventricle: " in done.stdout and "mitral: " in done.stdout
+    for name in ("ventricle.vtu", "valve2d.vtu"):
+        assert len(meshio.read(tmp_path / name).points) > 0
     for name in ("flattened.vtu", "cylinders.vtu"):
         mesh = meshio.read(tmp_path / name)
         assert len(mesh.cells_dict["tetra"]) > 0
