@@ -24,9 +24,10 @@ its defaults and its one-line error messages:
   (imported on its own: ``import unfold.dask``; needs the ``dask`` extra);
 * ``python -m unfold ARGS``: the ``unfold`` command line itself.
 
-Each result has ``points`` (the mapped points, float64 (n, 3)), ``cells``,
-``arrays`` (the command line's output arrays by name) and ``report`` (the
-keys of the command line's report).
+Each result is a :class:`MapResult`: ``points`` (the mapped points, float64
+(n, 3)), ``cells``, ``arrays`` (the command line's output arrays by name),
+``report`` (the keys of the command line's report) and ``mesh`` (all of it
+as a :class:`Mesh` for :func:`write_mesh`).
 
 Every failure raises :class:`UnfoldError` (a ``ValueError``) whose message is
 the command line's.
@@ -34,6 +35,7 @@ the command line's.
 
 from ._native import UnfoldError, __version__
 from ._mesh import Mesh, read_mesh, write_mesh
+from ._result import MapResult
 from ._placenta import PlacentaResult, placenta
 from ._template import Side, Template, check_template
 from ._tet_mesh import TetMeshResult, tet_mesh
@@ -44,6 +46,7 @@ from . import shapes
 
 __all__ = [
     "DeformResult",
+    "MapResult",
     "Mesh",
     "MitralResult",
     "PlacentaResult",

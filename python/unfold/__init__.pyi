@@ -21,59 +21,31 @@ class Mesh:
         cell_data: Dict[str, np.ndarray] = ...,
     ) -> None: ...
 
-class PlacentaResult:
+class MapResult:
     points: np.ndarray
     cells: Dict[str, np.ndarray]
     arrays: Dict[str, np.ndarray]
     point_data: Dict[str, np.ndarray]
     cell_data: Dict[str, np.ndarray]
+    report: Dict[str, Any]
+    @property
+    def mesh(self) -> Mesh: ...
+
+class PlacentaResult(MapResult):
     original: Mesh
-    report: Dict[str, Any]
     images: Dict[str, Tuple[np.ndarray, np.ndarray]]
-    @property
-    def mesh(self) -> Mesh: ...
 
-class TetMeshResult:
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    report: Dict[str, Any]
-    @property
-    def mesh(self) -> Mesh: ...
+class TetMeshResult(MapResult): ...
 
-class VentricleResult:
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
+class VentricleResult(MapResult):
     anatomy: Mesh
     disk: Mesh
     transferred: Optional[Mesh]
-    report: Dict[str, Any]
-    @property
-    def mesh(self) -> Mesh: ...
 
-class MitralResult:
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
+class MitralResult(MapResult):
     original: Mesh
-    report: Dict[str, Any]
-    @property
-    def mesh(self) -> Mesh: ...
 
-class DeformResult:
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
-    report: Dict[str, Any]
-    @property
-    def mesh(self) -> Mesh: ...
+class DeformResult(MapResult): ...
 
 _Point = Union[Sequence[float], np.ndarray]
 _Image = Union[Tuple[np.ndarray, np.ndarray], Any]

@@ -2,22 +2,21 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from typing import Any, Dict, Mapping, Optional
+from typing import Any, Mapping, Optional
 
 import numpy as np
 
 from . import _native
 from ._convert import cells as _cells
 from ._convert import fields, points as _points
-from ._mesh import Mesh
+from ._result import MapResult
 
 __all__ = ["DeformResult", "deform"]
 
 
 @dataclass
-class DeformResult:
+class DeformResult(MapResult):
     """What :func:`deform` returns.
 
     Attributes:
@@ -35,18 +34,6 @@ class DeformResult:
             (``interface: "python"``). Not converging is not an error:
             ``converged`` is False.
     """
-
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
-    report: Dict[str, Any]
-
-    @property
-    def mesh(self) -> Mesh:
-        """The deformed mesh as a :class:`Mesh` (to pass to ``write_mesh``)."""
-        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
 
 
 def deform(
@@ -106,7 +93,7 @@ def deform(
     t = np.ascontiguousarray(np.asarray(targets, dtype=np.float64))
     if t.ndim == 1 and t.size == 3:
         t = t.reshape(1, 3)
-    (p, c, pd, cd), report = _native.deform(
+    deformed, report = _native.deform(
         _points(points),
         cells,
         v,
@@ -121,11 +108,4 @@ def deform(
         name=name,
         targets_name=targets_name,
     )
-    return DeformResult(
-        points=p,
-        cells=dict(c),
-        arrays={**pd, **cd},
-        point_data=dict(pd),
-        cell_data=dict(cd),
-        report=json.loads(report),
-    )
+    return DeformResult(**MapResult._fields(deformed, report))

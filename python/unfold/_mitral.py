@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Optional, Tuple, Union
 
 import numpy as np
 
 from . import _native
 from ._convert import fields, indices, points as _points
 from ._mesh import Mesh
+from ._result import MapResult
 
 __all__ = ["MitralResult", "mitral"]
 
@@ -34,7 +34,7 @@ def _leaflet(x, what: str):
 
 
 @dataclass
-class MitralResult:
+class MitralResult(MapResult):
     """What :func:`mitral` returns.
 
     Attributes:
@@ -54,18 +54,7 @@ class MitralResult:
             ``provenance`` (``interface: "python"``).
     """
 
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
     original: Mesh
-    report: Dict[str, Any]
-
-    @property
-    def mesh(self) -> Mesh:
-        """The 2D valve as a :class:`Mesh` (to pass to ``write_mesh``)."""
-        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
 
 
 def mitral(
@@ -128,13 +117,4 @@ def mitral(
         cut_posteromedial=bool(cut_posteromedial),
         name=name,
     )
-    flat = Mesh._from_tuple(valve2d)
-    return MitralResult(
-        points=flat.points,
-        cells=flat.cells,
-        arrays={**flat.point_data, **flat.cell_data},
-        point_data=flat.point_data,
-        cell_data=flat.cell_data,
-        original=Mesh._from_tuple(valve3d),
-        report=json.loads(report),
-    )
+    return MitralResult(**MapResult._fields(valve2d, report), original=Mesh._from_tuple(valve3d))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
@@ -11,12 +10,13 @@ import numpy as np
 from . import _native
 from ._convert import image
 from ._mesh import Mesh
+from ._result import MapResult
 
 __all__ = ["PlacentaResult", "placenta"]
 
 
 @dataclass
-class PlacentaResult:
+class PlacentaResult(MapResult):
     """What :func:`placenta` returns.
 
     Attributes:
@@ -42,19 +42,8 @@ class PlacentaResult:
             run hash.
     """
 
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
     original: Mesh
-    report: Dict[str, Any]
     images: Dict[str, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
-
-    @property
-    def mesh(self) -> Mesh:
-        """The flattened mesh as a :class:`Mesh` (to pass to ``write_mesh``)."""
-        return Mesh(self.points, self.cells, self.point_data, self.cell_data)
 
 
 def placenta(
@@ -152,14 +141,8 @@ def placenta(
         spacing_mm=None if spacing_mm is None else float(spacing_mm),
         frame_check=bool(frame_check),
     )
-    f = Mesh._from_tuple(flat)
     return PlacentaResult(
-        points=f.points,
-        cells=f.cells,
-        arrays={**f.point_data, **f.cell_data},
-        point_data=f.point_data,
-        cell_data=f.cell_data,
+        **MapResult._fields(flat, report),
         original=Mesh._from_tuple(original),
-        report=json.loads(report),
         images=dict(flat_images),
     )

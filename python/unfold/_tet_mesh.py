@@ -2,28 +2,27 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from typing import Any, Dict, Optional
-
-import numpy as np
+from typing import Optional
 
 from . import _native
 from ._convert import image
 from ._mesh import Mesh
+from ._result import MapResult
 
 __all__ = ["TetMeshResult", "tet_mesh"]
 
 
 @dataclass
-class TetMeshResult:
+class TetMeshResult(MapResult):
     """What :func:`tet_mesh` returns.
 
     Attributes:
         points: the mesh's vertices, float64 (n, 3), mm in the mask's world
             (RAS) frame.
         cells: ``{"tetra": (m, 4) int64}``.
-        arrays: empty (the command line's mesh file holds the tets only).
+        arrays: empty (the command line's mesh file holds the tets only), as
+            ``point_data`` and ``cell_data``.
         report: the figures ``unfold mesh`` prints: ``mask``, ``mask_voxels``,
             ``mask_volume_mm3``, ``size_mm``, ``smooth_voxels``, ``dilate``,
             ``level``, ``graded_collapses``, ``components``,
@@ -32,15 +31,6 @@ class TetMeshResult:
             (``unfold mesh`` writes no report.json).
     """
 
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    report: Dict[str, Any]
-
-    @property
-    def mesh(self) -> Mesh:
-        """The tet mesh as a :class:`Mesh` (to pass to ``write_mesh``)."""
-        return Mesh(self.points, self.cells)
 
 
 def tet_mesh(
@@ -103,4 +93,4 @@ def tet_mesh(
         keep_all_components=bool(keep_all_components),
         name=name,
     )
-    return TetMeshResult(points=points, cells=dict(cells), arrays={}, report=json.loads(report))
+    return TetMeshResult(**MapResult._fields(Mesh(points, dict(cells)), report))

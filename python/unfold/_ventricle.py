@@ -2,21 +2,21 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Optional, Tuple, Union
 
 import numpy as np
 
 from . import _native
 from ._convert import indices, mesh_args, point3, points as _points
 from ._mesh import Mesh
+from ._result import MapResult
 
 __all__ = ["VentricleResult", "ventricle"]
 
 
 @dataclass
-class VentricleResult:
+class VentricleResult(MapResult):
     """What :func:`ventricle` returns.
 
     Attributes:
@@ -38,15 +38,9 @@ class VentricleResult:
             and ``provenance`` (``interface: "python"``).
     """
 
-    points: np.ndarray
-    cells: Dict[str, np.ndarray]
-    arrays: Dict[str, np.ndarray]
-    point_data: Dict[str, np.ndarray]
-    cell_data: Dict[str, np.ndarray]
     anatomy: Mesh
     disk: Mesh
     transferred: Optional[Mesh]
-    report: Dict[str, Any]
 
     @property
     def mesh(self) -> Mesh:
@@ -167,15 +161,9 @@ def ventricle(
         surface_name=surface_name,
         to_name=to_name,
     )
-    n = Mesh._from_tuple(normalized)
     return VentricleResult(
-        points=n.points,
-        cells=n.cells,
-        arrays={**n.point_data, **n.cell_data},
-        point_data=n.point_data,
-        cell_data=n.cell_data,
+        **MapResult._fields(normalized, report),
         anatomy=Mesh._from_tuple(anat),
         disk=Mesh._from_tuple(disk),
         transferred=None if transferred is None else Mesh._from_tuple(transferred),
-        report=json.loads(report),
     )
