@@ -52,6 +52,7 @@ pub(crate) fn deform<'py>(
     name: &str,
     targets_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let started = crate::report::started();
     let settings = DeformSettings {
         weight,
         energy: choice::<Energy>("--energy", energy)?,
@@ -80,7 +81,7 @@ pub(crate) fn deform<'py>(
         output: String::new(),
         repair,
         report: &report,
-        provenance: crate::report::Provenance::now(parameters),
+        provenance: crate::report::Provenance::new(parameters, started),
     })?;
     let mesh = mesh_tuple(py, &mesh)?;
     PyTuple::new(py, [mesh.into_any(), json.into_pyobject(py)?.into_any()])

@@ -39,6 +39,35 @@ pub(crate) fn opt_point(p: Option<[f64; 3]>, what: &str) -> PyResult<Option<Poin
     p.map(|p| point(p, what)).transpose()
 }
 
+/// The rows of an `(m, N)` index array as cells over `n` points, every
+/// index checked; `what` names them in messages ("tets", "S triangles").
+pub(crate) fn cells<const N: usize>(
+    a: &PyReadonlyArray2<'_, i64>,
+    n: usize,
+    what: &str,
+) -> PyResult<Vec<[u32; N]>> {
+    if a.shape()[1] != N {
+        return Err(crate::error(format!(
+            "{what} must have shape (m, {N}), got {:?}",
+            a.shape()
+        )));
+    }
+    let mut out = Vec::with_capacity(a.shape()[0]);
+    for (t, r) in a.as_array().rows().into_iter().enumerate() {
+        let mut cell = [0u32; N];
+        for (slot, &v) in cell.iter_mut().zip(r) {
+            if v < 0 || v as u64 >= n as u64 {
+                return Err(crate::error(format!(
+                    "{what} row {t} refers to point {v}, but there are {n} points"
+                )));
+            }
+            *slot = v as u32;
+        }
+        out.push(cell);
+    }
+    Ok(out)
+}
+
 /// A triangle mesh from `(n, 3)` points and `(m, 3)` triangles; `what`
 /// names it in messages.
 pub(crate) fn tri_mesh(
@@ -47,26 +76,7 @@ pub(crate) fn tri_mesh(
     what: &str,
 ) -> PyResult<TriMesh> {
     let positions = self::points(points, &format!("{what} points"))?;
-    if triangles.shape()[1] != 3 {
-        return Err(crate::error(format!(
-            "{what} triangles must have shape (m, 3), got {:?}",
-            triangles.shape()
-        )));
-    }
-    let n = positions.len();
-    let mut tris = Vec::with_capacity(triangles.shape()[0]);
-    for (t, r) in triangles.as_array().rows().into_iter().enumerate() {
-        let mut tri = [0u32; 3];
-        for (slot, &v) in tri.iter_mut().zip(r) {
-            if v < 0 || v as u64 >= n as u64 {
-                return Err(crate::error(format!(
-                    "{what} triangles row {t} refers to point {v}, but there are {n} points"
-                )));
-            }
-            *slot = v as u32;
-        }
-        tris.push(tri);
-    }
+    let tris = cells::<3>(triangles, positions.len(), &format!("{what} triangles"))?;
     Ok(TriMesh::new(positions, tris))
 }
 

@@ -45,6 +45,7 @@ pub(crate) fn mitral<'py>(
     cut_posteromedial: bool,
     name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let started = crate::report::started();
     let Ok(iterations) = usize::try_from(iterations) else {
         return Err(crate::error(format!(
             "--iterations must be a whole number >= 0, got {iterations}"
@@ -75,7 +76,7 @@ pub(crate) fn mitral<'py>(
     let json = crate::report::json(&FullReport {
         inputs: name,
         report: &outcome.report,
-        provenance: crate::report::Provenance::now(parameters),
+        provenance: crate::report::Provenance::new(parameters, started),
     })?;
     let valve2d = mesh_tuple(py, &CellMesh::from(&outcome.valve2d))?;
     let valve3d = mesh_tuple(py, &CellMesh::from(&outcome.valve3d))?;

@@ -8,11 +8,10 @@ use crate::inputs::{volume, volume_arrays};
 use crate::progress::Callback;
 use crate::report::{Memory, Provenance};
 use crate::template::PyTemplate;
-use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use unfold::io::Frame;
-use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab as slab};
 use unfold::mesh::{CellMesh, TetMesh};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
@@ -131,7 +130,7 @@ pub(crate) fn placenta<'py>(
     frame_check: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let max_iterations = crate::inputs::max_iterations(max_iterations, 1, "max_iterations")?;
-    let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
+    let started = crate::report::started();
     let config = Config {
         lambda: positive("lam", lam)?,
         grad_tol: positive("tol", tol)?,
@@ -205,21 +204,8 @@ pub(crate) fn placenta<'py>(
         segmentation: None,
         displacement: None,
         report: &outcome.report,
-        memory: Memory {
-            predicted_peak_bytes: predicted as u64,
-            peak_bytes: None,
-            limit_bytes: None,
-            limit_source: "unknown",
-        },
-        provenance: Provenance {
-            unfold_version: env!("CARGO_PKG_VERSION"),
-            interface: "python",
-            command_line: Vec::new(),
-            parameters,
-            inputs: Vec::new(),
-            run_hash: String::new(),
-            started,
-        },
+        memory: Memory::predicted(predicted),
+        provenance: Provenance::new(parameters, started),
     };
     let json = full.to_json().map_err(crate::error)?;
     let flattened = mesh_tuple(py, &CellMesh::from(&outcome.flattened))?;
@@ -244,39 +230,9 @@ fn tet_mesh(
     points: &PyReadonlyArray2<'_, f64>,
     tets: &PyReadonlyArray2<'_, i64>,
 ) -> PyResult<TetMesh> {
-    if points.shape()[1] != 3 {
-        return Err(crate::error(format!(
-            "points must have shape (n, 3), got {:?}",
-            points.shape()
-        )));
-    }
-    if tets.shape()[1] != 4 {
-        return Err(crate::error(format!(
-            "tets must have shape (m, 4), got {:?}",
-            tets.shape()
-        )));
-    }
-    let positions: Vec<Point3<f64>> = points
-        .as_array()
-        .rows()
-        .into_iter()
-        .map(|r| Point3::new(r[0], r[1], r[2]))
-        .collect();
-    let n = positions.len();
-    let mut out = Vec::with_capacity(tets.shape()[0]);
-    for (t, r) in tets.as_array().rows().into_iter().enumerate() {
-        let mut tet = [0u32; 4];
-        for (slot, &v) in tet.iter_mut().zip(r) {
-            if v < 0 || v as u64 >= n as u64 {
-                return Err(crate::error(format!(
-                    "tets row {t} refers to point {v}, but there are {n} points"
-                )));
-            }
-            *slot = v as u32;
-        }
-        out.push(tet);
-    }
-    Ok(TetMesh::new(positions, out))
+    let positions = crate::inputs::points(points, "points")?;
+    let tets = crate::inputs::cells::<4>(tets, positions.len(), "tets")?;
+    Ok(TetMesh::new(positions, tets))
 }
 
 /// The synthetic placenta slab of `unfold demo` (`unfold_mesh::shapes`),

@@ -44,8 +44,9 @@ pub(crate) struct Provenance {
 }
 
 impl Provenance {
-    /// A Python run started now, with `parameters` (the call's settings).
-    pub fn now(parameters: String) -> Self {
+    /// A Python run's provenance: `parameters` (the call's settings) and
+    /// when it `started` ([`started`]).
+    pub fn new(parameters: String, started: String) -> Self {
         Provenance {
             unfold_version: env!("CARGO_PKG_VERSION"),
             interface: "python",
@@ -53,9 +54,15 @@ impl Provenance {
             parameters,
             inputs: Vec::new(),
             run_hash: String::new(),
-            started: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+            started,
         }
     }
+}
+
+/// Now, as `provenance.started` says it (RFC 3339 to the second, UTC, as
+/// the command line's): taken as a call begins.
+pub(crate) fn started() -> String {
+    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
 }
 
 /// `report` as indented JSON (the layout of `report.json`).

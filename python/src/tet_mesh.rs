@@ -51,6 +51,7 @@ pub(crate) fn tet_mesh<'py>(
     keep_all_components: bool,
     name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let started = crate::report::started();
     if !(0..=1).contains(&dilate) {
         return Err(crate::error(format!(
             "--dilate must be 0 or 1, got {dilate}"
@@ -89,7 +90,7 @@ pub(crate) fn tet_mesh<'py>(
         components: out.components,
         dropped_components: &out.dropped_components,
         quality: &quality,
-        provenance: crate::report::Provenance::now(parameters),
+        provenance: crate::report::Provenance::new(parameters, started),
     })?;
     let mesh = mesh_tuple(py, &CellMesh::from(&out.mesh))?;
     PyTuple::new(py, [mesh.into_any(), json.into_pyobject(py)?.into_any()])

@@ -72,6 +72,7 @@ pub(crate) fn ventricle<'py>(
     surface_name: &str,
     to_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    let started = crate::report::started();
     let config = settings(
         self::chamber(chamber)?,
         grid_mm.unwrap_or(DEFAULT_GRID_MM),
@@ -169,7 +170,7 @@ pub(crate) fn ventricle<'py>(
         report: &outcome.report,
         transfer: transferred.as_ref().map(|(_, r)| r),
         memory: Memory::predicted(outcome.report.field.estimated_bytes),
-        provenance: Provenance::now(parameters),
+        provenance: Provenance::new(parameters, started),
     })?;
     let normalized = mesh_tuple(py, &with_vertex_cells(&outcome.normalized))?;
     let anatomy = mesh_tuple(py, &with_vertex_cells(&outcome.anatomy))?;
