@@ -50,7 +50,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(arrays::read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(arrays::write_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(placenta::placenta, m)?)?;
-    m.add_function(wrap_pyfunction!(placenta::placenta_slab, m)?)?;
+    m.add_function(wrap_pyfunction!(shapes::placenta_slab, m)?)?;
     m.add_function(wrap_pyfunction!(template::check_template, m)?)?;
     m.add_class::<batch::Plan>()?;
     for f in [

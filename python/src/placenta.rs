@@ -12,7 +12,6 @@ use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use unfold::io::Frame;
-use unfold::mesh::shapes::{PlacentaParams, placenta_slab as slab};
 use unfold::mesh::{CellMesh, TetMesh};
 use unfold::organs::placenta::parcellation::ParcellationConfig;
 use unfold::organs::placenta::{
@@ -233,21 +232,4 @@ fn tet_mesh(
     let positions = crate::inputs::points(points, "points")?;
     let tets = crate::inputs::cells::<4>(tets, positions.len(), "tets")?;
     Ok(TetMesh::new(positions, tets))
-}
-
-/// The synthetic placenta slab of `unfold demo` (`unfold_mesh::shapes`),
-/// in its own frame, as `(points, cells, point_data, cell_data)`;
-/// `cells_radial` sets its resolution.
-#[pyfunction]
-#[pyo3(signature = (cells_radial=None))]
-pub(crate) fn placenta_slab<'py>(
-    py: Python<'py>,
-    cells_radial: Option<usize>,
-) -> PyResult<Bound<'py, PyTuple>> {
-    let mut params = PlacentaParams::default();
-    if let Some(c) = cells_radial {
-        params.cells_radial = c;
-    }
-    let shape = slab(&params).map_err(crate::error)?;
-    mesh_tuple(py, &CellMesh::from(&shape.mesh))
 }

@@ -1,4 +1,4 @@
-//! The synthetic ventricle and mitral valve of `unfold demo`
+//! The synthetic placenta slab, ventricle and mitral valve of `unfold demo`
 //! (`unfold_mesh::shapes`) as numpy arrays, so tutorials and tests need no
 //! files.
 
@@ -8,7 +8,10 @@ use numpy::ndarray::Array2;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::shapes::{ValveParams, VentricleParams, mitral_valve, ventricle_cup};
+use unfold::mesh::shapes::{
+    PlacentaParams, ValveParams, VentricleParams, mitral_valve, placenta_slab as slab,
+    ventricle_cup,
+};
 use unfold::mesh::{CellMesh, TriMesh};
 
 /// Points as an `(n, 3)` float64 array.
@@ -63,4 +66,21 @@ pub(crate) fn mitral_valve_shape<'py>(py: Python<'py>) -> PyResult<Bound<'py, Py
             points_array(py, &v.annulus)?,
         ],
     )
+}
+
+/// The synthetic placenta slab of `unfold demo` (`unfold_mesh::shapes`),
+/// in its own frame, as `(points, cells, point_data, cell_data)`;
+/// `cells_radial` sets its resolution.
+#[pyfunction]
+#[pyo3(signature = (cells_radial=None))]
+pub(crate) fn placenta_slab<'py>(
+    py: Python<'py>,
+    cells_radial: Option<usize>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let mut params = PlacentaParams::default();
+    if let Some(c) = cells_radial {
+        params.cells_radial = c;
+    }
+    let shape = slab(&params).map_err(crate::error)?;
+    mesh_tuple(py, &CellMesh::from(&shape.mesh))
 }
