@@ -3,7 +3,7 @@
 //! solve, messages and `OUT.report.json` layout).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
-use clap::ValueEnum;
+use crate::inputs::choice;
 use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -11,21 +11,6 @@ use std::path::Path;
 use unfold::cli::deform::{
     DeformSettings, Deformed, Energy, Report, SolverKind, deform_mesh, tet_mesh_of,
 };
-
-/// A value of a command-line enum by its flag value (e.g.
-/// "symmetric-dirichlet"), else the message listing the choices.
-pub(crate) fn choice<T: ValueEnum>(flag: &str, value: &str) -> PyResult<T> {
-    T::from_str(value, false).map_err(|_| {
-        let names: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
-            .collect();
-        crate::error(format!(
-            "{flag} must be one of {}, got '{value}'",
-            names.join(", ")
-        ))
-    })
-}
 
 /// Deforms a tet mesh towards targets; returns `(deformed, report_json)`,
 /// the mesh as `(points, cells, point_data, cell_data)`.
@@ -58,7 +43,7 @@ pub(crate) fn deform<'py>(
         energy: choice::<Energy>("--energy", energy)?,
         solver: choice::<SolverKind>("--solver", solver)?,
         tol,
-        max_iterations: crate::inputs::max_iterations(max_iterations, 0, "--max-iterations")?,
+        max_iterations: crate::inputs::max_iterations(max_iterations, "--max-iterations")?,
     };
     settings.check().map_err(crate::error)?;
     let mesh_path = Path::new(name);

@@ -2,6 +2,7 @@
 //! checked: points, triangle meshes, landmark points, image volumes and
 //! their affines (and volumes back into numpy).
 
+use clap::ValueEnum;
 use numpy::ndarray::{Array, IxDyn};
 use numpy::{IntoPyArray, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -141,20 +142,29 @@ pub(crate) fn volume_arrays<'py>(
     ))
 }
 
-/// An optional iteration cap (`--max-iterations`): None, or a whole number
-/// of at least `least`; `what` names it in the message.
-pub(crate) fn max_iterations(
-    value: Option<i64>,
-    least: usize,
-    what: &str,
-) -> PyResult<Option<usize>> {
-    match value {
-        None => Ok(None),
-        Some(v) => match usize::try_from(v) {
-            Ok(n) if n >= least => Ok(Some(n)),
-            _ => Err(crate::error(format!(
-                "{what} must be a whole number >= {least}, got {v}"
-            ))),
-        },
-    }
+/// An optional iteration cap (`--max-iterations`) as a count: None, or a
+/// whole number not below 0 (the settings check the least count they
+/// take); `what` names it in the message.
+pub(crate) fn max_iterations(value: Option<i64>, what: &str) -> PyResult<Option<usize>> {
+    value
+        .map(|v| {
+            usize::try_from(v)
+                .map_err(|_| crate::error(format!("{what} must not be negative, got {v}")))
+        })
+        .transpose()
+}
+
+/// A value of a command-line enum by its flag value (e.g.
+/// "symmetric-dirichlet"), else the message listing the choices.
+pub(crate) fn choice<T: ValueEnum>(flag: &str, value: &str) -> PyResult<T> {
+    T::from_str(value, false).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+            .collect();
+        crate::error(format!(
+            "{flag} must be one of {}, got '{value}'",
+            names.join(", ")
+        ))
+    })
 }

@@ -3,8 +3,7 @@
 //! messages and `report.json` layout).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
-use crate::deform::choice;
-use crate::inputs::points;
+use crate::inputs::{choice, points};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};

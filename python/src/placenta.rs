@@ -4,58 +4,33 @@
 //! layout ([`unfold::placenta::FullReport`]).
 
 use crate::arrays::mesh_tuple;
-use crate::inputs::{volume, volume_arrays};
+use crate::inputs::{choice, volume, volume_arrays};
 use crate::progress::Callback;
 use crate::report::{Memory, Provenance};
 use crate::template::PyTemplate;
 use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use unfold::cli::placenta::{InterpArg, PlacentaSettings, SolverArg, TemplateArg};
 use unfold::io::Frame;
 use unfold::mesh::{CellMesh, TetMesh};
-use unfold::organs::placenta::parcellation::ParcellationConfig;
-use unfold::organs::placenta::{
-    Config, Image, Interpolation, Pipeline, SolverKind, TemplateKind, prepare_mesh,
-};
-
-/// `value` if finite and positive, else the command line's message for its
-/// flag, naming the Python argument `name`.
-fn positive(name: &str, value: f64) -> PyResult<f64> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(crate::error(format!(
-            "{name} must be a finite number > 0, got {value}"
-        )))
-    }
-}
-
-/// The template of a name ("planes", "ellipsoid", "single-plane").
-fn template_kind(name: &str) -> PyResult<TemplateKind> {
-    match name {
-        "planes" => Ok(TemplateKind::Planes),
-        "ellipsoid" => Ok(TemplateKind::Ellipsoid),
-        "single-plane" | "single_plane" => Ok(TemplateKind::SinglePlane),
-        other => Err(crate::error(format!(
-            "template must be planes, ellipsoid or single-plane, got '{other}'"
-        ))),
-    }
-}
+use unfold::organs::placenta::{Image, Pipeline, SolverKind, TemplateKind, prepare_mesh};
 
 /// The template argument: a shipped template's name (None: planes), or a
 /// Python object implementing the template protocol ([`PyTemplate`]).
-enum TemplateArg {
+enum TemplateChoice {
     Shipped(TemplateKind),
     Python(PyTemplate),
 }
 
-impl TemplateArg {
+impl TemplateChoice {
     fn new(template: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
         match template {
-            None => Ok(TemplateArg::Shipped(TemplateKind::Planes)),
+            None => Ok(TemplateChoice::Shipped(TemplateKind::Planes)),
             Some(t) => match t.extract::<String>() {
-                Ok(name) => template_kind(&name).map(TemplateArg::Shipped),
-                Err(_) => PyTemplate::new(t).map(TemplateArg::Python),
+                Ok(name) => choice::<TemplateArg>("--template", &name)
+                    .map(|t| TemplateChoice::Shipped(t.into())),
+                Err(_) => PyTemplate::new(t).map(TemplateChoice::Python),
             },
         }
     }
@@ -63,20 +38,9 @@ impl TemplateArg {
     /// The name the report and the provenance use.
     fn name(&self) -> &'static str {
         match self {
-            TemplateArg::Shipped(kind) => kind.name(),
-            TemplateArg::Python(t) => unfold::param::Template::name(t),
+            TemplateChoice::Shipped(kind) => kind.name(),
+            TemplateChoice::Python(t) => unfold::param::Template::name(t),
         }
-    }
-}
-
-/// The interpolation of a name ("linear", "nearest").
-fn interpolation(name: &str) -> PyResult<Interpolation> {
-    match name {
-        "linear" => Ok(Interpolation::Linear),
-        "nearest" => Ok(Interpolation::Nearest),
-        other => Err(crate::error(format!(
-            "interp must be linear or nearest, got '{other}'"
-        ))),
     }
 }
 
@@ -87,17 +51,6 @@ type ImageArrays<'py> = (
     PyReadonlyArrayDyn<'py, f32>,
     PyReadonlyArray2<'py, f64>,
 );
-
-/// The solver of a name ("newton", "gd").
-fn solver(name: &str) -> PyResult<SolverKind> {
-    match name {
-        "newton" => Ok(SolverKind::Newton),
-        "gd" => Ok(SolverKind::Gd),
-        other => Err(crate::error(format!(
-            "solver must be newton or gd, got '{other}'"
-        ))),
-    }
-}
 
 /// Flattens a placenta tet mesh and pulls `images` into the template;
 /// returns `(flattened, original, report_json, flat_images)` with each mesh
@@ -128,32 +81,27 @@ pub(crate) fn placenta<'py>(
     spacing_mm: Option<f64>,
     frame_check: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let max_iterations = crate::inputs::max_iterations(max_iterations, 1, "max_iterations")?;
     let started = crate::report::started();
-    let config = Config {
-        lambda: positive("lam", lam)?,
-        grad_tol: positive("tol", tol)?,
-        max_iterations,
-        parcellation: ParcellationConfig {
-            margin_mm: positive("margin_mm", margin_mm)?,
-            voxel_mm: positive("voxel_mm", voxel_mm)?,
-            ..ParcellationConfig::default()
-        },
-        spacing_mm: spacing_mm.map(|s| positive("spacing_mm", s)).transpose()?,
-        interpolation: interpolation(interp)?,
+    let config = PlacentaSettings {
+        lambda: lam,
+        margin_mm,
+        voxel_mm,
+        tol,
+        spacing_mm,
+        max_iterations: crate::inputs::max_iterations(max_iterations, "--max-iterations")?,
+        interp: choice::<InterpArg>("--interp", interp)?,
+        grid: None,
         frame_check,
-        ..Config::default()
-    };
-    config
-        .validate()
-        .map_err(|e| crate::error(format!("{e} (see margin_mm and voxel_mm)")))?;
-    let template = TemplateArg::new(template)?;
+    }
+    .config(None)
+    .map_err(crate::error)?;
+    let template = TemplateChoice::new(template)?;
     let template_name = template.name();
     let template_error = match &template {
-        TemplateArg::Python(t) => Some(t.error_slot()),
-        TemplateArg::Shipped(_) => None,
+        TemplateChoice::Python(t) => Some(t.error_slot()),
+        TemplateChoice::Shipped(_) => None,
     };
-    let solver_kind = self::solver(solver)?;
+    let solver_kind = SolverKind::from(choice::<SolverArg>("--solver", solver)?);
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
         "template={template_name:?}, lam={lam}, margin_mm={margin_mm}, voxel_mm={voxel_mm}, \
@@ -178,8 +126,8 @@ pub(crate) fn placenta<'py>(
             .map(|e| e.total())
             .unwrap_or(0.0);
         let pipeline = match template {
-            TemplateArg::Shipped(kind) => Pipeline::new().template(kind.build()),
-            TemplateArg::Python(t) => Pipeline::new().template(t),
+            TemplateChoice::Shipped(kind) => Pipeline::new().template(kind.build()),
+            TemplateChoice::Python(t) => Pipeline::new().template(t),
         }
         .solver(solver_kind.build())
         .config(config);

@@ -101,7 +101,7 @@ def test_an_inverted_tet_raises_the_cli_message(problem, unfold_bin, tmp_path):
     ({"tol": float("nan")}, "--tol must be a finite positive number, got NaN"),
     ({"energy": "rigid"}, "--energy must be one of symmetric-dirichlet, arap, got 'rigid'"),
     ({"solver": "lbfgs"}, "--solver must be one of newton, gd, got 'lbfgs'"),
-    ({"max_iterations": -1}, "--max-iterations must be a whole number >= 0, got -1"),
+    ({"max_iterations": -1}, "--max-iterations must not be negative, got -1"),
 ])
 def test_bad_settings(problem, kwargs, message):
     slab, vertices, targets = problem

@@ -90,16 +90,35 @@ def test_two_components_raise_the_cli_message(slab, unfold_bin, tmp_path):
     assert f"unfold: error: {e.value}" in cli.stderr
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"lam": -1.0}, "lam must be a finite number > 0, got -1"),
-    ({"tol": float("nan")}, "tol must be a finite number > 0"),
-    ({"template": "cube"}, "template must be planes, ellipsoid or single-plane"),
-    ({"max_iterations": 0}, "max_iterations must be a whole number >= 1, got 0"),
-    ({"max_iterations": -3}, "max_iterations must be a whole number >= 1, got -3"),
+@pytest.mark.parametrize("kwargs, flags", [
+    ({"lam": -1.0}, ["--lambda", "-1"]),
+    ({"tol": float("nan")}, ["--tol", "NaN"]),
+    ({"margin_mm": 0.0}, ["--margin-mm", "0"]),
+    ({"voxel_mm": -3.0}, ["--voxel-mm", "-3"]),
+    ({"spacing_mm": float("inf")}, ["--spacing-mm", "inf"]),
+    ({"max_iterations": 0}, ["--max-iterations", "0"]),
 ])
-def test_bad_settings(slab, kwargs, message):
-    with pytest.raises(unfold.UnfoldError, match=message):
+def test_bad_settings_raise_the_cli_message(slab, unfold_bin, tmp_path, kwargs, flags):
+    path = tmp_path / "slab.vtu"
+    unfold.write_mesh(path, slab)
+    cli = subprocess.run([unfold_bin, "placenta", str(path), "-o", str(tmp_path / "o"), *flags],
+                         capture_output=True, text=True)
+    assert cli.returncode == 1, cli.stderr
+    with pytest.raises(unfold.UnfoldError) as e:
         unfold.placenta(slab.points, slab.cells["tetra"], **kwargs)
+    assert cli.stderr.strip() == f"unfold: error: {e.value}"
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"template": "cube"}, "--template must be one of planes, ellipsoid, single-plane, got 'cube'"),
+    ({"solver": "lbfgs"}, "--solver must be one of newton, gd, got 'lbfgs'"),
+    ({"interp": "cubic"}, "--interp must be one of linear, nearest, got 'cubic'"),
+    ({"max_iterations": -3}, "--max-iterations must not be negative, got -3"),
+])
+def test_bad_choices(slab, kwargs, message):
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.placenta(slab.points, slab.cells["tetra"], **kwargs)
+    assert str(e.value) == message
 
 
 def test_bad_indices(slab):

@@ -111,7 +111,7 @@ def test_bad_images(slab):
         unfold.placenta(slab.points, slab.cells["tetra"], images={"a": data})
     with pytest.raises(unfold.UnfoldError, match="images must be a dict"):
         unfold.placenta(slab.points, slab.cells["tetra"], images=[(data, affine)])
-    with pytest.raises(unfold.UnfoldError, match="interp must be linear or nearest"):
+    with pytest.raises(unfold.UnfoldError, match="--interp must be one of linear, nearest"):
         unfold.placenta(slab.points, slab.cells["tetra"], interp="cubic")
 
 

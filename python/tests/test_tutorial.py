@@ -14,7 +14,7 @@ def test_the_tutorial_runs(tmp_path):
     done = subprocess.run([sys.executable, str(TUTORIAL), str(tmp_path)],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert "UnfoldError: lam must be a finite number > 0, got -1" in done.stdout
+    assert "UnfoldError: --lambda must be a finite number > 0, got -1" in done.stdout
     assert "cylinders: h = " in done.stdout
     assert "ventricle: " in done.stdout and "mitral: " in done.stdout
     for name in ("ventricle.vtu", "valve2d.vtu"):

@@ -103,7 +103,9 @@ def placenta(
 
     Raises:
         UnfoldError: bad settings or an unusable mesh, with the command
-            line's message (e.g. several connected components); a Python
+            line's message, which names the flag (``--lambda`` for ``lam``,
+            ``--margin-mm`` for ``margin_mm``, ...) or the problem (e.g.
+            several connected components); a Python
             template's method returning the wrong number of values or a
             non-finite one.
         Exception: whatever a Python template's method raised (the run

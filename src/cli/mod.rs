@@ -18,7 +18,7 @@ mod info;
 mod memory;
 pub mod mesh;
 pub mod mitral;
-mod placenta;
+pub mod placenta;
 mod provenance;
 mod pushback;
 mod repair;

@@ -66,7 +66,7 @@ use std::time::Duration;
 
 /// Image interpolation on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum InterpArg {
+pub enum InterpArg {
     /// Trilinear (intensities); the default.
     Linear,
     /// The nearest voxel's value (label maps: no blended labels; an integer
@@ -100,7 +100,7 @@ fn parse_grid(text: &str) -> Result<[f64; 6], String> {
 
 /// Templates on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum TemplateArg {
+pub enum TemplateArg {
     /// Two parallel planes z = +-h (fetal side up); the default.
     Planes,
     /// An axis-aligned ellipsoid with radii rx, ry, rz.
@@ -121,7 +121,7 @@ impl From<TemplateArg> for TemplateKind {
 
 /// Solvers on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum SolverArg {
+pub enum SolverArg {
     /// Projected Newton (sparse Cholesky of the PSD-projected Hessian).
     Newton,
     /// Gradient descent (the paper's Algorithm 1; thousands of iterations).
@@ -257,9 +257,70 @@ impl PlacentaArgs {
     /// The pipeline settings, every flag checked; `voxel_mm` is the
     /// default of `--voxel-mm`, `half_thickness_mm` the segmentation's.
     fn config(&self, voxel_mm: f64, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
+        PlacentaSettings {
+            lambda: self.lambda,
+            margin_mm: self.margin_mm,
+            voxel_mm: self.voxel_mm.unwrap_or(voxel_mm),
+            tol: self.tol,
+            spacing_mm: self.spacing_mm,
+            max_iterations: self.max_iterations,
+            interp: self.interp,
+            grid: self.grid,
+            frame_check: !self.no_frame_check,
+        }
+        .config(half_thickness_mm)
+    }
+}
+
+/// The placenta's numeric settings as the flags give them, checked into the
+/// pipeline's [`Config`] by one function for the command line and the
+/// Python package (so both refuse a value with the same message).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacentaSettings {
+    /// `--lambda`.
+    pub lambda: f64,
+    /// `--margin-mm`.
+    pub margin_mm: f64,
+    /// `--voxel-mm`.
+    pub voxel_mm: f64,
+    /// `--tol`.
+    pub tol: f64,
+    /// `--spacing-mm`.
+    pub spacing_mm: Option<f64>,
+    /// `--max-iterations`.
+    pub max_iterations: Option<usize>,
+    /// `--interp`.
+    pub interp: InterpArg,
+    /// `--grid`.
+    pub grid: Option<[f64; 6]>,
+    /// Not `--no-frame-check`.
+    pub frame_check: bool,
+}
+
+impl Default for PlacentaSettings {
+    /// The flags' defaults (`--voxel-mm` 3, as without `--seg`).
+    fn default() -> Self {
+        PlacentaSettings {
+            lambda: 1.0,
+            margin_mm: 15.0,
+            voxel_mm: 3.0,
+            tol: 1e-4,
+            spacing_mm: None,
+            max_iterations: None,
+            interp: InterpArg::Linear,
+            grid: None,
+            frame_check: true,
+        }
+    }
+}
+
+impl PlacentaSettings {
+    /// The pipeline's configuration, every value checked with its flag's
+    /// message; `half_thickness_mm` is the segmentation's, if any.
+    pub fn config(&self, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
         let lambda = positive("--lambda", self.lambda)?;
         let margin_mm = positive("--margin-mm", self.margin_mm)?;
-        let voxel_mm = positive("--voxel-mm", self.voxel_mm.unwrap_or(voxel_mm))?;
+        let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
         let grad_tol = positive("--tol", self.tol)?;
         if let Some(s) = self.spacing_mm {
             positive("--spacing-mm", s)?;
@@ -286,7 +347,7 @@ impl PlacentaArgs {
                 min: [g[0], g[2], g[4]],
                 max: [g[1], g[3], g[5]],
             }),
-            frame_check: !self.no_frame_check,
+            frame_check: self.frame_check,
         };
         if let Some(g) = &config.grid {
             g.validate()
@@ -297,7 +358,9 @@ impl PlacentaArgs {
             .map_err(|e| CliError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
         Ok(config)
     }
+}
 
+impl PlacentaArgs {
     /// The pipeline: the template and solver of the flags, the published
     /// pieces otherwise, and `config`.
     fn pipeline(&self, config: Config) -> Pipeline {
