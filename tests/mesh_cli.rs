@@ -229,6 +229,49 @@ fn bad_masks_and_flags_are_one_line_errors() {
     );
 }
 
+/// `placenta --seg` grades the mesh by default (near the published meshes'
+/// size); `--dense` meshes the mask uniformly, with more tets and none
+/// collapsed, and the report says which.
+#[test]
+fn placenta_from_a_segmentation_is_graded_unless_dense() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mask = d.join("seg.nii.gz");
+    write_slab_mask(&mask, 45.0, 10.0);
+    let mask_s = s(&mask);
+    let mut tets = Vec::new();
+    for (name, extra) in [("graded", &[][..]), ("dense", &["--dense"][..])] {
+        let out = d.join(name);
+        let out_s = s(&out);
+        let mut args = vec!["placenta", "--seg", &mask_s, "-o", &out_s, "--no-figures"];
+        args.extend_from_slice(&["--max-iterations", "3"]);
+        args.extend_from_slice(extra);
+        let o = unfold(&args);
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", stderr(&o));
+        let seg = report(&out)["segmentation"].clone();
+        let collapses = seg["graded_collapses"].as_u64().unwrap();
+        assert_eq!(seg["graded"], name == "graded", "{seg}");
+        assert_eq!(collapses > 0, name == "graded", "{seg}");
+        tets.push(seg["quality"]["tets"].as_u64().unwrap());
+    }
+    assert!(
+        tets[0] < tets[1],
+        "graded {} tets, dense {}",
+        tets[0],
+        tets[1]
+    );
+    let o = unfold(&[
+        "placenta",
+        "--seg",
+        &s(&mask),
+        "-o",
+        &s(&d.join("x")),
+        "--dense",
+        "--grade",
+    ]);
+    assert_one_line_error(&o, "--dense");
+}
+
 /// The published pipeline from images: a voxelized slab and an image whose
 /// intensity grows linearly across it. In the template the slab lies
 /// between the planes `z = -h` and `z = h`, so the flattened image must
@@ -335,7 +378,12 @@ fn placenta_segmentation_flags_need_seg_and_exclude_a_mesh() {
     let mask = d.join("seg.nii");
     write_volume(&mask, 8, 3.0, 1, |_, _| 0.0);
     let out = d.join("out");
-    for flag in [&["--size-mm", "2"][..], &["--grade"], &["--dilate", "1"]] {
+    for flag in [
+        &["--size-mm", "2"][..],
+        &["--grade"],
+        &["--dense"],
+        &["--dilate", "1"],
+    ] {
         let mut args = vec!["placenta", "x.vtu", "-o"];
         let o = s(&out);
         args.push(&o);
