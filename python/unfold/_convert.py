@@ -4,12 +4,14 @@ one."""
 
 from __future__ import annotations
 
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
 from . import _native
-from ._mesh import Mesh, _field
+
+if TYPE_CHECKING:
+    from ._mesh import Mesh
 
 
 def points(a, what: str = "points") -> np.ndarray:
@@ -39,6 +41,22 @@ def indices(a, columns: int, what: str) -> np.ndarray:
     return t
 
 
+_FIELD_TYPES = (np.float64, np.float32, np.int64, np.int32, np.uint8)
+
+
+def field(a) -> np.ndarray:
+    """A point or cell array in a dtype the native module takes (bool as
+    uint8, other integers as int32/int64, other floats as float64)."""
+    a = np.asarray(a)
+    if a.dtype == np.bool_:
+        a = a.astype(np.uint8)
+    elif a.dtype.kind in "iu" and a.dtype.type not in _FIELD_TYPES:
+        a = a.astype(np.int64 if a.dtype.itemsize > 4 or a.dtype.kind == "u" else np.int32)
+    elif a.dtype.kind == "f" and a.dtype.type not in _FIELD_TYPES:
+        a = a.astype(np.float64)
+    return np.ascontiguousarray(a)
+
+
 def cells(c: Mapping[str, Any]) -> Dict[str, np.ndarray]:
     """A cell dict with every block int64 (m, k).
 
@@ -58,7 +76,7 @@ def cells(c: Mapping[str, Any]) -> Dict[str, np.ndarray]:
 
 def fields(d: Optional[Mapping[str, Any]]) -> Dict[str, np.ndarray]:
     """Point or cell arrays in the dtypes the native module takes."""
-    return {k: _field(v) for k, v in (d or {}).items()}
+    return {k: field(v) for k, v in (d or {}).items()}
 
 
 def mesh_args(m: Mesh) -> Tuple[np.ndarray, Dict[str, np.ndarray], Dict, Dict]:

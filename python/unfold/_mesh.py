@@ -8,7 +8,7 @@ from typing import Dict, Mapping, Optional, Union
 
 import numpy as np
 
-from . import _native
+from . import _convert, _native
 
 __all__ = ["Mesh", "read_mesh", "write_mesh"]
 
@@ -49,20 +49,6 @@ def read_mesh(path: Union[str, "os.PathLike[str]"]) -> Mesh:
     return Mesh._from_tuple(_native.read_mesh(os.fspath(path)))
 
 
-_FIELD_TYPES = (np.float64, np.float32, np.int64, np.int32, np.uint8)
-
-
-def _field(a) -> np.ndarray:
-    a = np.asarray(a)
-    if a.dtype == np.bool_:
-        a = a.astype(np.uint8)
-    elif a.dtype.kind in "iu" and a.dtype.type not in _FIELD_TYPES:
-        a = a.astype(np.int64 if a.dtype.itemsize > 4 or a.dtype.kind == "u" else np.int32)
-    elif a.dtype.kind == "f" and a.dtype.type not in _FIELD_TYPES:
-        a = a.astype(np.float64)
-    return np.ascontiguousarray(a)
-
-
 def write_mesh(
     path: Union[str, "os.PathLike[str]"],
     mesh_or_points: Union[Mesh, np.ndarray],
@@ -101,19 +87,11 @@ def write_mesh(
     points = np.ascontiguousarray(np.asarray(points, dtype=np.float64))
     if points.ndim != 2:
         raise _native.UnfoldError(f"points must have shape (n, 3), got {points.shape}")
-    cell_arrays = {}
-    for k, v in cells.items():
-        v = np.asarray(v)
-        if v.ndim != 2 or (v.size and v.dtype.kind not in "iu"):
-            raise _native.UnfoldError(
-                f"cells['{k}']: expected a 2-D integer array, got shape {v.shape} of {v.dtype}"
-            )
-        cell_arrays[k] = np.ascontiguousarray(v, dtype=np.int64)
     _native.write_mesh(
         os.fspath(path),
         points,
-        cell_arrays,
-        {k: _field(v) for k, v in point_data.items()},
-        {k: _field(v) for k, v in (cell_data or {}).items()},
+        _convert.cells(cells),
+        _convert.fields(point_data),
+        _convert.fields(cell_data),
         ascii,
     )
