@@ -118,3 +118,33 @@ def image(x, what: str) -> Tuple[np.ndarray, np.ndarray]:
     data = np.ascontiguousarray(np.asarray(data, dtype=np.float32))
     affine = np.ascontiguousarray(np.asarray(affine, dtype=np.float64))
     return data, affine
+
+
+def surface(x, what: str, noun: str) -> Tuple[np.ndarray, Dict[str, np.ndarray], Dict]:
+    """A triangle surface given as a :class:`Mesh` or ``(points, triangles)``,
+    as the native module's ``(points, {"triangle": ...}, point_data)``.
+
+    Args:
+        x: the surface.
+        what: its name in messages.
+        noun: what it is, for the message of a mesh without triangles
+            ("a leaflet", "S").
+
+    Raises:
+        UnfoldError: neither form, or a mesh without triangles.
+    """
+    from ._mesh import Mesh
+
+    if isinstance(x, Mesh):
+        if "triangle" not in x.cells:
+            raise _native.UnfoldError(f"{what}: has no triangles; {noun} is a triangle surface")
+        p, t, data = x.points, x.cells["triangle"], fields(x.point_data)
+    else:
+        try:
+            p, t = x
+        except (TypeError, ValueError):
+            raise _native.UnfoldError(
+                f"{what}: expected a Mesh or (points, triangles), got {type(x).__name__}"
+            ) from None
+        data = {}
+    return points(p, f"{what} points"), {"triangle": indices(t, 3, f"{what} triangles")}, data

@@ -8,7 +8,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from . import _native
-from ._convert import fields, indices, points as _points
+from ._convert import points as _points, surface
 from ._mesh import Mesh
 from ._result import MapResult
 
@@ -18,19 +18,7 @@ Leaflet = Union[Mesh, Tuple[np.ndarray, np.ndarray]]
 
 
 def _leaflet(x, what: str):
-    if isinstance(x, Mesh):
-        if "triangle" not in x.cells:
-            raise _native.UnfoldError(f"{what}: has no triangles; a leaflet is a triangle surface")
-        return (_points(x.points, f"{what} points"),
-                {"triangle": indices(x.cells["triangle"], 3, f"{what} triangles")},
-                fields(x.point_data))
-    try:
-        p, t = x
-    except (TypeError, ValueError):
-        raise _native.UnfoldError(
-            f"{what}: expected a Mesh or (points, triangles), got {type(x).__name__}"
-        ) from None
-    return (_points(p, f"{what} points"), {"triangle": indices(t, 3, f"{what} triangles")}, {})
+    return surface(x, what, "a leaflet")
 
 
 @dataclass

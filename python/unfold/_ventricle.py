@@ -8,7 +8,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from . import _native
-from ._convert import indices, mesh_args, point3, points as _points
+from ._convert import mesh_args, point3, points as _points, surface
 from ._mesh import Mesh
 from ._result import MapResult
 
@@ -49,17 +49,8 @@ class VentricleResult(MapResult):
 
 
 def _surface(s, what: str) -> Tuple[np.ndarray, np.ndarray]:
-    if isinstance(s, Mesh):
-        if "triangle" not in s.cells:
-            raise _native.UnfoldError(f"{what}: has no triangles; S is a triangle surface")
-        return _points(s.points, f"{what} points"), indices(s.cells["triangle"], 3, f"{what} triangles")
-    try:
-        p, t = s
-    except (TypeError, ValueError):
-        raise _native.UnfoldError(
-            f"{what}: expected a Mesh or (points, triangles), got {type(s).__name__}"
-        ) from None
-    return _points(p, f"{what} points"), indices(t, 3, f"{what} triangles")
+    p, cells, _ = surface(s, what, "S")
+    return p, cells["triangle"]
 
 
 def ventricle(
