@@ -84,6 +84,13 @@ def test_bad_inputs(valve):
     bad = unfold.Mesh(valve.anterior.points, {"triangle": valve.anterior.cells["triangle"] + 10**6})
     with pytest.raises(unfold.UnfoldError, match="refers to point"):
         unfold.mitral(bad, valve.posterior, valve.annulus)
+    lines = unfold.Mesh(valve.anterior.points, {"line": np.array([[0, 1]])})
+    with pytest.raises(unfold.UnfoldError,
+                       match="^valve: anterior leaflet: has no triangles; a leaflet is a triangle surface$"):
+        unfold.mitral(lines, valve.posterior, valve.annulus)
+    with pytest.raises(unfold.UnfoldError,
+                       match=r"^valve: posterior leaflet: expected a Mesh or \(points, triangles\), got int$"):
+        unfold.mitral(valve.anterior, 3, valve.annulus)
     # A ring of two points cannot be laid out: the pipeline's message, about the valve.
     with pytest.raises(unfold.UnfoldError, match="^valve: "):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus[:2])
