@@ -10,13 +10,16 @@ use unfold_linalg::sparse::SpdFactor;
 
 /// Projected Newton: solve `H d = -g` with `H` the sum of the PSD-projected
 /// element Hessians and the template Hessian (sparse Cholesky; the symbolic
-/// analysis is done once, a diagonal shift is added when a factorization
-/// fails), then search along `d` from `a_init = 1` (ALGORITHMS 1.5). With
+/// analysis is done once; the diagonal carries `shift * max|H_ii|` from the
+/// first attempt, grown tenfold while the factorization fails, so that a
+/// singular `H` costs no failed factorization), then search along `d` from
+/// `a_init = 1` (ALGORITHMS 1.5). With
 /// template parameters optimized jointly, `theta` is eliminated by its Schur
 /// complement ([`eliminate_theta`]).
 ///
 /// With `exact_first`, once the previous step was a full Newton step
-/// (`a = 1`), an iteration first tries the unprojected Hessian and keeps it
+/// (`a = 1`) with a relative decrement below [`EXACT_NEAR`], an iteration
+/// first tries the unprojected Hessian and keeps it
 /// when it factorizes without shift (positive definite) and gives a
 /// descent direction: near the optimum this restores Newton's quadratic
 /// convergence, which clamping the element eigenvalues loses. After the
@@ -26,7 +29,9 @@ use unfold_linalg::sparse::SpdFactor;
 /// executor's [`Stopping::decrement_tol`](super::Stopping::decrement_tol).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProjectedNewton {
-    /// Relative diagonal shift tried first when a factorization fails.
+    /// Relative diagonal shift: the projected Hessian is factorized with
+    /// `shift * max|H_ii|` added to its diagonal (grown tenfold while the
+    /// factorization fails); the exact Hessian is factorized unshifted.
     pub shift: f64,
     /// Step expansion: when the line search accepts the full Newton step
     /// (`a = 1`), also try `a = expand, expand^2, ...` while each lowers
@@ -126,12 +131,14 @@ impl ProjectedNewton {
             try_exact,
         } = work;
         let f = state.value;
-        state.relative_decrement = None;
         // The exact Hessian first (quadratic convergence near the optimum,
         // where the total Hessian is positive definite although element
-        // Hessians may not be); the projected one when it is not positive
-        // definite or gives no descent direction.
-        let modes: &[HessianMode] = if *try_exact && state.iteration > 0 && state.step == 1.0 {
+        // Hessians may not be), once the last step was a full one that
+        // predicted a decrease below [`EXACT_NEAR`]; the projected one when
+        // it is not positive definite or gives no descent direction.
+        let near = state.relative_decrement.is_some_and(|r| r < EXACT_NEAR);
+        state.relative_decrement = None;
+        let modes: &[HessianMode] = if *try_exact && near && state.step == 1.0 {
             &[HessianMode::Exact, HessianMode::Projected]
         } else {
             &[HessianMode::Projected]
@@ -144,23 +151,28 @@ impl ProjectedNewton {
             let block = objective.hessian_with(&state.x, &state.theta, values, mode)?;
             let pattern = objective.pattern()?;
             let factor = storage.get_or_insert_with(|| pattern.new_factor());
-            let factored =
-                pattern.refactorize(factor, values, self.shift, if projected { 16 } else { 0 });
-            let used = match factored {
-                Ok(used) => used,
-                Err(e) if projected => return Err(e.into()),
-                Err(_) => {
-                    // Not positive definite here: do not pay for the
-                    // attempt again in this solve.
-                    *try_exact = false;
-                    continue;
-                }
-            };
-            state.shift = used;
             for (di, gi) in d.iter_mut().zip(&state.grad) {
                 *di = -gi;
             }
-            factor.solve_in_place(d)?;
+            let used = if projected {
+                let used = pattern.refactorize_shifted(factor, values, self.shift, 16)?;
+                factor.solve_in_place(d)?;
+                used
+            } else {
+                match pattern.refactorize(factor, values, self.shift, 0) {
+                    Ok(used) => {
+                        factor.solve_in_place(d)?;
+                        used
+                    }
+                    Err(_) => {
+                        // Not positive definite here: do not pay for the
+                        // attempt again in this solve.
+                        *try_exact = false;
+                        continue;
+                    }
+                }
+            };
+            state.shift = used;
             dtheta.clear();
             theta_slope = 0.0;
             if let Some(tb) = &block {
@@ -228,6 +240,12 @@ impl ProjectedNewton {
         Ok(Step::Moved)
     }
 }
+
+/// The relative decrement `-g.d / (2 |phi|)` of the last step below which
+/// an iteration tries the exact Hessian first. Far from the optimum the
+/// exact Hessian is rarely positive definite, and a failed attempt costs a
+/// Hessian and most of a factorization.
+pub const EXACT_NEAR: f64 = 1e-3;
 
 /// Solves `(S + sigma I) dt = rhs` for the smallest `sigma` of the sequence
 /// `0, 1e-12 m, 1e-11 m, ...` (`m` the largest `|S_ii|` or `|C_ii|`, 1 when
