@@ -98,7 +98,10 @@ def check_slim_weights():
     b = np.array([0, 1], np.int32)
     bc = np.array([[0, 0, 0], [2, 0, 0]], float)
     p = 1.0
-    tri = lambda a, c, d: 0.5 * np.linalg.norm(np.cross(rest[c] - rest[a], rest[d] - rest[a]))
+
+    def tri(a, c, d):
+        return 0.5 * np.linalg.norm(np.cross(rest[c] - rest[a], rest[d] - rest[a]))
+
     lengths = {}
     for name, weight in [("volume", 1 / 6), ("two faces", tri(0, 1, 2) + tri(2, 3, 0))]:
         def f(flat):
