@@ -111,8 +111,10 @@ fn runaway_mesher_flags_are_refused_before_allocating() {
         assert!((peak as f64) < 200.0 * MIB, "peak {peak} B");
     }
     assert!(!out.exists());
-    // an anisotropic mask (voxels 1000 x 1 x 1 mm): the default size is the
-    // smallest spacing, so the lattice spans metres at 1 mm
+    // an anisotropic mask (voxels 1000 x 1 x 1 mm): `unfold mesh` and
+    // `placenta --seg --dense` mesh at the smallest spacing, so the lattice
+    // spans metres at 1 mm (`placenta --seg`'s default size follows the
+    // mask's volume and thickness instead)
     let mask = ball_mask(dir.path(), 24, 10.0, [1000.0, 1.0, 1.0]);
     let (o, peak) = unfold_measured(&[
         "placenta",
@@ -120,6 +122,7 @@ fn runaway_mesher_flags_are_refused_before_allocating() {
         &s(&mask),
         "-o",
         &s(&dir.path().join("p")),
+        "--dense",
         "--max-memory",
         "2G",
     ]);

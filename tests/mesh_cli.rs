@@ -252,6 +252,28 @@ fn placenta_from_a_segmentation_is_graded_unless_dense() {
         let collapses = seg["graded_collapses"].as_u64().unwrap();
         assert_eq!(seg["graded"], name == "graded", "{seg}");
         assert_eq!(collapses > 0, name == "graded", "{seg}");
+        // The default cube side puts `SEG_CUBES` = 5,000 lattice cubes in
+        // the mask's volume (here 175 cm^3: 3.27 mm, just coarser than the
+        // voxels) and says so; --dense meshes at the voxel size.
+        let size = seg["size_mm"].as_f64().unwrap();
+        if name == "graded" {
+            assert_eq!(seg["size_from"], "mask_volume", "{seg}");
+            let voxels = seg["mask_voxels"].as_f64().unwrap();
+            let expected = (voxels * 27.0 / 5000.0).cbrt();
+            assert!(size > 3.0, "{seg}");
+            assert!(
+                (size - expected).abs() < 1e-9 * expected,
+                "{size} vs {expected}"
+            );
+            assert!(
+                stdout(&o).contains("cube side from the mask's volume"),
+                "{}",
+                stdout(&o)
+            );
+        } else {
+            assert_eq!(seg["size_from"], "voxel", "{seg}");
+            assert_eq!(size, 3.0, "{seg}");
+        }
         tets.push(seg["quality"]["tets"].as_u64().unwrap());
     }
     assert!(
@@ -305,6 +327,7 @@ fn placenta_from_a_segmentation_flattens_the_image_as_expected() {
     let seg = &rep["segmentation"];
     assert_eq!(seg["mask"], s(&mask));
     assert_eq!(seg["size_mm"], 6.0);
+    assert_eq!(seg["size_from"], "given");
     assert!(
         seg["quality"]["min_dihedral_deg"].as_f64().unwrap() >= 10.0,
         "{seg}"

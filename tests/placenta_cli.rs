@@ -797,6 +797,30 @@ fn bad_flag_values_are_one_line_errors() {
     // A margin that the parcellation cannot use (10 voxels or more).
     let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, "--margin-mm", "40"]);
     assert_one_line_error(&o, "margin_mm");
+    // Without --margin-mm the margin starts at five voxels, inside the
+    // limit at any voxel size (a fixed 15 mm was refused at 1.5 mm voxels,
+    // whose limit is 15 mm).
+    for (voxel, start) in [("1.5", 7.5), ("3", 15.0)] {
+        let dir_v = dir.path().join(format!("v{voxel}"));
+        let o = unfold(&[
+            "placenta",
+            &s(&mesh_path),
+            "-o",
+            &s(&dir_v),
+            "--voxel-mm",
+            voxel,
+            "--no-figures",
+            "--max-iterations",
+            "2",
+        ]);
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", stderr(&o));
+        let r = report(&dir_v);
+        assert_eq!(
+            r["boundary"]["parcellation"]["margin_radius_initial_mm"], start,
+            "{}",
+            r["boundary"]
+        );
+    }
     // What the argument parser itself rejects is one line too (exit 2).
     for (args, needle) in [
         (vec!["--lambda", "abc"], "--lambda"),

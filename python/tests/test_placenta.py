@@ -126,3 +126,13 @@ def test_bad_indices(slab):
     tets[3, 2] = len(slab.points)
     with pytest.raises(unfold.UnfoldError, match="tets row 3 refers to point"):
         unfold.placenta(slab.points, tets)
+
+
+def test_the_margin_starts_at_five_voxels(slab):
+    # Without margin_mm the margin starts at five voxels of voxel_mm: a fixed
+    # 15 mm was refused at 1.5 mm voxels, whose limit is 10 voxels (15 mm).
+    for voxel_mm, start in [(1.5, 7.5), (3.0, 15.0)]:
+        result = unfold.placenta(slab.points, slab.cells["tetra"], voxel_mm=voxel_mm,
+                                 max_iterations=2)
+        parcellation = result.report["boundary"]["parcellation"]
+        assert parcellation["margin_radius_initial_mm"] == start

@@ -69,7 +69,7 @@ def placenta(
     template: Union[str, Template] = ...,
     lam: float = ...,
     *,
-    margin_mm: float = ...,
+    margin_mm: Optional[float] = ...,
     voxel_mm: float = ...,
     solver: str = ...,
     tol: float = ...,

@@ -53,7 +53,7 @@ def placenta(
     template: Union[str, Any] = "planes",
     lam: float = 1.0,
     *,
-    margin_mm: float = 15.0,
+    margin_mm: Optional[float] = None,
     voxel_mm: float = 3.0,
     solver: str = "newton",
     tol: float = 1e-4,
@@ -83,7 +83,8 @@ def placenta(
             Python template: an :class:`unfold.Template` (any object with its
             attributes and methods), called by the Rust solver.
         lam: the distortion weight lambda (``--lambda``).
-        margin_mm: ``--margin-mm``. voxel_mm: ``--voxel-mm``.
+        margin_mm: ``--margin-mm`` (None: five voxels of voxel_mm, 15 mm at
+            3 mm). voxel_mm: ``--voxel-mm``.
         solver: "newton" (default) or "gd". tol: ``--tol``.
         max_iterations: ``--max-iterations`` (None: the solver's default).
         name: what messages and ``report["mesh"]`` call the mesh.
@@ -131,7 +132,7 @@ def placenta(
         t,
         template=template,
         lam=float(lam),
-        margin_mm=float(margin_mm),
+        margin_mm=None if margin_mm is None else float(margin_mm),
         voxel_mm=float(voxel_mm),
         solver=solver,
         tol=float(tol),

@@ -20,7 +20,8 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, Args)]
 pub struct MaskArgs {
     /// Lattice cube side, mm (tet edges are this and 0.87 of it)
-    /// [default: the smallest voxel spacing].
+    /// [default: the smallest voxel spacing; placenta --seg: from the
+    /// mask's volume, see --dense].
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub size_mm: Option<f64>,
     /// Gaussian smoothing of the mask, voxels (0: none).
@@ -120,8 +121,17 @@ impl MaskArgs {
         mask: &Volume<bool>,
         keep_all_components: bool,
     ) -> Result<(), CliError> {
-        let opts = self.options(keep_all_components)?;
-        let estimate = estimate_memory(mask, &opts).map_err(|e| at(path, e))?;
+        self.check_memory_of(path, mask, &self.options(keep_all_components)?)
+    }
+
+    /// As [`MaskArgs::check_memory`], for meshing with `opts`.
+    pub(crate) fn check_memory_of(
+        &self,
+        path: &Path,
+        mask: &Volume<bool>,
+        opts: &MaskMeshOptions,
+    ) -> Result<(), CliError> {
+        let estimate = estimate_memory(mask, opts).map_err(|e| at(path, e))?;
         super::memory::check(
             "meshing the mask",
             &estimate,

@@ -43,13 +43,14 @@ use crate::io::{
     Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
     write_mesh,
 };
-use crate::mesh::CellMesh;
-use crate::mesh::mesher::{MaskMeshOptions, MeshQuality};
+use crate::mesh::mask::inside_distance_quantile;
+use crate::mesh::mesher::{MaskMeshOptions, MeshQuality, cube_side_for_cubes};
+use crate::mesh::{CellMesh, MeshError, Volume};
 use crate::organs::placenta::displacement::{VectorFrame, displacement_field};
 use crate::organs::placenta::images::{check_images, template_grid};
-use crate::organs::placenta::parcellation::ParcellationConfig;
+use crate::organs::placenta::parcellation::{DEFAULT_MARGIN_VOXELS, ParcellationConfig};
 use crate::organs::placenta::pullback::PullbackTable;
-use crate::organs::placenta::segmentation::from_segmentation;
+use crate::organs::placenta::segmentation::{THICKNESS_QUANTILE, from_segmentation};
 use crate::organs::placenta::{
     Config, GridBox, Image, Interpolation, Pipeline, PreparedMesh, PullbackError, Report,
     SolverKind, TemplateKind, prepare_mesh,
@@ -155,10 +156,12 @@ pub struct PlacentaArgs {
     seg: Option<PathBuf>,
     #[command(flatten)]
     mask: MaskArgs,
-    /// With --seg: mesh the mask uniformly at the cube side. The default
-    /// grades the interior (as `unfold mesh --grade`: the boundary kept,
-    /// coarser tets inside), near the published meshes' size and several
-    /// times faster to flatten.
+    /// With --seg: mesh the mask uniformly at the smallest voxel spacing (or
+    /// --size-mm). The default grades the interior (as `unfold mesh
+    /// --grade`: the boundary kept, coarser tets inside) at a cube side
+    /// chosen from the mask's volume (about 5,000 lattice cubes, never finer
+    /// than the voxels): near the published meshes' size and many times
+    /// faster to flatten.
     #[arg(long, conflicts_with = "grade")]
     dense: bool,
     /// Do not write the PNG figures into DIR/figures/.
@@ -179,14 +182,10 @@ pub struct PlacentaArgs {
     )]
     lambda: f64,
     /// Half-width of the margin between the fetal and maternal sides to
-    /// start from, mm (adapted in quarter-voxel steps, below 10 voxels).
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 15.0,
-        allow_negative_numbers = true
-    )]
-    margin_mm: f64,
+    /// start from, mm (adapted in quarter-voxel steps, below 10 voxels)
+    /// [default: five voxels of --voxel-mm, 15 mm at 3 mm as published].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    margin_mm: Option<f64>,
     /// Voxel size of the acquisition, mm: the unit of the margin's steps and
     /// of the template error in voxels [default: the mean voxel spacing of
     /// the --seg mask, else 3].
@@ -285,8 +284,9 @@ impl PlacentaArgs {
 pub struct PlacentaSettings {
     /// `--lambda`.
     pub lambda: f64,
-    /// `--margin-mm`.
-    pub margin_mm: f64,
+    /// `--margin-mm` (`None`: [`DEFAULT_MARGIN_VOXELS`] voxels of
+    /// `voxel_mm`).
+    pub margin_mm: Option<f64>,
     /// `--voxel-mm`.
     pub voxel_mm: f64,
     /// `--tol`.
@@ -308,7 +308,7 @@ impl Default for PlacentaSettings {
     fn default() -> Self {
         PlacentaSettings {
             lambda: 1.0,
-            margin_mm: 15.0,
+            margin_mm: None,
             voxel_mm: 3.0,
             tol: 1e-4,
             spacing_mm: None,
@@ -325,8 +325,11 @@ impl PlacentaSettings {
     /// message; `half_thickness_mm` is the segmentation's, if any.
     pub fn config(&self, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
         let lambda = positive("--lambda", self.lambda)?;
-        let margin_mm = positive("--margin-mm", self.margin_mm)?;
         let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
+        let margin_mm = match self.margin_mm {
+            Some(m) => positive("--margin-mm", m)?,
+            None => DEFAULT_MARGIN_VOXELS * voxel_mm,
+        };
         let grad_tol = positive("--tol", self.tol)?;
         if let Some(s) = self.spacing_mm {
             positive("--spacing-mm", s)?;
@@ -468,6 +471,70 @@ struct DisplacementReport {
     inside_mesh: usize,
 }
 
+/// Lattice cubes the mask holds at `placenta --seg`'s default cube side.
+/// A typical placenta (about 500 cm^3) then gets a cube side near 4.6 mm
+/// and, graded, 15,000 to 20,000 tets, within a few times the published
+/// meshes' ~6,700 (ALGORITHMS: the placenta paper), whatever the image's
+/// resolution: at 3 mm voxels that is 2.4 times fewer tets than the voxel
+/// size gives, and flattening costs grow faster than the tet count.
+pub const SEG_CUBES: usize = 5_000;
+
+/// Where `placenta --seg`'s lattice cube side came from (`size_from` in
+/// the report).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SizeFrom {
+    /// `--size-mm`.
+    Given,
+    /// The smallest voxel spacing (`--dense`, or a mask so small or thin
+    /// that the other rules would be finer than its voxels).
+    Voxel,
+    /// [`SEG_CUBES`] cubes in the mask's volume.
+    MaskVolume,
+    /// Half the mask's half thickness: a thin mask keeps at least four
+    /// cubes through its thickness.
+    Thickness,
+}
+
+/// The cube side `placenta --seg` meshes at: `--size-mm` when given; the
+/// smallest voxel spacing `v` with `--dense`; otherwise
+/// `max(v, min(s_V, h / 2))` with `s_V` the side at which the mask holds
+/// [`SEG_CUBES`] cubes ([`cube_side_for_cubes`]) and `h` the mask's half
+/// thickness (the 0.95 quantile of its distance transform, as the
+/// pipeline's initial `h`), so that at least four cubes span the
+/// thickness. Returns the side and the rule that set it.
+///
+/// # Errors
+/// The distance transform's [`MeshError`].
+pub(crate) fn seg_cube_side(
+    mask: &Volume<bool>,
+    given: Option<f64>,
+    dense: bool,
+) -> Result<(f64, SizeFrom), MeshError> {
+    if let Some(s) = given {
+        return Ok((s, SizeFrom::Given));
+    }
+    let voxel = mask.spacing().iter().copied().fold(f64::INFINITY, f64::min);
+    if dense {
+        return Ok((voxel, SizeFrom::Voxel));
+    }
+    let Some(by_volume) = cube_side_for_cubes(mask, SEG_CUBES as f64) else {
+        return Ok((voxel, SizeFrom::Voxel));
+    };
+    let half_thickness =
+        inside_distance_quantile(mask, THICKNESS_QUANTILE)?.unwrap_or(f64::INFINITY);
+    let (side, from) = if half_thickness / 2.0 < by_volume {
+        (half_thickness / 2.0, SizeFrom::Thickness)
+    } else {
+        (by_volume, SizeFrom::MaskVolume)
+    };
+    Ok(if side > voxel {
+        (side, from)
+    } else {
+        (voxel, SizeFrom::Voxel)
+    })
+}
+
 /// `segmentation` in `report.json`: how the mesh was made from a mask.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct SegReport {
@@ -481,6 +548,8 @@ pub(crate) struct SegReport {
     pub mask_volume_mm3: f64,
     /// Lattice cube side, mm.
     pub size_mm: f64,
+    /// Where the cube side came from.
+    pub size_from: SizeFrom,
     /// Gaussian smoothing, voxels.
     pub smooth_voxels: f64,
     /// Box dilations.
@@ -975,18 +1044,35 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         }
         Some(seg) => {
             let mask = m.read_mask(seg)?;
-            m.check_memory(seg, &mask, false)?;
             let spacing = mask.spacing();
+            let (size_mm, size_from) =
+                seg_cube_side(&mask, m.size_mm, a.dense).map_err(|e| at(seg, e))?;
             let options = MaskMeshOptions {
                 grade: !a.dense,
+                size_mm: Some(size_mm),
                 ..m.options(false)?
             };
+            m.check_memory_of(seg, &mask, &options)?;
             let segmented = from_segmentation(&mask, &options).map_err(|e| organ(&label, e))?;
             drop(mask);
             let (out, h) = (segmented.meshed, segmented.half_thickness_mm);
             warn_dropped(seg, &out, false);
             let quality = MeshQuality::of(&out.mesh)?;
-            println!("{}: {}", seg.display(), describe(&out, &quality));
+            println!(
+                "{}: {}{}",
+                seg.display(),
+                describe(&out, &quality),
+                match size_from {
+                    SizeFrom::MaskVolume => format!(
+                        "; cube side from the mask's volume (about {SEG_CUBES} lattice cubes; \
+                         --size-mm or --dense for finer)"
+                    ),
+                    SizeFrom::Thickness => "; cube side from the mask's thickness (four cubes \
+                                            through it; --size-mm or --dense for finer)"
+                        .to_string(),
+                    _ => String::new(),
+                }
+            );
             let mesh_path = staging.join(SEG_MESH);
             write_mesh(
                 &mesh_path,
@@ -1000,6 +1086,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
                 mask_voxels: out.mask_voxels,
                 mask_volume_mm3: out.mask_volume_mm3,
                 size_mm: out.size_mm,
+                size_from,
                 smooth_voxels: m.smooth_voxels,
                 dilate: m.dilate,
                 level: out.level,
@@ -1103,6 +1190,68 @@ fn check_memory(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `--size-mm` wins, `--dense` takes the voxel size, and otherwise the
+    /// cube side from the mask's volume, capped at half its half
+    /// thickness, unless that is finer than the voxels.
+    #[test]
+    fn the_seg_cube_side_follows_the_flags_and_the_mask() {
+        let mut affine = nalgebra::Matrix4::identity();
+        affine[(0, 0)] = 2.0;
+        affine[(1, 1)] = 2.0;
+        affine[(2, 2)] = 3.0;
+        // A 40 x 40 x 12 block of 12 mm^3 voxels (80 x 80 x 36 mm) inside a
+        // margin: (230,400 / 5,000)^(1/3) = 3.58 mm; half thickness about
+        // 18 mm, so the volume rule holds.
+        let (nx, nz) = (44, 16);
+        let block = |x: usize, y: usize, z: usize| {
+            (2..42).contains(&x) && (2..42).contains(&y) && (2..14).contains(&z)
+        };
+        let mut bits = Vec::new();
+        for z in 0..nz {
+            for y in 0..nx {
+                for x in 0..nx {
+                    bits.push(block(x, y, z));
+                }
+            }
+        }
+        let big = Volume::new([nx, nx, nz, 1], affine, bits).unwrap();
+        let (side, from) = seg_cube_side(&big, None, false).unwrap();
+        assert_eq!(from, SizeFrom::MaskVolume);
+        let expected = (12.0 * (40 * 40 * 12) as f64 / SEG_CUBES as f64).cbrt();
+        assert!((side - expected).abs() < 1e-12, "{side} vs {expected}");
+        assert_eq!(
+            seg_cube_side(&big, None, true).unwrap(),
+            (2.0, SizeFrom::Voxel)
+        );
+        assert_eq!(
+            seg_cube_side(&big, Some(7.5), true).unwrap(),
+            (7.5, SizeFrom::Given)
+        );
+        // A sheet 3 voxels (9 mm) thick and 400 mm wide: the volume rule
+        // gives 6.6 mm; the distance transform's 0.95 quantile is the middle
+        // layer's 6 mm (two 3 mm voxels to the outside), so h / 2 = 3 mm.
+        let (n, nz) = (200, 7);
+        let mut bits = Vec::new();
+        for z in 0..nz {
+            for _ in 0..n * n {
+                bits.push((2..5).contains(&z));
+            }
+        }
+        let sheet = Volume::new([n, n, nz, 1], affine, bits).unwrap();
+        assert_eq!(
+            seg_cube_side(&sheet, None, false).unwrap(),
+            (3.0, SizeFrom::Thickness)
+        );
+        // A few voxels: the voxel size.
+        let mut bits = vec![false; nx * nx * nz];
+        bits[..30].fill(true);
+        let small = Volume::new([nx, nx, nz, 1], affine, bits).unwrap();
+        assert_eq!(
+            seg_cube_side(&small, None, false).unwrap(),
+            (2.0, SizeFrom::Voxel)
+        );
+    }
 
     #[test]
     fn image_names_drop_the_nifti_extension() {

@@ -93,6 +93,24 @@ impl Default for MaskMeshOptions {
     }
 }
 
+/// The lattice cube side at which the mask's volume holds `cubes` cubes:
+/// `(n * v / cubes)^(1/3)` for `n` voxels inside (first frame) of volume
+/// `v = |det A|` each (`A` the affine's linear part); `None` for an empty
+/// mask or a `cubes` that is not finite and positive. A size chosen this
+/// way makes the mesh's cost follow the organ, not the image's resolution.
+pub fn cube_side_for_cubes(mask: &Volume<bool>, cubes: f64) -> Option<f64> {
+    if !(cubes.is_finite() && cubes > 0.0) {
+        return None;
+    }
+    let inside = mask.data()[..mask.frame_len()]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+    let voxel = mask.affine().fixed_view::<3, 3>(0, 0).determinant().abs();
+    let side = (inside as f64 * voxel / cubes).cbrt();
+    (inside > 0 && side.is_finite() && side > 0.0).then_some(side)
+}
+
 /// Size and quality figures of a tet mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MeshQuality {

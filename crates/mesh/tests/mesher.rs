@@ -9,7 +9,8 @@ use proptest::prelude::*;
 use std::f64::consts::PI;
 use unfold_mesh::geometry::tet_dihedral_angles;
 use unfold_mesh::mesher::{
-    IsoLevel, MaskMeshOptions, MeshQuality, mask_from_image, mesh_mask, voxel_frame,
+    IsoLevel, MaskMeshOptions, MeshQuality, cube_side_for_cubes, mask_from_image, mesh_mask,
+    voxel_frame,
 };
 use unfold_mesh::nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3};
 use unfold_mesh::spatial::ClosestPointQuery;
@@ -440,6 +441,50 @@ proptest! {
             .map(|(p, q)| (r * p + t - q).norm())
             .fold(0.0, f64::max);
         prop_assert!(worst < 1e-9, "{}", worst);
+    }
+}
+
+proptest! {
+    /// The cube side chosen from a mask's volume: `(n v / cubes)^(1/3)`,
+    /// whatever the grid's rotation and position, and independent of the
+    /// image's resolution: 8 times as many voxels of half the side give
+    /// the same cube side.
+    #[test]
+    fn the_cube_side_from_the_mask_volume_follows_the_volume(
+        v in 0.3..4.0f64,
+        n_in in 1usize..200,
+        cubes in 1.0..1e5f64,
+        angles in prop::array::uniform3(-3.2..3.2f64),
+    ) {
+        let rot = *Rotation3::from_euler_angles(angles[0], angles[1], angles[2]).matrix();
+        let a = grid_affine([-3.0, 5.0, 11.0], v, &rot);
+        let bits: Vec<bool> = (0..216).map(|i| i < n_in).collect();
+        let mask = Volume::new([6, 6, 6, 1], a, bits).unwrap();
+        let side = cube_side_for_cubes(&mask, cubes).unwrap();
+        let expected = (n_in as f64 * v.powi(3) / cubes).cbrt();
+        prop_assert!((side - expected).abs() <= 1e-12 * expected, "{} vs {}", side, expected);
+        // The same volume at half the voxel size: 8 times the voxels.
+        let fine = Volume::new(
+            [12, 12, 12, 1],
+            grid_affine([-3.0, 5.0, 11.0], v / 2.0, &rot),
+            (0..1728).map(|i| i < 8 * n_in).collect(),
+        )
+        .unwrap();
+        let fine_side = cube_side_for_cubes(&fine, cubes).unwrap();
+        prop_assert!((fine_side - side).abs() <= 1e-12 * side);
+    }
+}
+
+/// No cube side for an empty mask or a count that is not positive.
+#[test]
+fn no_cube_side_for_an_empty_mask_or_a_bad_count() {
+    let a = grid_affine([0.0; 3], 2.0, &Matrix3::identity());
+    let empty = Volume::new([4, 4, 4, 1], a, vec![false; 64]).unwrap();
+    assert_eq!(cube_side_for_cubes(&empty, 100.0), None);
+    let full = Volume::new([4, 4, 4, 1], a, vec![true; 64]).unwrap();
+    assert_eq!(cube_side_for_cubes(&full, 8.0), Some(4.0));
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert_eq!(cube_side_for_cubes(&full, bad), None, "{bad}");
     }
 }
 

@@ -45,6 +45,14 @@ use unfold_mesh::{TetMesh, TriMesh};
 /// The fewest vertices the boundary's largest piece may have.
 pub const MIN_BOUNDARY_VERTICES: usize = 8;
 
+/// The margin half-width to start from, in voxels of
+/// [`ParcellationConfig::voxel_mm`]: the published 15 mm are five 3 mm
+/// voxels, half the largest margin ([`ParcellationConfig::max_margin_voxels`]).
+/// The command line and the Python package start from this many voxels of
+/// the acquisition's voxel size when no margin is given, so that a 1.5 mm
+/// mask starts at 7.5 mm inside its 15 mm limit.
+pub const DEFAULT_MARGIN_VOXELS: f64 = 5.0;
+
 /// Settings of [`parcellate`]; every default from ALGORITHMS 2.5.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
