@@ -98,6 +98,19 @@ fn check_outputs(out: &Path, input: &TetMesh) -> serde_json::Value {
             .map(|x| x as i64)
             .collect();
         assert_eq!(side, BTreeSet::from([0, 1, 2, 3]), "{name}: side values");
+        // The parcellation's Fiedler vector: its sign is the side (maternal
+        // positive) off the margin, 0 inside.
+        let labels = field_values(&m.point_data, "side");
+        let fiedler = field_values(&m.point_data, "fiedler");
+        assert_eq!(fiedler.len(), labels.len(), "{name}");
+        for (l, f) in labels.iter().zip(&fiedler) {
+            match *l as i64 {
+                0 => assert_eq!(*f, 0.0, "{name}: interior"),
+                1 => assert!(*f < 0.0, "{name}: fetal {f}"),
+                2 => assert!(*f > 0.0, "{name}: maternal {f}"),
+                _ => assert!(f.is_finite(), "{name}: margin {f}"),
+            }
+        }
     }
     for name in ["log2_det_j", "sym_dirichlet"] {
         let v = field_values(&flat.cell_data, name);

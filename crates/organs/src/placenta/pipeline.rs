@@ -116,6 +116,14 @@ fn side_field(labels: &[u8]) -> Field {
     Field::labels("side", labels.iter().map(|&l| i32::from(l)).collect())
 }
 
+/// The parcellation's Fiedler vector per vertex (ALGORITHMS 2.5: the
+/// second eigenvector of the boundary's normalized affinity Laplacian,
+/// whose sign splits fetal from maternal), signed so that maternal is
+/// positive; 0 off the parcellated boundary.
+fn fiedler_field(fiedler: &[f64]) -> Field {
+    Field::scalars("fiedler", fiedler.to_vec())
+}
+
 impl Pipeline {
     /// The published pipeline (see the type's documentation).
     pub fn new() -> Self {
@@ -313,6 +321,7 @@ impl Pipeline {
             .ok_or(super::PlacentaError::NoStage)?;
         let mut original = rest.clone();
         original.add_point_field(side_field(&labels))?;
+        original.add_point_field(fiedler_field(&parcellation.fiedler))?;
         let mut flattened = TetMesh::new(
             opt.x
                 .chunks_exact(3)
@@ -321,6 +330,7 @@ impl Pipeline {
             rest.tets.clone(),
         );
         flattened.add_point_field(side_field(&labels))?;
+        flattened.add_point_field(fiedler_field(&parcellation.fiedler))?;
         flattened.add_cell_field(Field::scalars("log2_det_j", eval.log2_det_j.clone()))?;
         flattened.add_cell_field(Field::scalars("sym_dirichlet", eval.sym_dirichlet.clone()))?;
         timings.evaluation = t.elapsed().as_secs_f64();
