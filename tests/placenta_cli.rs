@@ -790,29 +790,37 @@ fn image_problems_are_caught_before_the_optimization() {
     assert!(!out.exists());
 }
 
+/// The parcellation's settings reach it: the margin's start (five voxels
+/// without --margin-mm) and the affinity's gamma and rings.
 #[test]
-fn bad_flag_values_are_one_line_errors() {
+fn parcellation_flags_reach_the_parcellation() {
     let dir = tempfile::tempdir().unwrap();
     let mesh_path = slab_file(dir.path());
-    let out = s(&dir.path().join("out"));
-    for (flag, value) in [
-        ("--lambda", "0"),
-        ("--lambda", "-2"),
-        ("--margin-mm", "-1"),
-        ("--voxel-mm", "nan"),
-        ("--spacing-mm", "0"),
-        ("--tol", "inf"),
-        ("--max-iterations", "0"),
-    ] {
-        let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, flag, value]);
-        assert_one_line_error(&o, flag);
-    }
-    // A margin that the parcellation cannot use (10 voxels or more).
-    let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, "--margin-mm", "40"]);
-    assert_one_line_error(&o, "margin_mm");
+    let mesh_path_s = s(&mesh_path);
     // Without --margin-mm the margin starts at five voxels, inside the
     // limit at any voxel size (a fixed 15 mm was refused at 1.5 mm voxels,
     // whose limit is 15 mm).
+    // The parcellation's affinity is the user's to set: a sharper, smaller
+    // neighbourhood gives another Fiedler vector.
+    let mut fiedlers = Vec::new();
+    for extra in [&[][..], &["--gamma", "5", "--rings", "1"][..]] {
+        let d = dir.path().join(format!("affinity{}", extra.len()));
+        let mut args = vec!["placenta", &mesh_path_s, "-o"];
+        let d_s = s(&d);
+        args.push(&d_s);
+        args.extend_from_slice(&["--no-figures", "--max-iterations", "1"]);
+        args.extend_from_slice(extra);
+        let o = unfold(&args);
+        assert!(matches!(o.status.code(), Some(0 | 3)), "{}", stderr(&o));
+        let m = read_mesh(d.join("original.vtu")).unwrap();
+        fiedlers.push(field_values(&m.point_data, "fiedler"));
+    }
+    let change = fiedlers[0]
+        .iter()
+        .zip(&fiedlers[1])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(change > 1e-6, "{change}");
     for (voxel, start) in [("1.5", 7.5), ("3", 15.0)] {
         let dir_v = dir.path().join(format!("v{voxel}"));
         let o = unfold(&[
@@ -834,6 +842,32 @@ fn bad_flag_values_are_one_line_errors() {
             r["boundary"]
         );
     }
+}
+
+#[test]
+fn bad_flag_values_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let out = s(&dir.path().join("out"));
+    for (flag, value) in [
+        ("--lambda", "0"),
+        ("--lambda", "-2"),
+        ("--margin-mm", "-1"),
+        ("--gamma", "0"),
+        ("--gamma", "nan"),
+        ("--rings", "0"),
+        ("--rings", "7"),
+        ("--voxel-mm", "nan"),
+        ("--spacing-mm", "0"),
+        ("--tol", "inf"),
+        ("--max-iterations", "0"),
+    ] {
+        let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, flag, value]);
+        assert_one_line_error(&o, flag);
+    }
+    // A margin that the parcellation cannot use (10 voxels or more).
+    let o = unfold(&["placenta", &s(&mesh_path), "-o", &out, "--margin-mm", "40"]);
+    assert_one_line_error(&o, "margin_mm");
     // What the argument parser itself rejects is one line too (exit 2).
     for (args, needle) in [
         (vec!["--lambda", "abc"], "--lambda"),

@@ -58,7 +58,7 @@ type ImageArrays<'py> = (
 /// name -> `(data, affine)`.
 #[pyfunction]
 #[pyo3(signature = (
-    points, tets, *, template=None, lam=1.0, margin_mm=None, voxel_mm=3.0,
+    points, tets, *, template=None, lam=1.0, margin_mm=None, gamma=20.0, rings=3, voxel_mm=3.0,
     solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None,
     images=Vec::new(), interp="linear", spacing_mm=None, frame_check=true
 ))]
@@ -70,6 +70,8 @@ pub(crate) fn placenta<'py>(
     template: Option<&Bound<'py, PyAny>>,
     lam: f64,
     margin_mm: Option<f64>,
+    gamma: f64,
+    rings: i64,
     voxel_mm: f64,
     solver: &str,
     tol: f64,
@@ -85,6 +87,9 @@ pub(crate) fn placenta<'py>(
     let config = PlacentaSettings {
         lambda: lam,
         margin_mm,
+        gamma,
+        rings: usize::try_from(rings)
+            .map_err(|_| crate::error(format!("--rings must be 1 to 6, got {rings}")))?,
         voxel_mm,
         tol,
         spacing_mm,
@@ -104,7 +109,8 @@ pub(crate) fn placenta<'py>(
     let solver_kind = SolverKind::from(choice::<SolverArg>("--solver", solver)?);
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
-        "template={template_name:?}, lam={lam}, margin_mm={margin_mm:?}, voxel_mm={voxel_mm}, \
+        "template={template_name:?}, lam={lam}, margin_mm={margin_mm:?}, gamma={gamma}, rings={rings}, \
+         voxel_mm={voxel_mm}, \
          solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
          spacing_mm={spacing_mm:?}, frame_check={frame_check}"
     );

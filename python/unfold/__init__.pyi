@@ -70,6 +70,8 @@ def placenta(
     lam: float = ...,
     *,
     margin_mm: Optional[float] = ...,
+    gamma: float = ...,
+    rings: int = ...,
     voxel_mm: float = ...,
     solver: str = ...,
     tol: float = ...,

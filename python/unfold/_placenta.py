@@ -54,6 +54,8 @@ def placenta(
     lam: float = 1.0,
     *,
     margin_mm: Optional[float] = None,
+    gamma: float = 20.0,
+    rings: int = 3,
     voxel_mm: float = 3.0,
     solver: str = "newton",
     tol: float = 1e-4,
@@ -84,7 +86,8 @@ def placenta(
             attributes and methods), called by the Rust solver.
         lam: the distortion weight lambda (``--lambda``).
         margin_mm: ``--margin-mm`` (None: five voxels of voxel_mm, 15 mm at
-            3 mm). voxel_mm: ``--voxel-mm``.
+            3 mm). voxel_mm: ``--voxel-mm``. gamma, rings: ``--gamma``,
+            ``--rings`` (the parcellation's affinity).
         solver: "newton" (default) or "gd". tol: ``--tol``.
         max_iterations: ``--max-iterations`` (None: the solver's default).
         name: what messages and ``report["mesh"]`` call the mesh.
@@ -133,6 +136,8 @@ def placenta(
         template=template,
         lam=float(lam),
         margin_mm=None if margin_mm is None else float(margin_mm),
+        gamma=float(gamma),
+        rings=int(rings),
         voxel_mm=float(voxel_mm),
         solver=solver,
         tol=float(tol),

@@ -186,6 +186,19 @@ pub struct PlacentaArgs {
     /// [default: five voxels of --voxel-mm, 15 mm at 3 mm as published].
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     margin_mm: Option<f64>,
+    /// Sharpness `gamma` of the parcellation's affinity
+    /// `exp(gamma <n_i, n_j> l_ij)` between boundary vertices (ALGORITHMS
+    /// 2.5; the published 20): larger splits the sides at sharper bends.
+    #[arg(
+        long,
+        value_name = "GAMMA",
+        default_value_t = 20.0,
+        allow_negative_numbers = true
+    )]
+    gamma: f64,
+    /// Ring size of the affinity's neighbourhood (1 to 6; the published 3).
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    rings: usize,
     /// Voxel size of the acquisition, mm: the unit of the margin's steps and
     /// of the template error in voxels [default: the mean voxel spacing of
     /// the --seg mask, else 3].
@@ -265,6 +278,8 @@ impl PlacentaArgs {
         PlacentaSettings {
             lambda: self.lambda,
             margin_mm: self.margin_mm,
+            gamma: self.gamma,
+            rings: self.rings,
             voxel_mm: self.voxel_mm.unwrap_or(voxel_mm),
             tol: self.tol,
             spacing_mm: self.spacing_mm,
@@ -287,6 +302,10 @@ pub struct PlacentaSettings {
     /// `--margin-mm` (`None`: [`DEFAULT_MARGIN_VOXELS`] voxels of
     /// `voxel_mm`).
     pub margin_mm: Option<f64>,
+    /// `--gamma`.
+    pub gamma: f64,
+    /// `--rings`.
+    pub rings: usize,
     /// `--voxel-mm`.
     pub voxel_mm: f64,
     /// `--tol`.
@@ -309,6 +328,8 @@ impl Default for PlacentaSettings {
         PlacentaSettings {
             lambda: 1.0,
             margin_mm: None,
+            gamma: 20.0,
+            rings: 3,
             voxel_mm: 3.0,
             tol: 1e-4,
             spacing_mm: None,
@@ -326,6 +347,13 @@ impl PlacentaSettings {
     pub fn config(&self, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
         let lambda = positive("--lambda", self.lambda)?;
         let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
+        let gamma = positive("--gamma", self.gamma)?;
+        if !(1..=6).contains(&self.rings) {
+            return Err(CliError::Usage(format!(
+                "--rings must be 1 to 6, got {}",
+                self.rings
+            )));
+        }
         let margin_mm = match self.margin_mm {
             Some(m) => positive("--margin-mm", m)?,
             None => DEFAULT_MARGIN_VOXELS * voxel_mm,
@@ -345,6 +373,8 @@ impl PlacentaSettings {
             max_iterations: self.max_iterations,
             max_seconds: None,
             parcellation: ParcellationConfig {
+                gamma,
+                rings: self.rings,
                 margin_mm,
                 voxel_mm,
                 ..ParcellationConfig::default()
