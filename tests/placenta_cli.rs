@@ -790,10 +790,11 @@ fn image_problems_are_caught_before_the_optimization() {
     assert!(!out.exists());
 }
 
-/// The parcellation's settings reach it: the margin's start (five voxels
-/// without --margin-mm) and the affinity's gamma and rings.
+/// The parcellation's and the template's settings take effect: the
+/// margin's start (five voxels without --margin-mm), the affinity's gamma
+/// and rings, and --fix-h.
 #[test]
-fn parcellation_flags_reach_the_parcellation() {
+fn parcellation_and_template_flags_take_effect() {
     let dir = tempfile::tempdir().unwrap();
     let mesh_path = slab_file(dir.path());
     let mesh_path_s = s(&mesh_path);
@@ -821,6 +822,38 @@ fn parcellation_flags_reach_the_parcellation() {
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
     assert!(change > 1e-6, "{change}");
+    // --fix-h holds h where the template has one.
+    for template in ["planes", "single-plane"] {
+        let d = dir.path().join(format!("fixed-{template}"));
+        let o = unfold(&[
+            "placenta",
+            &mesh_path_s,
+            "-o",
+            &s(&d),
+            "--template",
+            template,
+            "--fix-h",
+            "4.5",
+            "--no-figures",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let r = report(&d);
+        assert_eq!(r["theta"]["h"], 4.5, "{template}: {}", r["theta"]);
+        assert_eq!(r["theta_initial"]["h"], 4.5, "{template}");
+    }
+    let d = s(&dir.path().join("fixed-ellipsoid"));
+    let o = unfold(&[
+        "placenta",
+        &mesh_path_s,
+        "-o",
+        &d,
+        "--template",
+        "ellipsoid",
+        "--fix-h",
+        "4.5",
+    ]);
+    assert_one_line_error(&o, "--fix-h");
+    assert!(!dir.path().join("fixed-ellipsoid").exists());
     for (voxel, start) in [("1.5", 7.5), ("3", 15.0)] {
         let dir_v = dir.path().join(format!("v{voxel}"));
         let o = unfold(&[
@@ -857,6 +890,8 @@ fn bad_flag_values_are_one_line_errors() {
         ("--gamma", "nan"),
         ("--rings", "0"),
         ("--rings", "7"),
+        ("--fix-h", "0"),
+        ("--fix-h", "-3"),
         ("--voxel-mm", "nan"),
         ("--spacing-mm", "0"),
         ("--tol", "inf"),

@@ -11,10 +11,14 @@ use crate::template::PyTemplate;
 use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use unfold::cli::placenta::{InterpArg, PlacentaSettings, SolverArg, TemplateArg};
+use unfold::cli::placenta::{
+    InterpArg, PlacentaSettings, SolverArg, TemplateArg, hold_half_thickness,
+};
 use unfold::io::Frame;
 use unfold::mesh::{CellMesh, TetMesh};
-use unfold::organs::placenta::{Image, Pipeline, SolverKind, TemplateKind, prepare_mesh};
+use unfold::organs::placenta::{
+    Image, Pipeline, PlacentaTemplate, SolverKind, TemplateKind, prepare_mesh,
+};
 
 /// The template argument: a shipped template's name (None: planes), or a
 /// Python object implementing the template protocol ([`PyTemplate`]).
@@ -58,7 +62,7 @@ type ImageArrays<'py> = (
 /// name -> `(data, affine)`.
 #[pyfunction]
 #[pyo3(signature = (
-    points, tets, *, template=None, lam=1.0, margin_mm=None, gamma=20.0, rings=3, voxel_mm=3.0,
+    points, tets, *, template=None, lam=1.0, margin_mm=None, gamma=20.0, rings=3, voxel_mm=3.0, fix_h=None,
     solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None,
     images=Vec::new(), interp="linear", spacing_mm=None, frame_check=true
 ))]
@@ -73,6 +77,7 @@ pub(crate) fn placenta<'py>(
     gamma: f64,
     rings: i64,
     voxel_mm: f64,
+    fix_h: Option<f64>,
     solver: &str,
     tol: f64,
     max_iterations: Option<i64>,
@@ -106,11 +111,16 @@ pub(crate) fn placenta<'py>(
         TemplateChoice::Python(t) => Some(t.error_slot()),
         TemplateChoice::Shipped(_) => None,
     };
+    let template: Box<dyn PlacentaTemplate> = match template {
+        TemplateChoice::Shipped(kind) => kind.build(),
+        TemplateChoice::Python(t) => Box::new(t),
+    };
+    let template = hold_half_thickness(template, fix_h).map_err(crate::error)?;
     let solver_kind = SolverKind::from(choice::<SolverArg>("--solver", solver)?);
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
         "template={template_name:?}, lam={lam}, margin_mm={margin_mm:?}, gamma={gamma}, rings={rings}, \
-         voxel_mm={voxel_mm}, \
+         voxel_mm={voxel_mm}, fix_h={fix_h:?}, \
          solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
          spacing_mm={spacing_mm:?}, frame_check={frame_check}"
     );
@@ -131,12 +141,10 @@ pub(crate) fn placenta<'py>(
         let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
             .map(|e| e.total())
             .unwrap_or(0.0);
-        let pipeline = match template {
-            TemplateChoice::Shipped(kind) => Pipeline::new().template(kind.build()),
-            TemplateChoice::Python(t) => Pipeline::new().template(t),
-        }
-        .solver(solver_kind.build())
-        .config(config);
+        let pipeline = Pipeline::new()
+            .template(template)
+            .solver(solver_kind.build())
+            .config(config);
         let outcome = pipeline
             .run_prepared(prepared, &images, &mut callback)
             .map_err(failed)?;

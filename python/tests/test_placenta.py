@@ -97,6 +97,8 @@ def test_two_components_raise_the_cli_message(slab, unfold_bin, tmp_path):
     ({"gamma": 0.0}, ["--gamma", "0"]),
     ({"rings": 7}, ["--rings", "7"]),
     ({"rings": 0}, ["--rings", "0"]),
+    ({"fix_h": -2.0}, ["--fix-h", "-2"]),
+    ({"fix_h": 5.0, "template": "ellipsoid"}, ["--fix-h", "5", "--template", "ellipsoid"]),
     ({"voxel_mm": -3.0}, ["--voxel-mm", "-3"]),
     ({"spacing_mm": float("inf")}, ["--spacing-mm", "inf"]),
     ({"max_iterations": 0}, ["--max-iterations", "0"]),
@@ -139,3 +141,10 @@ def test_the_margin_starts_at_five_voxels(slab):
                                  max_iterations=2)
         parcellation = result.report["boundary"]["parcellation"]
         assert parcellation["margin_radius_initial_mm"] == start
+
+
+def test_fix_h_holds_the_half_thickness(slab):
+    for template in ["planes", "single-plane"]:
+        result = unfold.placenta(slab.points, slab.cells["tetra"], template=template, fix_h=4.5)
+        assert result.report["theta"] == {"h": 4.5}
+        assert result.report["theta_initial"] == {"h": 4.5}

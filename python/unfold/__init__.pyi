@@ -72,6 +72,7 @@ def placenta(
     margin_mm: Optional[float] = ...,
     gamma: float = ...,
     rings: int = ...,
+    fix_h: Optional[float] = ...,
     voxel_mm: float = ...,
     solver: str = ...,
     tol: float = ...,

@@ -56,6 +56,7 @@ def placenta(
     margin_mm: Optional[float] = None,
     gamma: float = 20.0,
     rings: int = 3,
+    fix_h: Optional[float] = None,
     voxel_mm: float = 3.0,
     solver: str = "newton",
     tol: float = 1e-4,
@@ -87,7 +88,8 @@ def placenta(
         lam: the distortion weight lambda (``--lambda``).
         margin_mm: ``--margin-mm`` (None: five voxels of voxel_mm, 15 mm at
             3 mm). voxel_mm: ``--voxel-mm``. gamma, rings: ``--gamma``,
-            ``--rings`` (the parcellation's affinity).
+            ``--rings`` (the parcellation's affinity). fix_h: ``--fix-h``, the
+            half thickness h held at this value (planes, single-plane).
         solver: "newton" (default) or "gd". tol: ``--tol``.
         max_iterations: ``--max-iterations`` (None: the solver's default).
         name: what messages and ``report["mesh"]`` call the mesh.
@@ -138,6 +140,7 @@ def placenta(
         margin_mm=None if margin_mm is None else float(margin_mm),
         gamma=float(gamma),
         rings=int(rings),
+        fix_h=None if fix_h is None else float(fix_h),
         voxel_mm=float(voxel_mm),
         solver=solver,
         tol=float(tol),

@@ -52,8 +52,8 @@ use crate::organs::placenta::parcellation::{DEFAULT_MARGIN_VOXELS, ParcellationC
 use crate::organs::placenta::pullback::PullbackTable;
 use crate::organs::placenta::segmentation::{THICKNESS_QUANTILE, from_segmentation};
 use crate::organs::placenta::{
-    Config, GridBox, Image, Interpolation, Pipeline, PreparedMesh, PullbackError, Report,
-    SolverKind, TemplateKind, prepare_mesh,
+    Config, GridBox, Held, Image, Interpolation, Pipeline, PlacentaTemplate, PreparedMesh,
+    PullbackError, Report, SolverKind, TemplateKind, prepare_mesh,
 };
 use crate::organs::{OrganError, PipelineObserver};
 use crate::param::Iteration;
@@ -173,6 +173,10 @@ pub struct PlacentaArgs {
     /// Template the mesh is flattened onto.
     #[arg(long, value_enum, default_value = "planes")]
     template: TemplateArg,
+    /// Hold the template's half thickness `h` at this value, mm, instead of
+    /// optimizing it (planes and single-plane templates).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    fix_h: Option<f64>,
     /// Weight lambda of the distortion term (the paper finds 0.1..5 alike).
     #[arg(
         long,
@@ -402,12 +406,43 @@ impl PlacentaSettings {
 impl PlacentaArgs {
     /// The pipeline: the template and solver of the flags, the published
     /// pieces otherwise, and `config`.
-    fn pipeline(&self, config: Config) -> Pipeline {
-        Pipeline::new()
-            .template(TemplateKind::from(self.template).build())
+    fn pipeline(&self, config: Config) -> Result<Pipeline, CliError> {
+        Ok(Pipeline::new()
+            .template(hold_half_thickness(
+                TemplateKind::from(self.template).build(),
+                self.fix_h,
+            )?)
             .solver(SolverKind::from(self.solver).build())
-            .config(config)
+            .config(config))
     }
+}
+
+/// `--fix-h`: `template` with its half thickness `h` held at `h_mm`
+/// ([`Held`]), or `template` itself without a value.
+///
+/// # Errors
+/// [`CliError::Usage`] for an `h_mm` that is not finite and positive, or a
+/// template whose parameters are not exactly `h` (the ellipsoid's radii).
+pub fn hold_half_thickness(
+    template: Box<dyn PlacentaTemplate>,
+    h_mm: Option<f64>,
+) -> Result<Box<dyn PlacentaTemplate>, CliError> {
+    let Some(h) = h_mm else {
+        return Ok(template);
+    };
+    let h = positive("--fix-h", h)?;
+    let names = template.parameter_names();
+    let name = template.name();
+    Held::new(template, vec![h])
+        .filter(|_| names == ["h"])
+        .map(|held| Box::new(held) as Box<dyn PlacentaTemplate>)
+        .ok_or_else(|| {
+            CliError::Usage(format!(
+                "--fix-h holds a half thickness h, but the {name} template's parameters are \
+                 [{}]; use it with --template planes or single-plane",
+                names.join(", ")
+            ))
+        })
 }
 
 /// The data type of an image pulled back by nearest neighbour: the input's
@@ -957,6 +992,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     }
     // every flag checked before any file is read
     a.config(3.0, None)?;
+    a.pipeline(Config::default())?;
     if a.seg.is_some() {
         m.options(false)?;
     }
@@ -1152,7 +1188,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         label: &label,
         mesh: &prepared,
         images: &images,
-        pipeline: &a.pipeline(config),
+        pipeline: &a.pipeline(config)?,
         dir: &staging,
         out: &staged,
         progress: true,

@@ -54,5 +54,5 @@ pub use pipeline::{Outcome, Pipeline};
 pub use prepare::{PreparedMesh, boundary_weights, prepare_mesh};
 pub use pullback::Interpolation;
 pub use report::{CanonicalReport, ImageReport, Pieces, Report};
-pub use templates::{Ellipsoid, ParallelPlanes, PlacentaTemplate, SinglePlane, TemplateKind};
+pub use templates::{Ellipsoid, Held, ParallelPlanes, PlacentaTemplate, SinglePlane, TemplateKind};
 pub use unfold_mesh::shapes::side;

@@ -11,12 +11,14 @@
 //! names the shipped ones for the command line.
 
 mod ellipsoid;
+mod held;
 mod planes;
 mod single_plane;
 #[cfg(test)]
 mod tests;
 
 pub use ellipsoid::Ellipsoid;
+pub use held::Held;
 pub use planes::ParallelPlanes;
 pub use single_plane::SinglePlane;
 
