@@ -98,7 +98,13 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
         "{stdout}"
     );
     assert!(stdout.contains(&format!("wrote {}", s(&out.join("report.json")))));
-    for f in ["normalized.vtu", "anatomy.vtu", "disk.vtu", "report.json"] {
+    for f in [
+        "normalized.vtu",
+        "anatomy.vtu",
+        "disk.vtu",
+        "aha_segments.csv",
+        "report.json",
+    ] {
         assert!(out.join(f).is_file(), "{f}");
     }
     assert!(!out.join("transferred.vtu").exists());
@@ -155,6 +161,37 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
     }
     assert_eq!(array(&anat, "depth"), depth);
     assert_eq!(aha_labels(&anat), seg);
+
+    // aha_segments.csv: per segment, its points and the mean of every
+    // scalar array of the anatomy over them, recomputed here.
+    let table = std::fs::read_to_string(out.join("aha_segments.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(&header[..2], ["segment", "points"]);
+    let d_col = header.iter().position(|h| *h == "depth").unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 17);
+    for (k, row) in rows.iter().enumerate() {
+        let label = k as i32 + 1;
+        assert_eq!(row[0], label.to_string());
+        let members: Vec<f64> = seg
+            .iter()
+            .zip(&depth)
+            .filter(|(a, _)| **a == label)
+            .map(|(_, d)| *d)
+            .collect();
+        assert_eq!(row[1], members.len().to_string(), "segment {label}");
+        if members.is_empty() {
+            assert_eq!(row[d_col], "", "segment {label}");
+        } else {
+            let mean = members.iter().sum::<f64>() / members.len() as f64;
+            let got: f64 = row[d_col].parse().unwrap();
+            assert!(
+                (got - mean).abs() < 1e-12,
+                "segment {label}: {got} vs {mean}"
+            );
+        }
+    }
 
     let disk = read_mesh(out.join("disk.vtu")).unwrap();
     assert!(disk.positions.len() >= v.surface.positions.len());

@@ -13,6 +13,7 @@
 //! deviation `s` (empty where the others are fewer than two or do not
 //! vary).
 
+use super::aha_segments::heart_segments;
 use super::cohort::SubjectRow;
 use super::{CliError, at};
 use std::collections::BTreeMap;
@@ -25,33 +26,9 @@ type SegmentMeans = BTreeMap<(String, i32), Vec<(String, f64)>>;
 fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, CliError> {
     let path = dir.join("anatomy.vtu");
     let mesh = crate::io::read_mesh(&path)?;
-    let labels = mesh
-        .point_data
-        .get("aha")
-        .ok_or_else(|| at(&path, "has no 'aha' point array"))?;
-    let mut sums: BTreeMap<(String, i32), (f64, usize)> = BTreeMap::new();
-    for f in mesh.point_data.iter() {
-        if f.name() == "aha" || f.components() != 1 {
-            continue;
-        }
-        for i in 0..f.tuples() {
-            let (Some(label), Some(v)) = (labels.get(i, 0), f.get(i, 0)) else {
-                continue;
-            };
-            if !(1.0..=17.0).contains(&label) || !v.is_finite() {
-                continue;
-            }
-            let e = sums
-                .entry((f.name().to_string(), label as i32))
-                .or_default();
-            e.0 += v;
-            e.1 += 1;
-        }
-    }
-    Ok(sums
-        .into_iter()
-        .map(|(k, (s, n))| (k, s / n as f64))
-        .collect())
+    heart_segments(&mesh)
+        .map(|s| s.means)
+        .ok_or_else(|| at(&path, "has no 'aha' point array"))
 }
 
 /// Mean and sample standard deviation (`None` below two values).

@@ -2,6 +2,7 @@
 //! library (`unfold::cli`) so the Python package runs the same code (its
 //! batch subjects and cohort tables).
 
+mod aha_segments;
 pub mod batch;
 pub mod cohort;
 mod cohort_figures;

@@ -287,6 +287,8 @@ const NORMALIZED: &str = "normalized.vtu";
 const ANATOMY: &str = "anatomy.vtu";
 const DISK: &str = "disk.vtu";
 const TRANSFERRED: &str = "transferred.vtu";
+/// The LV's AHA-segment table (not written for the RV).
+const AHA_SEGMENTS: &str = "aha_segments.csv";
 const REPORT: &str = "report.json";
 
 /// The second heart of a transfer.
@@ -602,6 +604,16 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         write_mesh(&p, mesh, &opts)?;
         written.push(p);
     }
+    // The LV's segment table, from the anatomy as written.
+    if let Some(segments) = meshes
+        .iter()
+        .find(|(name, _)| *name == ANATOMY)
+        .and_then(|(_, mesh)| super::aha_segments::heart_segments(mesh))
+    {
+        let p = dir.join(AHA_SEGMENTS);
+        atomic_write(&p, &super::aha_segments::segment_table(&segments, &p)?)?;
+        written.push(p);
+    }
     drop(meshes);
     let transfer = transferred.map(|(_, report)| report);
     let report_path = dir.join(REPORT);
@@ -703,7 +715,7 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
     let d = super::canonical(dir);
     for input in inputs {
         let c = super::canonical(input);
-        for f in [NORMALIZED, ANATOMY, DISK, TRANSFERRED, REPORT] {
+        for f in [NORMALIZED, ANATOMY, DISK, TRANSFERRED, AHA_SEGMENTS, REPORT] {
             if d.join(f) == c {
                 return Err(at(
                     input,
