@@ -82,10 +82,9 @@ fn a_series_named_al_pl_without_annulus_files_gives_the_table_and_the_plot() {
         assert!(f(r, "coaptation_near_vertices") >= 0.0);
     }
     // The report of each step agrees with its row.
-    let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(out.join("step_001/report.json")).unwrap(),
-    )
-    .unwrap();
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("step_001/report.json")).unwrap())
+            .unwrap();
     assert_eq!(
         report["distortion"]["initial"]["angle"].as_f64().unwrap(),
         f(&rows[1], "initial_angle_energy")
@@ -94,7 +93,12 @@ fn a_series_named_al_pl_without_annulus_files_gives_the_table_and_the_plot() {
         report["coaptation_vertices"]["near"].as_f64().unwrap(),
         f(&rows[1], "coaptation_near_vertices")
     );
-    assert!(report["inputs"].as_str().unwrap().contains("annulus from the leaflets"));
+    assert!(
+        report["inputs"]
+            .as_str()
+            .unwrap()
+            .contains("annulus from the leaflets")
+    );
     // The coaptation zone shrinks as the valve opens (step 1 closed, 10 open).
     assert!(f(&rows[0], "coaptation_vertices") > f(&rows[2], "coaptation_vertices"));
     // The plot over the cycle: 2 x 2 panels.
@@ -103,7 +107,13 @@ fn a_series_named_al_pl_without_annulus_files_gives_the_table_and_the_plot() {
     assert_eq!((img.width(), img.height()), (960, 800));
     // --no-figures writes no plot.
     let out2 = dir.path().join("out2");
-    assert_ok(&mitral(&["--series", &s(&series), "-o", &s(&out2), "--no-figures"]));
+    assert_ok(&mitral(&[
+        "--series",
+        &s(&series),
+        "-o",
+        &s(&out2),
+        "--no-figures",
+    ]));
     assert!(!out2.join("figures").exists());
 }
 
@@ -172,7 +182,10 @@ fn messy_series_directories_are_one_line_errors_naming_the_files() {
     let o = run(&d);
     assert_one_line_error(&o, "not both");
     let e = stderr(&o);
-    assert!(e.contains("AL_01.vtp") && e.contains("anterior_01.vtp"), "{e}");
+    assert!(
+        e.contains("AL_01.vtp") && e.contains("anterior_01.vtp"),
+        "{e}"
+    );
 
     // Two files for one leaflet of one step.
     let d = dir.path().join("twice");

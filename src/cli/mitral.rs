@@ -18,7 +18,7 @@
 //!
 //! `--series DIR`: the leaflets named `AL*` / `PL*` or `*anterior*` /
 //! `*posterior*`, annulus files `*annulus*` (for every step or none),
-//! paired by the rest of their names ([`super::mitral_series`]); one output
+//! paired by the rest of their names (`mitral_series.rs`); one output
 //! set per step in `OUT/<step>/`, a summary table `OUT/series.csv` (and
 //! `series.json`: `steps`, the same rows, and `provenance`, the run's, as a
 //! single valve's report has) and the plot over the cycle

@@ -62,8 +62,16 @@ pub fn series_plot(steps: &[SeriesPoint], opts: &FigureOptions) -> Result<Figure
         title,
         y_label: label,
         curves: vec![
-            ("initial", INITIAL, steps.iter().map(|s| s.initial[k]).collect()),
-            ("relaxed", FINAL, steps.iter().map(|s| s.r#final[k]).collect()),
+            (
+                "initial",
+                INITIAL,
+                steps.iter().map(|s| s.initial[k]).collect(),
+            ),
+            (
+                "relaxed",
+                FINAL,
+                steps.iter().map(|s| s.r#final[k]).collect(),
+            ),
         ],
     };
     let count = |k: usize| -> Vec<f64> { steps.iter().map(|s| s.coaptation[k] as f64).collect() };

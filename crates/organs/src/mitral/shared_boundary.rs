@@ -214,9 +214,8 @@ fn closed_ring(a: &[Point3<f64>], p: &[Point3<f64>], tol: f64) -> Option<Vec<Poi
             (arc[m - 1] - arc[m - 2]).norm()
         }
     };
-    let meets = |x: &Point3<f64>, xe: f64, y: &Point3<f64>, ye: f64| {
-        (x - y).norm() <= tol + xe.max(ye)
-    };
+    let meets =
+        |x: &Point3<f64>, xe: f64, y: &Point3<f64>, ye: f64| (x - y).norm() <= tol + xe.max(ye);
     let (ha0, ha1) = (end_edge(a, true), end_edge(a, false));
     let (hp0, hp1) = (end_edge(p, true), end_edge(p, false));
     let (p0, p1) = (p[0], p[p.len() - 1]);
@@ -331,7 +330,10 @@ mod tests {
         }
         let e = annulus_from_leaflets(&v.anterior, &far, 0.5).unwrap_err();
         let s = e.to_string();
-        assert!(s.contains("share no boundary") && s.contains("0.5 mm"), "{s}");
+        assert!(
+            s.contains("share no boundary") && s.contains("0.5 mm"),
+            "{s}"
+        );
         let e = annulus_from_leaflets(&v.anterior, &v.posterior, f64::NAN).unwrap_err();
         assert!(e.to_string().contains("tolerance_mm"), "{e}");
     }
@@ -343,7 +345,9 @@ mod tests {
         // segment short of the anterolateral commissure.
         let mut short = v.posterior.clone();
         let last: Vec<u32> = v.posterior_longitudes.last().unwrap().clone();
-        short.triangles.retain(|t| !t.iter().any(|x| last.contains(x)));
+        short
+            .triangles
+            .retain(|t| !t.iter().any(|x| last.contains(x)));
         let used: std::collections::BTreeSet<u32> =
             short.triangles.iter().flatten().copied().collect();
         let map: std::collections::HashMap<u32, u32> = used
