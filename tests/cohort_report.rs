@@ -153,7 +153,14 @@ fn the_report_shows_every_subject_with_relative_images_and_escaped_text() {
     let step_figures = pngs(&out.join("valves").join("step_000").join("figures"))
         + pngs(&out.join("valves").join("step_001").join("figures"));
     assert!(step_figures > 0);
-    assert_eq!(attributes(series, "img", "src").len(), step_figures);
+    // and the series' own plot over the cycle
+    let series_figures = pngs(&out.join("valves").join("figures"));
+    assert_eq!(series_figures, 1);
+    assert!(series.contains("valves/figures/series.png"), "{series}");
+    assert_eq!(
+        attributes(series, "img", "src").len(),
+        step_figures + series_figures
+    );
     assert!(series.contains("step_001: "), "{series}");
 
     // the broken subject: its error from failures.csv and its log

@@ -227,10 +227,11 @@ fn a_series_gives_one_set_per_step_and_a_table() {
         .collect();
     assert!(counts[0] > counts[2], "{counts:?}");
 
-    // A step missing its annulus file is a clear error.
+    // A step missing its annulus file (when the others have one) is a
+    // clear error naming it.
     std::fs::remove_file(series.join("t01_annulus.vtp")).unwrap();
     let o = unfold(&["mitral", "--series", &s(&series), "-o", &s(&out)]);
-    assert_one_line_error(&o, "3 anterior, 3 posterior and 2 annulus");
+    assert_one_line_error(&o, "t01_anterior.vtp: step 't01' has no annulus file");
 }
 
 #[test]

@@ -214,7 +214,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
     let files = super::mitral::ValveFiles {
         anterior: dir.join("valve_anterior.vtu"),
         posterior: dir.join("valve_posterior.vtu"),
-        annulus: dir.join("valve_annulus.vtu"),
+        annulus: Some(dir.join("valve_annulus.vtu")),
     };
     let mitral_dir = dir.join("mitral");
     let outcome = super::mitral::run_valve(

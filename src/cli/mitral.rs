@@ -4,7 +4,9 @@
 //! flip-free; clinical maps and measurements.
 //!
 //! Inputs: two leaflet surfaces (triangle meshes with disk topology, any
-//! surface format) and the annulus ring: a closed polyline in a mesh file
+//! surface format) and, optionally, the annulus ring (without it, the ring
+//! is found from the places where the leaflets' boundaries meet,
+//! [`annulus_from_leaflets`]): a closed polyline in a mesh file
 //! (one polyline cell, or 2-point line segments that chain into one ring;
 //! `.vtu`, `.vtp`, `.vtk`, `.obj`, ...), a file of points only
 //! (in ring order), or a text file (`.csv`, `.txt`, `.xyz`) with one
@@ -14,19 +16,23 @@
 //! map as a point or cell array), `valve2d.vtu` (the same at `(u, v, 0)`)
 //! and `report.json`.
 //!
-//! `--series DIR`: every file in DIR whose name contains `anterior`,
-//! `posterior` or `annulus` (any case); each group sorted by name and
-//! paired by position, one output set per step in `OUT/<step>/` and a
-//! summary table `OUT/series.csv` (and `series.json`: `steps`, the same
-//! rows, and `provenance`, the run's, as a single valve's report has).
+//! `--series DIR`: the leaflets named `AL*` / `PL*` or `*anterior*` /
+//! `*posterior*`, annulus files `*annulus*` (for every step or none),
+//! paired by the rest of their names (`mitral_series.rs`); one output
+//! set per step in `OUT/<step>/`, a summary table `OUT/series.csv` (and
+//! `series.json`: `steps`, the same rows, and `provenance`, the run's, as a
+//! single valve's report has) and the plot over the cycle
+//! `OUT/figures/series.png`.
 
 use super::{CliError, at, organ};
 use crate::figures::FigureOptions;
+use crate::figures::mitral::series::{SeriesPoint, series_plot};
 use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::{CellMesh, CellType, TriMesh};
 use crate::organs::mitral::{
     AnnulusMode, Config, InitMode, LeafletLayout, Outcome, Pipeline, RelaxMode, Report, ValveInput,
+    annulus_from_leaflets,
 };
 use clap::{Args, ValueEnum};
 use serde::Serialize;
@@ -70,7 +76,9 @@ pub enum RelaxArg {
     after_help = "Writes DIR/valve3d.vtu, DIR/valve2d.vtu (arrays: leaflet, u_gradient, \
                   u_interval, checker, carpentier, area_energy, angle_energy, length_energy, \
                   coaptation, coaptation_distance_mm, tenting_mm, uv) and DIR/report.json; with \
-                  --series, one such set per time step and DIR/series.csv."
+                  --series, one such set per time step, DIR/series.csv and \
+                  DIR/figures/series.png. Without --annulus the ring is found from the places \
+                  where the leaflets' boundaries meet (the commissures)."
 )]
 pub struct MitralArgs {
     /// Do not write the PNG figures into DIR/figures/.
@@ -82,11 +90,12 @@ pub struct MitralArgs {
     /// Posterior leaflet (triangle mesh, disk topology).
     #[arg(long, value_name = "PL", required_unless_present = "series")]
     posterior: Option<PathBuf>,
-    /// Annulus ring: a closed polyline (mesh file) or x,y,z lines (.csv .txt .xyz).
-    #[arg(long, value_name = "RING", required_unless_present = "series")]
+    /// Annulus ring: a closed polyline (mesh file) or x,y,z lines (.csv .txt
+    /// .xyz); without it, found from the leaflets' shared boundary.
+    #[arg(long, value_name = "RING")]
     annulus: Option<PathBuf>,
-    /// A directory of time steps: files named *anterior*, *posterior*,
-    /// *annulus*, paired by sorted name.
+    /// A directory of time steps: leaflets named AL* / PL* or *anterior* /
+    /// *posterior*, optional *annulus* files, paired by the rest of the name.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["anterior", "posterior", "annulus"])]
     series: Option<PathBuf>,
     /// Output directory (created if missing).
@@ -374,19 +383,57 @@ pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
 pub(crate) struct ValveFiles {
     pub anterior: PathBuf,
     pub posterior: PathBuf,
-    pub annulus: PathBuf,
+    /// None: found from the leaflets.
+    pub annulus: Option<PathBuf>,
 }
 
 impl ValveFiles {
-    /// `anterior + posterior + annulus`, naming the inputs in errors and
-    /// reports.
+    /// `anterior + posterior + annulus` (or `anterior + posterior (annulus
+    /// from the leaflets)`), naming the inputs in errors and reports.
     fn label(&self) -> String {
+        let ring = match &self.annulus {
+            Some(r) => format!(" + {}", r.display()),
+            None => " (annulus from the leaflets)".into(),
+        };
         format!(
-            "{} + {} + {}",
+            "{} + {}{ring}",
             self.anterior.display(),
             self.posterior.display(),
-            self.annulus.display()
         )
+    }
+
+    /// The input files (the annulus when given).
+    fn paths(&self) -> Vec<&PathBuf> {
+        let mut v = vec![&self.anterior, &self.posterior];
+        v.extend(&self.annulus);
+        v
+    }
+
+    /// The files as `out` will show them after its commit.
+    fn shown(&self, out: &StagedOutputs) -> ValveFiles {
+        ValveFiles {
+            anterior: out.shown(&self.anterior),
+            posterior: out.shown(&self.posterior),
+            annulus: self.annulus.as_ref().map(|r| out.shown(r)),
+        }
+    }
+}
+
+/// The annulus ring of `files`: read from its file, or found from the
+/// leaflets' shared boundary with `pipeline`'s tolerance (errors about
+/// `label`).
+fn ring_of(
+    files: &ValveFiles,
+    anterior: &TriMesh,
+    posterior: &TriMesh,
+    pipeline: &Pipeline,
+    label: &str,
+) -> Result<Vec<Point3<f64>>, CliError> {
+    match &files.annulus {
+        Some(path) => read_ring(path),
+        None => annulus_from_leaflets(anterior, posterior, pipeline.settings().tolerance_mm)
+            .map(|f| f.ring)
+            .map_err(|e| organ(label, e)),
     }
 }
 
@@ -403,13 +450,8 @@ pub(crate) fn run_valve(
 ) -> Result<Outcome, CliError> {
     let anterior = read_leaflet(&files.anterior)?;
     let posterior = read_leaflet(&files.posterior)?;
-    let ring = read_ring(&files.annulus)?;
-    let label = ValveFiles {
-        anterior: out.shown(&files.anterior),
-        posterior: out.shown(&files.posterior),
-        annulus: out.shown(&files.annulus),
-    }
-    .label();
+    let label = files.shown(out).label();
+    let ring = ring_of(files, &anterior, &posterior, pipeline, &label)?;
     let outcome = map_valve(pipeline, &anterior, &posterior, &ring, &label)?;
     write_outcome(&outcome, dir, &label, figures)?;
     Ok(outcome)
@@ -513,80 +555,9 @@ pub(crate) fn summary(r: &Report) -> String {
     )
 }
 
-/// The files of a series directory, paired by sorted name.
-fn series_files(dir: &Path) -> Result<Vec<(String, ValveFiles)>, CliError> {
-    let entries = std::fs::read_dir(dir).map_err(|source| CliError::Fs {
-        path: dir.display().to_string(),
-        source,
-    })?;
-    let mut groups: [Vec<PathBuf>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    for e in entries {
-        let e = e.map_err(|source| CliError::Fs {
-            path: dir.display().to_string(),
-            source,
-        })?;
-        let p = e.path();
-        if !p.is_file() {
-            continue;
-        }
-        let name = e.file_name().to_string_lossy().to_ascii_lowercase();
-        let kinds: Vec<usize> = ["anterior", "posterior", "annulus"]
-            .iter()
-            .enumerate()
-            .filter(|(_, k)| name.contains(*k))
-            .map(|(i, _)| i)
-            .collect();
-        match kinds.as_slice() {
-            [] => {}
-            [k] => groups[*k].push(p),
-            _ => {
-                return Err(at(
-                    &p,
-                    "names more than one of anterior / posterior / annulus",
-                ));
-            }
-        }
-    }
-    for g in &mut groups {
-        g.sort();
-    }
-    let [a, p, r] = &groups;
-    if a.is_empty() {
-        return Err(at(
-            dir,
-            "no files named *anterior*, *posterior*, *annulus* in this series directory",
-        ));
-    }
-    if a.len() != p.len() || a.len() != r.len() {
-        return Err(at(
-            dir,
-            format!(
-                "{} anterior, {} posterior and {} annulus files; a series needs one of each per \
-                 time step",
-                a.len(),
-                p.len(),
-                r.len()
-            ),
-        ));
-    }
-    Ok(a.iter()
-        .zip(p)
-        .zip(r)
-        .enumerate()
-        .map(|(i, ((a, p), r))| {
-            (
-                format!("step_{i:03}"),
-                ValveFiles {
-                    anterior: a.clone(),
-                    posterior: p.clone(),
-                    annulus: r.clone(),
-                },
-            )
-        })
-        .collect())
-}
-
-/// One row of the series table.
+/// One row of the series table (`series.csv`, `series.json`): the
+/// measurements of one step, its final and initial mean energies and its
+/// coaptation counts.
 #[derive(Serialize)]
 struct SeriesRow {
     step: String,
@@ -603,7 +574,117 @@ struct SeriesRow {
     length_energy: f64,
     flipped_triangles: usize,
     seconds: f64,
+    initial_angle_energy: f64,
+    initial_area_energy: f64,
+    initial_length_energy: f64,
+    coaptation_near_vertices: usize,
+    coaptation_threshold_mm: f64,
+    posterior: String,
+    annulus: String,
 }
+
+impl SeriesRow {
+    /// The row of step `step` from `files` and its report.
+    fn new(step: &str, files: &ValveFiles, r: &Report) -> SeriesRow {
+        let d = &r.distortion;
+        SeriesRow {
+            step: step.to_string(),
+            anterior: files.anterior.display().to_string(),
+            annulus_length_mm: r.annulus_length_mm,
+            u_extent_mm: r.u_extent_mm,
+            anterior_area_mm2: r.leaflet_area_mm2.anterior,
+            posterior_area_mm2: r.leaflet_area_mm2.posterior,
+            saddle_horn_height_mm: r.saddle_horn_height_mm,
+            area_above_plane_mm2: r.area_above_plane_mm2,
+            coaptation_vertices: r.coaptation_vertices.within,
+            angle_energy: d.r#final.angle,
+            area_energy: d.r#final.area,
+            length_energy: d.r#final.length,
+            flipped_triangles: r.flipped_triangles,
+            seconds: r.seconds,
+            initial_angle_energy: d.initial.angle,
+            initial_area_energy: d.initial.area,
+            initial_length_energy: d.initial.length,
+            coaptation_near_vertices: r.coaptation_vertices.near,
+            coaptation_threshold_mm: r.coaptation_vertices.threshold_mm,
+            posterior: files.posterior.display().to_string(),
+            annulus: files
+                .annulus
+                .as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_else(|| "from the leaflets".into()),
+        }
+    }
+
+    /// Its values in [`SERIES_COLUMNS`] order (file names with `,` as `_`).
+    fn csv(&self) -> String {
+        let file = |s: &str| s.replace(',', "_");
+        [
+            self.step.clone(),
+            file(&self.anterior),
+            self.annulus_length_mm.to_string(),
+            self.u_extent_mm.to_string(),
+            self.anterior_area_mm2.to_string(),
+            self.posterior_area_mm2.to_string(),
+            self.saddle_horn_height_mm.to_string(),
+            self.area_above_plane_mm2.to_string(),
+            self.coaptation_vertices.to_string(),
+            self.angle_energy.to_string(),
+            self.area_energy.to_string(),
+            self.length_energy.to_string(),
+            self.flipped_triangles.to_string(),
+            self.seconds.to_string(),
+            self.initial_angle_energy.to_string(),
+            self.initial_area_energy.to_string(),
+            self.initial_length_energy.to_string(),
+            self.coaptation_near_vertices.to_string(),
+            self.coaptation_threshold_mm.to_string(),
+            file(&self.posterior),
+            file(&self.annulus),
+        ]
+        .join(",")
+    }
+
+    /// The step's point of the plot over the cycle.
+    fn point(&self) -> SeriesPoint {
+        SeriesPoint {
+            initial: [
+                self.initial_area_energy,
+                self.initial_angle_energy,
+                self.initial_length_energy,
+            ],
+            r#final: [self.area_energy, self.angle_energy, self.length_energy],
+            coaptation: [self.coaptation_vertices, self.coaptation_near_vertices],
+        }
+    }
+}
+
+/// The columns of `series.csv`: the first fourteen as before issue 22 (the
+/// energies final), then the initial energies, the coaptation counts near
+/// the zone and the threshold, the posterior and annulus files.
+const SERIES_COLUMNS: [&str; 21] = [
+    "step",
+    "anterior_file",
+    "annulus_length_mm",
+    "u_extent_mm",
+    "anterior_area_mm2",
+    "posterior_area_mm2",
+    "saddle_horn_height_mm",
+    "area_above_plane_mm2",
+    "coaptation_vertices",
+    "angle_energy",
+    "area_energy",
+    "length_energy",
+    "flipped_triangles",
+    "seconds",
+    "initial_angle_energy",
+    "initial_area_energy",
+    "initial_length_energy",
+    "coaptation_near_vertices",
+    "coaptation_threshold_mm",
+    "posterior_file",
+    "annulus_file",
+];
 
 /// `series.json`: the series table and the run's provenance (its run hash
 /// lets a batch skip a series done before with the same inputs).
@@ -626,20 +707,20 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         ));
     }
     let Some(series) = &a.series else {
-        let (Some(anterior), Some(posterior), Some(annulus)) =
-            (&a.anterior, &a.posterior, &a.annulus)
-        else {
+        let (Some(anterior), Some(posterior)) = (&a.anterior, &a.posterior) else {
             return Err(CliError::Usage(
-                "give --anterior, --posterior and --annulus (or --series DIR)".into(),
+                "give --anterior and --posterior (and --annulus, or it is found from the \
+                 leaflets), or --series DIR"
+                    .into(),
             ));
         };
         let files = ValveFiles {
             anterior: anterior.clone(),
             posterior: posterior.clone(),
-            annulus: annulus.clone(),
+            annulus: a.annulus.clone(),
         };
-        check_not_inputs(out, &[&files.anterior, &files.posterior, &files.annulus])?;
-        let mut staged = StagedOutputs::new([&files.anterior, &files.posterior, &files.annulus]);
+        check_not_inputs(out, &files.paths())?;
+        let mut staged = StagedOutputs::new(files.paths());
         let dir = staged.dir(out)?;
         let outcome = run_valve(&files, &pipeline, &dir, !a.no_figures, &staged)
             .map_err(|e| super::shown(&staged, e))?;
@@ -650,29 +731,34 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         }
         return Ok(());
     };
-    let steps = series_files(series)?;
+    let steps: Vec<(String, ValveFiles)> = super::mitral_series::series_steps(series)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            (
+                format!("step_{i:03}"),
+                ValveFiles {
+                    anterior: s.anterior,
+                    posterior: s.posterior,
+                    annulus: s.annulus,
+                },
+            )
+        })
+        .collect();
     // The whole series is staged: `out` holds all its steps or none.
-    let mut staged = StagedOutputs::new(
-        steps
-            .iter()
-            .flat_map(|(_, f)| [&f.anterior, &f.posterior, &f.annulus]),
-    );
+    let mut staged = StagedOutputs::new(steps.iter().flat_map(|(_, f)| f.paths()));
     let staging = staged.dir(out)?;
-    // Every step read first (the first unreadable file is the error), then
-    // the steps run in parallel sharing their Newton layouts
-    // (`run_series`), then written in order, stopping at the first failed
-    // step.
+    // Every step read first (the first unreadable file is the error; an
+    // annulus not given is found from the leaflets), then the steps run in
+    // parallel sharing their Newton layouts (`run_series`), then written in
+    // order, stopping at the first failed step.
     let mut loaded = Vec::with_capacity(steps.len());
     for (name, files) in &steps {
-        check_not_inputs(
-            &out.join(name),
-            &[&files.anterior, &files.posterior, &files.annulus],
-        )?;
-        loaded.push((
-            read_leaflet(&files.anterior)?,
-            read_leaflet(&files.posterior)?,
-            read_ring(&files.annulus)?,
-        ));
+        check_not_inputs(&out.join(name), &files.paths())?;
+        let anterior = read_leaflet(&files.anterior)?;
+        let posterior = read_leaflet(&files.posterior)?;
+        let ring = ring_of(files, &anterior, &posterior, &pipeline, &files.label())?;
+        loaded.push((anterior, posterior, ring));
     }
     let inputs: Vec<ValveInput<'_>> = loaded
         .iter()
@@ -690,48 +776,14 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
         let outcome = outcome.map_err(|e| organ(&label, e))?;
         write_outcome(&outcome, &dir, &label, !a.no_figures)
             .map_err(|e| super::shown(&staged, e))?;
-        let r = &outcome.report;
-        println!("{name}: {}", summary(r));
-        rows.push(SeriesRow {
-            step: name.clone(),
-            anterior: files.anterior.display().to_string(),
-            annulus_length_mm: r.annulus_length_mm,
-            u_extent_mm: r.u_extent_mm,
-            anterior_area_mm2: r.leaflet_area_mm2.anterior,
-            posterior_area_mm2: r.leaflet_area_mm2.posterior,
-            saddle_horn_height_mm: r.saddle_horn_height_mm,
-            area_above_plane_mm2: r.area_above_plane_mm2,
-            coaptation_vertices: r.coaptation_vertices.within,
-            angle_energy: r.distortion.r#final.angle,
-            area_energy: r.distortion.r#final.area,
-            length_energy: r.distortion.r#final.length,
-            flipped_triangles: r.flipped_triangles,
-            seconds: r.seconds,
-        });
+        println!("{name}: {}", summary(&outcome.report));
+        rows.push(SeriesRow::new(name, files, &outcome.report));
     }
-    let mut csv = String::from(
-        "step,anterior_file,annulus_length_mm,u_extent_mm,anterior_area_mm2,posterior_area_mm2,\
-         saddle_horn_height_mm,area_above_plane_mm2,coaptation_vertices,angle_energy,\
-         area_energy,length_energy,flipped_triangles,seconds\n",
-    );
+    let mut csv = SERIES_COLUMNS.join(",");
+    csv.push('\n');
     for r in &rows {
-        csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.step,
-            r.anterior.replace(',', "_"),
-            r.annulus_length_mm,
-            r.u_extent_mm,
-            r.anterior_area_mm2,
-            r.posterior_area_mm2,
-            r.saddle_horn_height_mm,
-            r.area_above_plane_mm2,
-            r.coaptation_vertices,
-            r.angle_energy,
-            r.area_energy,
-            r.length_energy,
-            r.flipped_triangles,
-            r.seconds
-        ));
+        csv.push_str(&r.csv());
+        csv.push('\n');
     }
     atomic_write(staging.join("series.csv"), csv.as_bytes()).map_err(|e| staged.shown_error(e))?;
     let json = serde_json::to_string_pretty(&SeriesJson {
@@ -741,6 +793,11 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
     atomic_write(staging.join("series.json"), format!("{json}\n").as_bytes())
         .map_err(|e| staged.shown_error(e))?;
+    if !a.no_figures {
+        let points: Vec<SeriesPoint> = rows.iter().map(SeriesRow::point).collect();
+        let fig = series_plot(&points, &FigureOptions::default()).map_err(|e| at(out, e))?;
+        super::write_figures(&staging, &[fig]).map_err(|e| super::shown(&staged, e))?;
+    }
     staged.commit()?;
     println!(
         "wrote {} steps into {} and the table {}",

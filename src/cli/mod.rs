@@ -19,6 +19,7 @@ mod info;
 mod memory;
 pub mod mesh;
 pub mod mitral;
+mod mitral_series;
 pub mod placenta;
 mod provenance;
 mod pushback;

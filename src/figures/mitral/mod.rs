@@ -37,7 +37,8 @@
 //! (`geometry.rs`), the split of the triangles for label maps
 //! (`subdivision.rs`), how each map is coloured and explained (`specs.rs`),
 //! the two panels (`panel_2d.rs`, `panel_3d.rs`), the legend (`legend.rs`)
-//! and the drawing helpers they share (`drawing.rs`). Text layout is
+//! and the drawing helpers they share (`drawing.rs`). A series' plot over
+//! the cardiac cycle is [`series`]. Text layout is
 //! [`crate::figures::layout`]'s.
 
 use unfold_organs::mitral::Outcome;
@@ -51,6 +52,7 @@ mod geometry;
 mod legend;
 mod panel_2d;
 mod panel_3d;
+pub mod series;
 mod specs;
 mod subdivision;
 

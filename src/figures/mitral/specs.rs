@@ -214,13 +214,13 @@ fn area_spec(geo: &Geometry<'_>) -> Result<MapSpec, FigureError> {
     notes.insert(0, "(no unit)".into());
     Ok(MapSpec {
         array,
-        title: "Area distortion A2/A3 + A3/A2 (area_energy)".into(),
+        title: "Area distortion A'/A + A/A' (area_energy)".into(),
         colors,
         layout: Layout::Cell,
         legend: Legend::Bar {
             title: vec![
                 array.into(),
-                "A2, A3: 2D, 3D triangle area".into(),
+                "A', A: 2D, 3D triangle area".into(),
                 "blue: shrunk in 2D".into(),
                 "red: enlarged".into(),
             ],

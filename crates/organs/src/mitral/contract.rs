@@ -338,7 +338,10 @@ impl Ring {
 }
 
 /// Step 1 for a leaflet: valid mesh and disk topology; its boundary loop.
-fn disk_boundary(leaflet: LeafletSide, mesh: &TriMesh) -> Result<Vec<u32>, ContractError> {
+pub(super) fn disk_boundary(
+    leaflet: LeafletSide,
+    mesh: &TriMesh,
+) -> Result<Vec<u32>, ContractError> {
     mesh.validate()
         .map_err(|source| ContractError::LeafletMesh { leaflet, source })?;
     let loops = boundary_loops(mesh)

@@ -4,6 +4,9 @@
 //!
 //! Steps (each public, so a pipeline can be composed from code):
 //!
+//! Without an annulus ring, [`shared_boundary::annulus_from_leaflets`]
+//! finds it from the places where the leaflets' boundaries meet.
+//!
 //! 0. Both leaflets are repaired ([`unfold_mesh::repair`], coincident
 //!    vertices welded; [`Report::repair`]); the outputs use the repaired
 //!    leaflets' vertices.
@@ -27,9 +30,11 @@ pub mod layout;
 pub mod maps;
 mod pipeline;
 pub mod relax;
+pub mod shared_boundary;
 
 pub use initializer::LeafletLayout;
 pub use pipeline::Pipeline;
+pub use shared_boundary::{FoundAnnulus, annulus_from_leaflets};
 
 pub use error::{
     AnnulusError, ContractError, LayoutError, LayoutKind, LeafletSide, MapsError, MitralError,

@@ -202,7 +202,7 @@ impl Pipeline {
         config.validate()?;
         let mut timings = Timings::default();
         let t = Instant::now();
-        let (repaired, repair) = repair_leaflets(input)?;
+        let (repaired, repair) = repair_leaflets(input.anterior, input.posterior)?;
         let input = &ValveInput {
             anterior: &repaired[ANTERIOR],
             posterior: &repaired[POSTERIOR],
@@ -395,8 +395,9 @@ impl Pipeline {
 /// [`super::ContractError::LeafletMesh`] naming the leaflet when it cannot
 /// be repaired (out-of-range indices, non-finite coordinates, a
 /// non-orientable surface).
-fn repair_leaflets(
-    input: &ValveInput<'_>,
+pub(super) fn repair_leaflets(
+    anterior: &TriMesh,
+    posterior: &TriMesh,
 ) -> Result<([TriMesh; 2], super::LeafletRepairs), OrganError> {
     let options = RepairOptions {
         weld: Weld::Relative,
@@ -410,8 +411,8 @@ fn repair_leaflets(
             })
         })
     };
-    let (a, ra) = one(ANTERIOR, input.anterior)?;
-    let (p, rp) = one(POSTERIOR, input.posterior)?;
+    let (a, ra) = one(ANTERIOR, anterior)?;
+    let (p, rp) = one(POSTERIOR, posterior)?;
     Ok((
         [a, p],
         super::LeafletRepairs {

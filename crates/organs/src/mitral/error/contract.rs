@@ -276,6 +276,54 @@ pub enum ContractError {
     /// (please report).
     #[error("the commissures could not be placed on the annulus ring")]
     CommissuresNotPlaced,
+    /// Finding the annulus from the leaflets: their boundaries do not
+    /// touch.
+    #[error(
+        "the leaflets share no boundary: their boundaries come no closer than {} mm (tolerance \
+         {tolerance_mm} mm); without an annulus ring the leaflets must meet at the commissures",
+        Mm(*.closest_mm)
+    )]
+    NoSharedBoundary {
+        /// Distance from the anterior leaflet's boundary vertices to the
+        /// posterior leaflet's boundary, the smallest, mm.
+        closest_mm: f64,
+        /// The tolerance, mm.
+        tolerance_mm: f64,
+    },
+    /// Finding the annulus from the leaflets: their boundaries meet in
+    /// fewer than two places (the two commissures), or along a leaflet's
+    /// whole boundary.
+    #[error(
+        "the leaflets' boundaries meet in {places} place(s) along the {leaflet} leaflet's \
+         boundary ({shared_vertices} of its {boundary_vertices} boundary vertices within \
+         {tolerance_mm} mm of the other leaflet's); finding the annulus needs two places with \
+         free boundary between them (the commissures)"
+    )]
+    SharedBoundaryPlaces {
+        /// The leaflet along whose boundary the places were counted.
+        leaflet: LeafletSide,
+        /// Runs of shared vertices with unshared ones between them.
+        places: usize,
+        /// Its boundary vertices within the tolerance of the other leaflet.
+        shared_vertices: usize,
+        /// Its boundary vertices.
+        boundary_vertices: usize,
+        /// The tolerance, mm.
+        tolerance_mm: f64,
+    },
+    /// Finding the annulus from the leaflets: no arc of the anterior and
+    /// one of the posterior leaflet's boundary close into a ring.
+    #[error(
+        "the leaflets' boundaries meet in {} and {} places, but no arc of the anterior and one of \
+         the posterior boundary between them close into a ring (tolerance {tolerance_mm} mm)",
+        .places[0], .places[1]
+    )]
+    NoClosingArcs {
+        /// Places where the boundaries meet, per leaflet.
+        places: [usize; 2],
+        /// The tolerance, mm.
+        tolerance_mm: f64,
+    },
     /// Both commissures fall on the same ring point.
     #[error(
         "both commissures fall on annulus ring point {ring_point}; expected two distinct \
