@@ -24,7 +24,7 @@ type Leaflet<'py> = (
 /// each mesh as `(points, cells, point_data, cell_data)`.
 #[pyfunction]
 #[pyo3(signature = (
-    anterior, posterior, annulus, *, annulus_mode="landmark", init="auto", relax="sd",
+    anterior, posterior, annulus=None, *, annulus_mode="landmark", init="auto", relax="sd",
     iterations=5, step_scale=None, coaptation_mm=2.0, tolerance_mm=None,
     cut_posteromedial=false, name="valve"
 ))]
@@ -33,7 +33,7 @@ pub(crate) fn mitral<'py>(
     py: Python<'py>,
     anterior: Leaflet<'py>,
     posterior: Leaflet<'py>,
-    annulus: PyReadonlyArray2<'py, f64>,
+    annulus: Option<PyReadonlyArray2<'py, f64>>,
     annulus_mode: &str,
     init: &str,
     relax: &str,
@@ -67,8 +67,24 @@ pub(crate) fn mitral<'py>(
     };
     let anterior = leaflet(anterior, "anterior")?;
     let posterior = leaflet(posterior, "posterior")?;
-    let ring = points(&annulus, "annulus")?;
-    let parameters = format!("{settings:?}");
+    // Without a ring, the annulus from the leaflets' shared boundary (as
+    // `unfold mitral` without --annulus).
+    let ring = match &annulus {
+        Some(a) => points(a, "annulus")?,
+        None => unfold::organs::mitral::annulus_from_leaflets(
+            &anterior,
+            &posterior,
+            pipeline.settings().tolerance_mm,
+        )
+        .map(|found| found.ring)
+        .map_err(|source| {
+            crate::error(unfold::cli::CliError::Organ {
+                path: name.to_string(),
+                source,
+            })
+        })?,
+    };
+    let parameters = format!("{settings:?}, annulus given: {}", annulus.is_some());
     let outcome = py
         .detach(|| map_valve(&pipeline, &anterior, &posterior, &ring, name))
         .map_err(crate::error)?;

@@ -94,3 +94,18 @@ def test_bad_inputs(valve):
     # A ring of two points cannot be laid out: the pipeline's message, about the valve.
     with pytest.raises(unfold.UnfoldError, match="^valve: "):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus[:2])
+
+
+def test_the_annulus_is_found_from_the_leaflets_without_one(valve, both):
+    # As `unfold mitral` without --annulus: the same layout as with the
+    # demo's ring (the found ring is that ring on the synthetic valve).
+    given, _ = both
+    found = unfold.mitral(valve.anterior, valve.posterior)
+    np.testing.assert_allclose(found.points, given.points, rtol=0, atol=1e-9)
+
+
+def test_leaflets_that_do_not_meet_need_an_annulus(valve):
+    apart = unfold.Mesh(valve.posterior.points + np.array([0.0, 0.0, 50.0]),
+                        valve.posterior.cells)
+    with pytest.raises(unfold.UnfoldError, match="share no boundary"):
+        unfold.mitral(valve.anterior, apart)

@@ -147,7 +147,7 @@ def ventricle(
 def mitral(
     anterior: _Surface,
     posterior: _Surface,
-    annulus: np.ndarray,
+    annulus: Optional[np.ndarray] = ...,
     *,
     annulus_mode: str = ...,
     init: str = ...,

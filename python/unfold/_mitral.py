@@ -48,7 +48,7 @@ class MitralResult(MapResult):
 def mitral(
     anterior: Leaflet,
     posterior: Leaflet,
-    annulus,
+    annulus=None,
     *,
     annulus_mode: str = "landmark",
     init: str = "auto",
@@ -72,7 +72,9 @@ def mitral(
             a :class:`Mesh` (its triangles and point arrays) or ``(points,
             triangles)``.
         posterior: the posterior leaflet, likewise.
-        annulus: (k, 3) the annulus ring's points in ring order.
+        annulus: (k, 3) the annulus ring's points in ring order, or None to
+            find it from the leaflets' shared boundary (as ``unfold mitral``
+            without ``--annulus``).
         annulus_mode: "landmark" (default), "least-squares" or "straight".
         init: "auto" (default), "longitudes" or "tutte".
         relax: "sd" (default) or "spring".
@@ -94,7 +96,7 @@ def mitral(
     valve2d, valve3d, report = _native.mitral(
         _leaflet(anterior, f"{name}: anterior leaflet"),
         _leaflet(posterior, f"{name}: posterior leaflet"),
-        _points(annulus, "annulus"),
+        None if annulus is None else _points(annulus, "annulus"),
         annulus_mode=annulus_mode,
         init=init,
         relax=relax,
