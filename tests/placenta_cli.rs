@@ -891,6 +891,8 @@ fn bad_flag_values_are_one_line_errors() {
         ("--rings", "0"),
         ("--rings", "7"),
         ("--fix-h", "0"),
+        ("--lambda-sweep", "1,-2"),
+        ("--lambda-sweep", "0"),
         ("--fix-h", "-3"),
         ("--voxel-mm", "nan"),
         ("--spacing-mm", "0"),
@@ -971,4 +973,46 @@ fn demo_runs_the_placenta_pipeline() {
     let flat = read_image(pl.join("placenta_mri_flat.nii.gz")).unwrap();
     assert!(flat.volume.data().iter().any(|&x| x != 0.0));
     assert!(stdout(&o).contains("placenta_mri_flat.nii.gz"));
+}
+
+/// `--lambda-sweep`: one row per weight in `lambda_sweep.csv` and the
+/// trade-off curve; a larger weight distorts less and fits the template
+/// worse (the paper's Fig. 3), and the main outputs are those of --lambda.
+#[test]
+fn a_lambda_sweep_writes_the_trade_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = slab_file(dir.path());
+    let out = dir.path().join("out");
+    let o = unfold(&[
+        "placenta",
+        &s(&mesh_path),
+        "-o",
+        &s(&out),
+        "--lambda-sweep",
+        "0.2,5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = std::fs::read_to_string(out.join("lambda_sweep.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| match v {
+                    "true" => 1.0,
+                    "false" => 0.0,
+                    v => v.parse().unwrap(),
+                })
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 2, "{table}");
+    assert_eq!((rows[0][col("lambda")], rows[1][col("lambda")]), (0.2, 5.0));
+    assert!(rows.iter().all(|r| r[col("converged")] == 1.0), "{table}");
+    let (excess, error) = (col("dirichlet_excess_percent"), col("template_error_mm"));
+    assert!(rows[1][excess] < rows[0][excess], "{table}");
+    assert!(rows[1][error] > rows[0][error], "{table}");
+    assert!(out.join("figures/lambda_sweep.png").is_file());
+    assert_eq!(report(&out)["lambda"], 1.0);
 }

@@ -173,6 +173,17 @@ pub struct PlacentaArgs {
     /// Template the mesh is flattened onto.
     #[arg(long, value_enum, default_value = "planes")]
     template: TemplateArg,
+    /// Also flatten with each of these distortion weights (comma-separated,
+    /// each > 0) and write DIR/lambda_sweep.csv and the trade-off curve
+    /// DIR/figures/lambda_sweep.png (template error against Dirichlet
+    /// excess, the paper's Fig. 3); the other outputs are those of --lambda.
+    #[arg(
+        long,
+        value_name = "L,L,...",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    lambda_sweep: Vec<f64>,
     /// Hold the template's half thickness `h` at this value, mm, instead of
     /// optimizing it (planes and single-plane templates).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
@@ -993,6 +1004,9 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     // every flag checked before any file is read
     a.config(3.0, None)?;
     a.pipeline(Config::default())?;
+    for &l in &a.lambda_sweep {
+        positive("--lambda-sweep", l)?;
+    }
     if a.seg.is_some() {
         m.options(false)?;
     }
@@ -1184,6 +1198,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         a.displacement.is_some(),
     )?;
 
+    let sweep_config = config;
     let summary = run_pipeline(&PipelineInput {
         label: &label,
         mesh: &prepared,
@@ -1198,6 +1213,10 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
         frame,
     })
     .map_err(|e| super::shown(&staged, e))?;
+    if !a.lambda_sweep.is_empty() {
+        lambda_sweep(a, sweep_config, &prepared, &label, &staging)
+            .map_err(|e| super::shown(&staged, e))?;
+    }
     staged.commit()?;
     println!("{summary}");
     if !summary.report.converged {
@@ -1210,6 +1229,71 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     }
     Ok(())
 }
+
+/// `--lambda-sweep`: flattens `prepared` once per weight (no images; the
+/// settings of the main run otherwise) and writes `lambda_sweep.csv` (a row
+/// per weight: `lambda`, `converged`, `iterations`, `template_error_mm`,
+/// `dirichlet_excess_percent`, `min_det_j`, `seconds`) and, unless
+/// `--no-figures`, `figures/lambda_sweep.png` into `dir`.
+///
+/// # Errors
+/// A run that fails (named with its weight), writing the outputs.
+fn lambda_sweep(
+    a: &PlacentaArgs,
+    config: Config,
+    prepared: &PreparedMesh,
+    label: &str,
+    dir: &Path,
+) -> Result<(), CliError> {
+    use crate::figures::placenta::lambda_sweep::{SweepPoint, lambda_sweep_plot};
+    let path = dir.join(LAMBDA_SWEEP_CSV);
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "lambda",
+        "converged",
+        "iterations",
+        "template_error_mm",
+        "dirichlet_excess_percent",
+        "min_det_j",
+        "seconds",
+    ])
+    .map_err(|e| at(&path, e))?;
+    let mut points = Vec::new();
+    for &lambda in &a.lambda_sweep {
+        eprintln!("{label}: lambda sweep, lambda = {lambda}");
+        let outcome = a
+            .pipeline(Config { lambda, ..config })?
+            .run_prepared(prepared.clone(), &[], &mut crate::organs::Quiet)
+            .map_err(|e| super::organ(&format!("{label} (--lambda-sweep {lambda})"), e))?;
+        let r = &outcome.report;
+        w.write_record([
+            lambda.to_string(),
+            r.converged.to_string(),
+            r.iterations.to_string(),
+            r.template_error_mm.to_string(),
+            r.dirichlet_excess_percent.to_string(),
+            r.min_det_j.to_string(),
+            r.seconds.to_string(),
+        ])
+        .map_err(|e| at(&path, e))?;
+        points.push(SweepPoint {
+            lambda,
+            dirichlet_excess_percent: r.dirichlet_excess_percent,
+            template_error_mm: r.template_error_mm,
+        });
+    }
+    let bytes = w.into_inner().map_err(|e| at(&path, e))?;
+    atomic_write(&path, &bytes)?;
+    if !a.no_figures {
+        let figure =
+            lambda_sweep_plot(&points, &FigureOptions::default()).map_err(|e| at(&path, e))?;
+        super::write_figures(dir, &[figure])?;
+    }
+    Ok(())
+}
+
+/// The table of `--lambda-sweep`.
+const LAMBDA_SWEEP_CSV: &str = "lambda_sweep.csv";
 
 /// Refuses the optimization when the predicted peak passes the budget:
 /// the factor and per-tet buffers of the mesh

@@ -39,6 +39,7 @@ mod depth_slices;
 mod depths;
 mod distortion;
 mod drawing;
+pub mod lambda_sweep;
 mod mesh_views;
 mod meshes;
 mod numbers;
