@@ -128,7 +128,7 @@ enum Command {
     Mesh(mesh::MeshArgs),
     /// Flatten a placenta tet mesh onto a template (two planes, ellipsoid or
     /// single plane), pulling images into the template frame.
-    Placenta(placenta::PlacentaArgs),
+    Placenta(Box<placenta::PlacentaArgs>),
     /// Carry a template-space image (atlas, labels) back onto a subject's scanner grid
     /// through the inverse of an `unfold placenta` run's map.
     Pushback(pushback::PushbackArgs),

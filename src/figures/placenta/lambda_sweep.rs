@@ -120,7 +120,7 @@ fn panel(
             &mut img,
             c[0] as i64 + 7,
             c[1] as i64 - lh,
-            &format!("{}", format_value(p.lambda)),
+            &format_value(p.lambda),
             INK,
             Anchor::Left,
         )?;
