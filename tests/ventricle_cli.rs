@@ -150,6 +150,19 @@ fn the_cup_gives_the_cylinder_the_disk_and_a_report() {
         assert!(p.x.hypot(p.y) <= 1.0 + 1e-9, "inside the unit disk: {p}");
     }
     let (xi, zeta) = (array(&norm, "xi"), array(&norm, "zeta"));
+    // Each point's round trip, summarized by the report.
+    let roundtrip = array(&norm, "roundtrip_error_um");
+    assert_eq!(roundtrip.len(), n);
+    let r = report(&out);
+    let max = roundtrip.iter().copied().fold(0.0, f64::max);
+    let mean = roundtrip.iter().sum::<f64>() / n as f64;
+    assert!(
+        (max - r["roundtrip_error_um"]["max"].as_f64().unwrap()).abs() <= 1e-9 * max.max(1e-12)
+    );
+    assert!(
+        (mean - r["roundtrip_error_um"]["mean"].as_f64().unwrap()).abs()
+            <= 1e-9 * mean.max(1e-12) + 1e-15
+    );
     assert_eq!((xi.len(), zeta.len()), (n, n));
     let seg = aha_labels(&norm);
     assert!(seg.iter().all(|a| (1..=17).contains(a)));

@@ -344,6 +344,11 @@ fn outcome(
         .map(|(p, &d)| Point3::new(p[0], p[1], d))
         .collect();
     add_arrays(&mut normalized);
+    // Each point's round trip `|psi^-1(psi(v)) - v|` (um), the figure the
+    // report summarizes (the source paper's Fig. 13 per point).
+    normalized
+        .point_data
+        .insert(Field::scalars("roundtrip_error_um", errors_um.clone()));
     let mut anatomy_out = anatomy.clone();
     add_arrays(&mut anatomy_out);
     let disk_uv = &chart.disk().uv;
