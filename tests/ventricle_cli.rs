@@ -636,3 +636,85 @@ fn figures_are_written_unless_asked_not_to() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--no-figures"), "{}", stderr(&o));
 }
+
+/// `--rv-landmarks`: RV insertion points outside the cup, below its rim in
+/// the directions of its rim landmarks, give those landmarks back (the rays
+/// from the rim's centroid meet S below them), so the same map as
+/// `--anterior`/`--inferior`; the report says how they were found.
+#[test]
+fn rv_insertion_points_give_the_rim_landmarks() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = cup();
+    let (anatomy, surface) = write_cup(dir.path(), &v);
+    let given = dir.path().join("given");
+    assert_ok(&run(&anatomy, &surface, &v, &given, &[]));
+    let rim = unfold::mesh::topology::boundary_loops(&v.surface).unwrap();
+    let rim = &rim[0];
+    let c = rim
+        .iter()
+        .map(|&i| v.surface.positions[i as usize].coords)
+        .sum::<Vector3<f64>>()
+        / rim.len() as f64;
+    let c = Point3::from(c);
+    let down = (v.apex - c).normalize();
+    let rv = |p: &Point3<f64>| c + (p - c) * 1.3 + down * 2.0;
+    let derived = dir.path().join("derived");
+    let o = unfold(&[
+        "ventricle",
+        &s(&anatomy),
+        "--surface",
+        &s(&surface),
+        "--rv-landmarks",
+        &pt(&rv(&v.anterior)),
+        &pt(&rv(&v.inferior)),
+        "--apex",
+        &pt(&v.apex),
+        "--grid-mm",
+        "1.5",
+        "-o",
+        &s(&derived),
+    ]);
+    assert_ok(&o);
+    let r = report(&derived);
+    let found = &r["inputs"]["rv_landmarks"]["landmarks"];
+    for (k, p) in [v.anterior, v.inferior].iter().enumerate() {
+        let q: Vec<f64> = (0..3).map(|i| found[k][i].as_f64().unwrap()).collect();
+        assert!(
+            (Point3::new(q[0], q[1], q[2]) - p).norm() < 1e-9,
+            "landmark {k}: {q:?} vs {p}"
+        );
+    }
+    let a = read_mesh(given.join("normalized.vtu")).unwrap();
+    let b = read_mesh(derived.join("normalized.vtu")).unwrap();
+    for (p, q) in a.positions.iter().zip(&b.positions) {
+        assert!((p - q).norm() < 1e-9, "{p} vs {q}");
+    }
+    // With --anterior, or for the RV, or with one point: one-line errors.
+    let bad = |extra: &[&str]| {
+        let mut args = vec![
+            "ventricle".to_string(),
+            s(&anatomy),
+            "--surface".into(),
+            s(&surface),
+            "-o".into(),
+            s(&dir.path().join("bad")),
+        ];
+        args.extend(extra.iter().map(|x| x.to_string()));
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        unfold(&refs)
+    };
+    let (ra, ri) = (pt(&rv(&v.anterior)), pt(&rv(&v.inferior)));
+    assert_one_line_error(
+        &bad(&["--rv-landmarks", &ra, &ri, "--anterior", &pt(&v.anterior)]),
+        "--rv-landmarks",
+    );
+    assert_one_line_error(
+        &bad(&["--rv-landmarks", &ra, &ri, "--chamber", "rv"]),
+        "--rv-landmarks",
+    );
+    assert_one_line_error(&bad(&["--rv-landmarks", &ra]), "--rv-landmarks");
+    // A ray that meets nothing: straight up out of the cup.
+    let up = pt(&(c - down * 30.0));
+    assert_one_line_error(&bad(&["--rv-landmarks", &up, &ri]), "meets no triangle");
+    assert!(!dir.path().join("bad").exists());
+}

@@ -166,6 +166,7 @@ pub(crate) fn ventricle<'py>(
         inputs: Inputs {
             anatomy: anatomy_name,
             surface: surface_name,
+            rv_landmarks: None,
         },
         report: &outcome.report,
         transfer: transferred.as_ref().map(|(_, r)| r),

@@ -254,6 +254,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         dir: &ventricle_dir,
         figures: true,
         bullseye_array: None,
+        from_rv: None,
     })?;
     println!(
         "built-in ventricle cup: {}",

@@ -51,6 +51,7 @@ use crate::mesh::{CellMesh, CellType, TriMesh};
 use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use crate::organs::ventricle::openings::RimChoice;
+use crate::organs::ventricle::rv_landmarks::{FromRv, rim_landmarks_from_rv};
 use crate::organs::ventricle::{
     Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
 };
@@ -107,13 +108,21 @@ pub struct VentricleArgs {
     /// Anterior RV insertion point (LV) or first septal corner (RV), on the
     /// rim of S.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present = "landmarks")]
+          required_unless_present_any = ["landmarks", "rv_landmarks"])]
     anterior: Option<Point3<f64>>,
     /// Inferior RV insertion point (LV) or second septal corner (RV), on the
     /// rim of S.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present = "landmarks")]
+          required_unless_present_any = ["landmarks", "rv_landmarks"])]
     inferior: Option<Point3<f64>>,
+    /// LV: the anterior and inferior RV insertion points where the user
+    /// marked them (at the base of the RV ridges, outside S): the rim
+    /// landmarks are derived from them, as the source paper does (rays from
+    /// the rim's centroid through them meet S; the nearest rim vertices).
+    /// Instead of --anterior/--inferior.
+    #[arg(long, value_name = "X,Y,Z", num_args = 2, value_parser = parse_point,
+          allow_hyphen_values = true, conflicts_with_all = ["anterior", "inferior", "landmarks"])]
+    rv_landmarks: Vec<Point3<f64>>,
     /// The apex (snapped to the nearest vertex of S) [default: the vertex of
     /// S farthest from the rim's centroid].
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
@@ -326,6 +335,8 @@ pub(crate) struct PipelineInput<'a> {
     /// The point array of the anatomy shown on the bull's-eye (LV);
     /// `None`: the depth.
     pub bullseye_array: Option<&'a str>,
+    /// How `--rv-landmarks` gave the rim landmarks, for the report.
+    pub from_rv: Option<&'a FromRv>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -354,6 +365,9 @@ pub struct Inputs<'a> {
     pub anatomy: &'a str,
     /// The enclosing surface's name.
     pub surface: &'a str,
+    /// The rim landmarks derived from `--rv-landmarks`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rv_landmarks: Option<&'a FromRv>,
 }
 
 /// `transfer` in `report.json`.
@@ -621,6 +635,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         inputs: Inputs {
             anatomy: input.anatomy_label,
             surface: input.surface_label,
+            rv_landmarks: input.from_rv,
         },
         report: &outcome.report,
         transfer: transfer.as_ref(),
@@ -831,14 +846,41 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let landmarks = landmark_points(
-        a.landmarks.as_deref(),
-        a.anterior,
-        a.inferior,
-        a.apex,
-        a.rim_near,
-        "--anterior and --inferior",
-    )?;
+    let from_rv = match a.rv_landmarks.as_slice() {
+        [] => None,
+        [p, q] => {
+            if a.chamber == ChamberArg::Rv {
+                return Err(CliError::Usage(
+                    "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
+                     corners as --anterior and --inferior"
+                        .into(),
+                ));
+            }
+            Some(rim_landmarks_from_rv(&surface, [*p, *q]).map_err(|e| organ(&surface_label, e))?)
+        }
+        more => {
+            return Err(CliError::Usage(format!(
+                "--rv-landmarks takes two points, got {}",
+                more.len()
+            )));
+        }
+    };
+    let landmarks = match &from_rv {
+        Some(f) => LandmarkPoints {
+            anterior: Point3::from(f.landmarks[0]),
+            inferior: Point3::from(f.landmarks[1]),
+            apex: a.apex,
+            rim_near: a.rim_near,
+        },
+        None => landmark_points(
+            a.landmarks.as_deref(),
+            a.anterior,
+            a.inferior,
+            a.apex,
+            a.rim_near,
+            "--anterior and --inferior",
+        )?,
+    };
     let transfer = match (&to_surface, &hemisphere) {
         (Some(surface), _) => Some(TransferInput {
             label: &to_label,
@@ -884,6 +926,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         dir: &staging,
         figures: !a.no_figures,
         bullseye_array: a.bullseye_array.as_deref(),
+        from_rv: from_rv.as_ref(),
     })
     .map_err(|e| super::shown(&staged, e))?;
     staged.commit()?;

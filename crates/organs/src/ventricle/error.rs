@@ -53,6 +53,21 @@ pub enum VentricleError {
         /// The largest distance accepted, mm.
         snap_mm: f64,
     },
+    /// `--rv-landmarks`: the ray from the basal rim's centroid through an
+    /// RV insertion point meets no triangle of S.
+    #[error(
+        "the ray from the basal rim's centroid {centroid:?} through the {landmark} RV insertion \
+         point {point:?} meets no triangle of S: give points outside the LV at the base, \
+         where the RV wall attaches"
+    )]
+    RvRayMisses {
+        /// Which point (`anterior` or `inferior`).
+        landmark: &'static str,
+        /// The point given.
+        point: [f64; 3],
+        /// The rim's centroid, mm.
+        centroid: [f64; 3],
+    },
     /// Both rim landmarks snap to one rim vertex.
     #[error("the anterior and inferior landmarks snap to the same rim vertex {vertex}")]
     SameRimVertex {

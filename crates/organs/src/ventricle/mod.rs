@@ -36,6 +36,7 @@ pub mod landmarks;
 pub mod map;
 pub mod openings;
 pub mod pipeline;
+pub mod rv_landmarks;
 pub mod trace;
 
 pub use error::{PointFailure, VentricleError};
