@@ -718,3 +718,39 @@ fn rv_insertion_points_give_the_rim_landmarks() {
     assert_one_line_error(&bad(&["--rv-landmarks", &up, &ri]), "meets no triangle");
     assert!(!dir.path().join("bad").exists());
 }
+
+/// `--layers 3`: each point's transmural layer from its depth, 1 at S to 3
+/// at H, in both meshes; no layer column in the segment table.
+#[test]
+fn layers_label_the_depth_in_equal_bands() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = cup();
+    let (anatomy, surface) = write_cup(dir.path(), &v);
+    let out = dir.path().join("out");
+    assert_ok(&run(&anatomy, &surface, &v, &out, &["--layers", "3"]));
+    let norm = read_mesh(out.join("normalized.vtu")).unwrap();
+    let depth = array(&norm, "depth");
+    for name in ["normalized.vtu", "anatomy.vtu"] {
+        let m = read_mesh(out.join(name)).unwrap();
+        let layer = match m.point_data.get("layer").expect("array layer").values() {
+            FieldValues::I32(v) => v.clone(),
+            other => panic!("layer is {}", other.type_name()),
+        };
+        for (l, d) in layer.iter().zip(&depth) {
+            let expected = ((d * 3.0).floor() as i32 + 1).clamp(1, 3);
+            assert_eq!(*l, expected, "{name}: depth {d}");
+        }
+    }
+    let table = std::fs::read_to_string(out.join("aha_segments.csv")).unwrap();
+    assert!(!table.lines().next().unwrap().contains("layer"), "{table}");
+    for bad in ["0", "101", "x"] {
+        let o = run(
+            &anatomy,
+            &surface,
+            &v,
+            &dir.path().join("bad"),
+            &["--layers", bad],
+        );
+        assert_one_line_error(&o, "--layers");
+    }
+}

@@ -16,7 +16,7 @@ use std::path::Path;
 pub(crate) struct HeartSegments {
     /// Points labelled `k`, at `k - 1`.
     pub points: [usize; 17],
-    /// Mean of each scalar array (not `aha`) over the finite values of the
+    /// Mean of each scalar array (not the labels `aha` and `layer`) over the finite values of the
     /// points of each segment that has any.
     pub means: BTreeMap<(String, i32), f64>,
 }
@@ -34,7 +34,8 @@ pub(crate) fn heart_segments(mesh: &CellMesh) -> Option<HeartSegments> {
     }
     let mut sums: BTreeMap<(String, i32), (f64, usize)> = BTreeMap::new();
     for f in mesh.point_data.iter() {
-        if f.name() == "aha" || f.components() != 1 {
+        // Labels, not measurements.
+        if f.name() == "aha" || f.name() == "layer" || f.components() != 1 {
             continue;
         }
         for i in 0..f.tuples() {

@@ -255,6 +255,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         figures: true,
         bullseye_array: None,
         from_rv: None,
+        layers: None,
     })?;
     println!(
         "built-in ventricle cup: {}",

@@ -47,13 +47,13 @@ use crate::io::{
 };
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
-use crate::mesh::{CellMesh, CellType, TriMesh};
+use crate::mesh::{CellMesh, CellType, Field, TriMesh};
 use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use crate::organs::ventricle::openings::RimChoice;
 use crate::organs::ventricle::rv_landmarks::{FromRv, rim_landmarks_from_rv};
 use crate::organs::ventricle::{
-    Chamber, ChartConfig, Config, LandmarkPoints, Outcome, Pipeline, Report,
+    Chamber, ChartConfig, Config, CylinderPoint, LandmarkPoints, Outcome, Pipeline, Report,
 };
 use clap::{Args, ValueEnum};
 use serde::Serialize;
@@ -97,6 +97,12 @@ pub struct VentricleArgs {
     /// mean per AHA segment [default: the depth].
     #[arg(long, value_name = "NAME", conflicts_with = "no_figures")]
     bullseye_array: Option<String>,
+    /// Label N transmural layers of equal depth: the point array `layer`
+    /// of normalized.vtu and anatomy.vtu, 1 at S (depth 0) to N at the
+    /// hemisphere H (depth 1), `min(floor(depth N) + 1, N)` (3: the
+    /// enclosing surface's, middle and inner thirds).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100))]
+    layers: Option<u32>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
     /// mapped; its cells are kept.
@@ -291,6 +297,16 @@ fn progress(line: impl FnOnce() -> String) {
     }
 }
 
+/// `--layers n`: the transmural layer of each point, `1` at S to `n` at H:
+/// `min(floor(d n) + 1, n)` for the depth `d` in `[0, 1]`.
+fn transmural_layers(coords: &[CylinderPoint], n: u32) -> Vec<i32> {
+    let n = f64::from(n);
+    coords
+        .iter()
+        .map(|c| ((c.depth * n).floor() + 1.0).clamp(1.0, n) as i32)
+        .collect()
+}
+
 /// The output files.
 const NORMALIZED: &str = "normalized.vtu";
 const ANATOMY: &str = "anatomy.vtu";
@@ -337,6 +353,8 @@ pub(crate) struct PipelineInput<'a> {
     pub bullseye_array: Option<&'a str>,
     /// How `--rv-landmarks` gave the rim landmarks, for the report.
     pub from_rv: Option<&'a FromRv>,
+    /// `--layers`: transmural layers to label.
+    pub layers: Option<u32>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -610,6 +628,12 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         (ANATOMY, with_vertex_cells(&outcome.anatomy)),
         (DISK, Cow::Owned(CellMesh::from(&outcome.disk))),
     ];
+    if let Some(n) = input.layers {
+        let layer = Field::labels("layer", transmural_layers(&outcome.coords, n));
+        for (_, mesh) in meshes.iter_mut().take(2) {
+            mesh.to_mut().point_data.insert(layer.clone());
+        }
+    }
     if let Some((mesh, _)) = &transferred {
         meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
     }
@@ -927,6 +951,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         figures: !a.no_figures,
         bullseye_array: a.bullseye_array.as_deref(),
         from_rv: from_rv.as_ref(),
+        layers: a.layers,
     })
     .map_err(|e| super::shown(&staged, e))?;
     staged.commit()?;
