@@ -106,6 +106,9 @@ fn mesher_flags() {
             &s(&wide),
             "-o",
             &s(&p),
+            // --dense meshes at the smallest spacing (the default size
+            // follows the mask's volume and thickness)
+            "--dense",
             "--max-memory",
             "2G",
         ]),
@@ -135,8 +138,10 @@ fn placenta_flags() {
             "--margin-mm",
         ),
         (
-            "placenta --voxel-mm 1e-9",
-            vec!["--voxel-mm", "1e-9"],
+            // (without --margin-mm the margin starts at five such voxels,
+            // a valid if meaningless run)
+            "placenta --voxel-mm 1e-9 --margin-mm 15",
+            vec!["--voxel-mm", "1e-9", "--margin-mm", "15"],
             "voxel",
         ),
         (
