@@ -15,6 +15,12 @@
 
 mod cholesky;
 mod lu;
+mod multigrid_solve;
+pub mod nested_dissection;
 
-pub use cholesky::{SpdFactor, SpdPattern, solve_spd};
+pub use cholesky::{SpdFactor, SpdPattern, VertexSolver, solve_spd};
 pub use lu::SparseLu;
+pub use multigrid_solve::{
+    MULTIGRID_COARSEST, MULTIGRID_MAX_ITERATIONS, MULTIGRID_REL_TOL, MultigridSettings,
+    MultigridSizes,
+};
