@@ -98,10 +98,11 @@ pub enum LinearSolver {
     Multigrid,
 }
 
-/// The objective of a parameterization problem. Construction precomputes
-/// the Hessian sparsity pattern (with its symbolic Cholesky analysis) and the
-/// element -> value-slot maps, so every Newton iteration only evaluates and
-/// scatters.
+/// The objective of a parameterization problem. The first Hessian builds
+/// the sparsity pattern (with its symbolic Cholesky analysis, or the
+/// multigrid's plan for a large tet mesh: [`Objective::linear_solver`]) and
+/// the element -> value-slot maps, so every Newton iteration only evaluates
+/// and scatters.
 #[derive(Debug)]
 pub struct Objective<'a> {
     mesh: &'a ParamMesh,

@@ -21,6 +21,13 @@
 //! blocks of at least `d` columns, which the supernodal kernels handle with
 //! dense (BLAS-3 style) updates.
 //!
+//! A pattern built from a vertex graph ([`SpdPattern::from_vertex_graph_with`])
+//! may instead be ordered by nested dissection (`super::nested_dissection`),
+//! or not factorized at all: with [`VertexSolver::Multigrid`] the values stay
+//! in the vertices' own order, a "factorization" builds a multigrid
+//! hierarchy and a solve iterates (`super::multigrid_solve`), for meshes
+//! whose factor would not fit (docs/DESIGN-NOTES.md, "Fine tet meshes").
+//!
 //! A [`Csr`] matrix enters through [`SpdPattern::of_symmetric`] (its
 //! pattern) and [`SpdPattern::values_of`] (its values in the slots).
 
