@@ -19,8 +19,8 @@ Targets (issue 21): 1.25M tets in under 6 GiB and 3 minutes on 2 cores.
     cargo build --release --bin unfold
     python3 benches/placenta_scale.py [--sizes 5,3.9,...] [--unfold PATH]
 
-Needs numpy and nibabel (e.g. the CI's `target/ci-venv`). About 4 minutes on
-2 cores (the 1.25M-tet run takes about 40 s and 2.6 GiB; its mesh file is
+Needs numpy and nibabel (e.g. the CI's `target/ci-venv`). 1 to 2 minutes on
+2 cores (the 1.25M-tet run takes 30 to 40 s and 2.5 GiB; its mesh file is
 55 MB). The masks, meshes and outputs go to a temporary directory under /tmp,
 removed at the end. Never run two of these at once on a small machine: the
 largest run needs its memory (`--max-memory` protects the machine).

@@ -65,8 +65,9 @@ pub enum VertexSolver {
 }
 
 /// A fixed sparsity pattern of a symmetric `n x n` matrix `A`, with the
-/// fill-reducing ordering and the symbolic Cholesky analysis done once, and
-/// the value slot of every entry (see the module docs).
+/// fill-reducing ordering and the symbolic Cholesky analysis (or the
+/// multigrid's plan) done once, and the value slot of every entry (see the
+/// module docs).
 #[derive(Debug, Clone)]
 pub struct SpdPattern {
     n: usize,
