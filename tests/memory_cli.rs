@@ -182,6 +182,41 @@ fn the_placenta_predicts_its_peak_and_refuses_what_does_not_fit() {
 }
 
 #[test]
+fn the_placenta_multigrid_solve_predicts_its_peak() {
+    // 24,605 vertices (115,200 tets): at least MULTIGRID_MIN_VERTICES, so
+    // Newton's systems are solved by multigrid, whose estimate has no
+    // factor but the multigrid's matrix, prolongations and vectors.
+    let dir = tempfile::tempdir().unwrap();
+    let slab = slab_file(dir.path(), 40, 4);
+    let out = dir.path().join("out");
+    let (o, peak) = unfold_measured(&["placenta", &s(&slab), "-o", &s(&out), "--no-figures"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = &report(&out)["memory"];
+    let predicted = m["predicted_peak_bytes"].as_f64().unwrap();
+    assert_bounds(
+        "placenta 40x4 slab (multigrid)",
+        predicted,
+        peak as f64,
+        2.5,
+    );
+    let (o, _) = unfold_measured(&[
+        "placenta",
+        &s(&slab),
+        "-o",
+        &s(&dir.path().join("small")),
+        "--no-figures",
+        "--max-memory",
+        "100M",
+    ]);
+    assert_one_line_error(&o, "flattening the placenta would need about");
+    let e = stderr(&o);
+    assert!(
+        e.contains("multigrid matrix") && e.contains("prolongations") && !e.contains("factor"),
+        "{e}"
+    );
+}
+
+#[test]
 fn the_ventricle_field_predicts_its_peak_and_refuses_a_runaway_grid() {
     let dir = tempfile::tempdir().unwrap();
     let v = ventricle_cup(&VentricleParams::default()).unwrap();

@@ -313,6 +313,12 @@ pub enum LinalgError {
         /// The dimensions.
         dims: [usize; 3],
     },
+    /// A grid spacing that is not positive and finite.
+    #[error("grid spacing {spacing}: the spacing must be positive and finite")]
+    InvalidSpacing {
+        /// The spacing given.
+        spacing: f64,
+    },
     /// A grid node's unknown number is not below the number of unknowns.
     #[error(
         "grid index: node {node} has unknown number {number}, but there are only {unknowns} \

@@ -6,12 +6,13 @@
 //!   products the solvers need.
 //! - [`sparse`]: faer's sparse direct solvers behind one module: the
 //!   Cholesky pattern/factor pair [`SpdPattern`] / [`SpdFactor`] (symbolic
-//!   analysis once, numeric refactorization per set of values) and the LU
-//!   [`SparseLu`].
+//!   analysis once, numeric refactorization per set of values; AMD or
+//!   nested dissection, or a multigrid-PCG backend for large meshes) and
+//!   the LU [`SparseLu`].
 //! - [`eigen`]: the few smallest eigenpairs of a sparse symmetric positive
 //!   semidefinite matrix (shift-invert block Krylov with Rayleigh–Ritz).
 //! - [`multigrid`]: multigrid-preconditioned conjugate gradients on masked
-//!   3D grids.
+//!   3D grids, and background grids for unstructured points.
 //! - [`laplacian`]: cotangent and uniform Laplacians, P1 stiffness,
 //!   mean-value weights.
 //! - [`dirichlet`]: harmonic extensions of boundary values (symmetric and

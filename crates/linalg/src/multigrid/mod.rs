@@ -33,9 +33,11 @@
 
 mod coarsest;
 mod pcg;
+mod points;
 mod prolongation;
 
 pub use pcg::{PcgReport, pcg};
+pub use points::{block_prolongation, point_hierarchy, point_prolongation};
 pub use prolongation::grid_prolongation;
 
 use crate::csr::spgemm;

@@ -21,9 +21,19 @@
 //! blocks of at least `d` columns, which the supernodal kernels handle with
 //! dense (BLAS-3 style) updates.
 //!
+//! A pattern built from a vertex graph ([`SpdPattern::from_vertex_graph_with`])
+//! may instead be ordered by nested dissection (`super::nested_dissection`),
+//! or not factorized at all: with [`VertexSolver::Multigrid`] the values stay
+//! in the vertices' own order, a "factorization" builds a multigrid
+//! hierarchy and a solve iterates (`super::multigrid_solve`), for meshes
+//! whose factor would not fit (docs/DESIGN-NOTES.md, "Fine tet meshes").
+//!
 //! A [`Csr`] matrix enters through [`SpdPattern::of_symmetric`] (its
 //! pattern) and [`SpdPattern::values_of`] (its values in the slots).
 
+use super::multigrid_solve::{MultigridPlan, MultigridSettings, MultigridSizes};
+use super::nested_dissection::{Graph, nested_dissection};
+use crate::multigrid::{Multigrid, PcgReport};
 use crate::{Csr, LinalgError};
 use faer::dyn_stack::{MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -38,9 +48,26 @@ use faer::{Conj, MatMut, Par, Side};
 use std::mem::MaybeUninit;
 use std::sync::Arc;
 
+/// How the systems of a vertex-graph pattern are solved
+/// ([`SpdPattern::from_vertex_graph_with`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum VertexSolver {
+    /// Supernodal Cholesky, the vertices ordered by approximate minimum
+    /// degree (faer's AMD).
+    CholeskyAmd,
+    /// Supernodal Cholesky, the vertices ordered by nested dissection
+    /// ([`super::nested_dissection`]).
+    CholeskyNestedDissection,
+    /// Conjugate gradients preconditioned by multigrid on a background
+    /// grid over the vertices (`super::multigrid_solve`): no factor, memory
+    /// linear in the mesh; solves to a relative residual.
+    Multigrid(MultigridSettings),
+}
+
 /// A fixed sparsity pattern of a symmetric `n x n` matrix `A`, with the
-/// fill-reducing ordering and the symbolic Cholesky analysis done once, and
-/// the value slot of every entry (see the module docs).
+/// fill-reducing ordering and the symbolic Cholesky analysis (or the
+/// multigrid's plan) done once, and the value slot of every entry (see the
+/// module docs).
 #[derive(Debug, Clone)]
 pub struct SpdPattern {
     n: usize,
@@ -50,7 +77,9 @@ pub struct SpdPattern {
     /// `inv[fwd[k]] = k`.
     fwd: Arc<Vec<usize>>,
     inv: Vec<usize>,
-    cholesky: Arc<SymbolicCholesky<usize>>,
+    /// The solver: a symbolic Cholesky factorization, or the multigrid
+    /// plan.
+    backend: Backend,
     /// Slot of `A[i][i]`, per unknown `i`.
     diagonal: Vec<usize>,
     /// Slot of each entry of the compressed pattern given to
@@ -58,8 +87,19 @@ pub struct SpdPattern {
     input_slots: Vec<usize>,
     /// Where the blocks of a [`SpdPattern::from_vertex_graph`] pattern went.
     blocks: Option<VertexBlocks>,
-    /// Workspace of a numeric factorization.
-    factor_scratch: StackReq,
+}
+
+/// How a pattern's systems are solved.
+#[derive(Debug, Clone)]
+enum Backend {
+    /// Sparse Cholesky: the symbolic factorization and the workspace of a
+    /// numeric one.
+    Cholesky {
+        symbolic: Arc<SymbolicCholesky<usize>>,
+        scratch: StackReq,
+    },
+    /// Conjugate gradients with a multigrid preconditioner.
+    Multigrid(Arc<MultigridPlan>),
 }
 
 impl SpdPattern {
@@ -228,11 +268,43 @@ impl SpdPattern {
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
     ) -> Result<Self, LinalgError> {
+        Self::from_vertex_graph_with(nv, block, col_ptr, row_idx, VertexSolver::CholeskyAmd)
+    }
+
+    /// As [`SpdPattern::from_vertex_graph`], solved as `solver` says: the
+    /// Cholesky factorizations order the vertices (AMD or nested
+    /// dissection); the multigrid backend keeps their order and factorizes
+    /// nothing (its "factor" is the hierarchy, its solves iterate to
+    /// [`MultigridSettings::rel_tol`]).
+    ///
+    /// # Errors
+    /// As [`SpdPattern::from_vertex_graph`]; for the multigrid, those of
+    /// its background grid ([`crate::multigrid::point_hierarchy`]) and
+    /// [`LinalgError::DimensionMismatch`] for a wrong number of points.
+    pub fn from_vertex_graph_with(
+        nv: usize,
+        block: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        solver: VertexSolver,
+    ) -> Result<Self, LinalgError> {
         if block == 0 {
             return Err(LinalgError::BlockSize { block, n: nv });
         }
         let graph = validated_upper(nv, col_ptr, row_idx)?;
-        let (vfwd, vinv) = scalar_amd(&graph)?;
+        let (vfwd, vinv) = match &solver {
+            VertexSolver::CholeskyAmd => scalar_amd(&graph)?,
+            VertexSolver::CholeskyNestedDissection => {
+                let g = Graph::from_upper(nv, graph.col_ptr(), graph.row_idx())?;
+                let fwd = nested_dissection(&g)?;
+                let mut inv = vec![0usize; nv];
+                for (k, &v) in fwd.iter().enumerate() {
+                    inv[v] = k;
+                }
+                (fwd, inv)
+            }
+            VertexSolver::Multigrid(_) => ((0..nv).collect(), (0..nv).collect()),
+        };
         // The ordered graph: lower triangle with the entry positions, and
         // upper triangle for the symbolic analysis.
         let (ptr, rows) = (graph.col_ptr(), graph.row_idx());
@@ -251,10 +323,8 @@ impl SpdPattern {
             }
         }
         let (vlower, vslots) = compress(nv, &hi, &lo);
-        let (vupper, _) = compress(nv, &lo, &hi);
         let n = nv * block;
         let lower = expand_lower(&vlower, block);
-        let upper = expand_upper(&vupper, block);
         let vptr = vlower.col_ptr();
         let entries = vslots
             .iter()
@@ -279,6 +349,22 @@ impl SpdPattern {
             }
         }
         let blocks = VertexBlocks { block, entries };
+        if let VertexSolver::Multigrid(settings) = solver {
+            let plan = MultigridPlan::new(&lower, block, &settings)?;
+            let diagonal = (0..n).map(|i| lower.col_ptr()[inv[i]]).collect();
+            return Ok(SpdPattern {
+                n,
+                lower,
+                fwd: Arc::new(fwd),
+                inv,
+                backend: Backend::Multigrid(Arc::new(plan)),
+                diagonal,
+                input_slots: Vec::new(),
+                blocks: Some(blocks),
+            });
+        }
+        let (vupper, _) = compress(nv, &lo, &hi);
+        let upper = expand_upper(&vupper, block);
         Self::finish(block, lower, upper, fwd, inv, Vec::new(), Some(blocks))
     }
 
@@ -338,18 +424,20 @@ impl SpdPattern {
         .map_err(LinalgError::faer("symbolic Cholesky analysis"))?;
         // Rows are sorted and >= the column, so the diagonal comes first.
         let diagonal = (0..n).map(|i| lower.col_ptr()[inv[i]]).collect();
-        let factor_scratch =
+        let scratch =
             cholesky.factorize_numeric_llt_scratch::<f64>(parallelism(), Default::default());
         Ok(SpdPattern {
             n,
             lower,
             fwd: Arc::new(fwd),
             inv,
-            cholesky: Arc::new(cholesky),
+            backend: Backend::Cholesky {
+                symbolic: Arc::new(cholesky),
+                scratch,
+            },
             diagonal,
             input_slots,
             blocks,
-            factor_scratch,
         })
     }
 
@@ -364,15 +452,32 @@ impl SpdPattern {
         self.lower.row_idx().len()
     }
 
-    /// Number of stored entries of the Cholesky factor `L`.
+    /// Number of stored entries of the Cholesky factor `L` (0 for the
+    /// multigrid backend).
     pub fn factor_nnz(&self) -> usize {
-        self.cholesky.len_val()
+        match &self.backend {
+            Backend::Cholesky { symbolic, .. } => symbolic.len_val(),
+            Backend::Multigrid(_) => 0,
+        }
     }
 
     /// Bytes of the workspace a numeric factorization takes (the dense
-    /// update blocks of the supernodal factor).
+    /// update blocks of the supernodal factor; 0 for the multigrid
+    /// backend).
     pub fn factor_scratch_bytes(&self) -> usize {
-        self.factor_scratch.unaligned_bytes_required()
+        match &self.backend {
+            Backend::Cholesky { scratch, .. } => scratch.unaligned_bytes_required(),
+            Backend::Multigrid(_) => 0,
+        }
+    }
+
+    /// The sizes of the multigrid backend's plan (`None` for a Cholesky
+    /// pattern).
+    pub fn multigrid_sizes(&self) -> Option<MultigridSizes> {
+        match &self.backend {
+            Backend::Cholesky { .. } => None,
+            Backend::Multigrid(plan) => Some(plan.sizes()),
+        }
     }
 
     /// The value slot of entry `(i, j)` of `A` (either order), if in the
@@ -441,12 +546,21 @@ impl SpdPattern {
     /// Storage for a factor of this pattern, not yet factorized (solving
     /// with it is an error until [`SpdPattern::refactorize`] succeeds).
     pub fn new_factor(&self) -> SpdFactor {
+        let numeric = match &self.backend {
+            Backend::Cholesky { symbolic, .. } => Numeric::Cholesky {
+                symbolic: Arc::clone(symbolic),
+                values: vec![0.0; symbolic.len_val()],
+                scratch: Vec::new(),
+            },
+            Backend::Multigrid(plan) => Numeric::Multigrid {
+                plan: Arc::clone(plan),
+                hierarchy: None,
+            },
+        };
         SpdFactor {
             n: self.n,
-            cholesky: Arc::clone(&self.cholesky),
             fwd: Arc::clone(&self.fwd),
-            values: vec![0.0; self.cholesky.len_val()],
-            scratch: Vec::new(),
+            numeric,
             factored: false,
         }
     }
@@ -494,7 +608,14 @@ impl SpdPattern {
         shift: f64,
         max_tries: usize,
     ) -> Result<f64, LinalgError> {
-        if !Arc::ptr_eq(&factor.cholesky, &self.cholesky) {
+        let same = match (&self.backend, &factor.numeric) {
+            (Backend::Cholesky { symbolic, .. }, Numeric::Cholesky { symbolic: f, .. }) => {
+                Arc::ptr_eq(symbolic, f)
+            }
+            (Backend::Multigrid(plan), Numeric::Multigrid { plan: f, .. }) => Arc::ptr_eq(plan, f),
+            _ => false,
+        };
+        if !same {
             return Err(LinalgError::ForeignFactor);
         }
         if values.len() != self.nnz() {
@@ -517,59 +638,93 @@ impl SpdPattern {
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
         factor.factored = false;
-        let bytes = self.factor_scratch.unaligned_bytes_required();
-        if factor.scratch.len() < bytes {
-            factor.scratch = vec![MaybeUninit::uninit(); bytes];
-        }
-        let mut shifted = Vec::new();
-        let mut current = values;
         let mut used = 0.0;
         let mut delta = shift;
-        let mut attempt = 0;
-        let shift_diagonal = |shifted: &mut Vec<f64>, used: f64| {
-            shifted.clear();
-            shifted.extend_from_slice(values);
-            for &s in &self.diagonal {
-                shifted[s] += used;
-            }
-        };
         if shifted_first {
             used = delta * scale;
-            shift_diagonal(&mut shifted, used);
-            current = &shifted;
             delta *= 10.0;
         }
+        let mut shifted = Vec::new();
+        let mut attempt = 0;
         loop {
-            let mat = SparseColMatRef::new(self.lower.as_ref(), current);
-            let result = self.cholesky.factorize_numeric_llt(
-                &mut factor.values,
-                mat,
-                Side::Lower,
-                LltRegularization::default(),
-                parallelism(),
-                MemStack::new(&mut factor.scratch),
-                Default::default(),
-            );
-            match result {
-                Ok(_) => {
-                    factor.factored = true;
-                    return Ok(used);
+            if self.try_factorize(factor, values, used, &mut shifted)? {
+                factor.factored = true;
+                return Ok(used);
+            }
+            if attempt == max_tries {
+                return Err(LinalgError::NotPositiveDefinite {
+                    size: self.n,
+                    last_shift: used,
+                });
+            }
+            used = delta * scale;
+            delta *= 10.0;
+            attempt += 1;
+        }
+    }
+
+    /// One factorization of the values with `used` added to the diagonal
+    /// (`shifted` is the buffer of the shifted copy): whether it succeeded
+    /// (false: not positive definite).
+    fn try_factorize(
+        &self,
+        factor: &mut SpdFactor,
+        values: &[f64],
+        used: f64,
+        shifted: &mut Vec<f64>,
+    ) -> Result<bool, LinalgError> {
+        match (&self.backend, &mut factor.numeric) {
+            (
+                Backend::Cholesky { symbolic, scratch },
+                Numeric::Cholesky {
+                    values: l,
+                    scratch: work,
+                    ..
+                },
+            ) => {
+                let bytes = scratch.unaligned_bytes_required();
+                if work.len() < bytes {
+                    *work = vec![MaybeUninit::uninit(); bytes];
                 }
+                let current = if used == 0.0 {
+                    values
+                } else {
+                    shifted.clear();
+                    shifted.extend_from_slice(values);
+                    for &s in &self.diagonal {
+                        shifted[s] += used;
+                    }
+                    &shifted[..]
+                };
+                let mat = SparseColMatRef::new(self.lower.as_ref(), current);
+                let result = symbolic.factorize_numeric_llt(
+                    l,
+                    mat,
+                    Side::Lower,
+                    LltRegularization::default(),
+                    parallelism(),
+                    MemStack::new(work),
+                    Default::default(),
+                );
                 // (faer's only numeric failure: a pivot that is not positive)
-                Err(_) if attempt == max_tries => {
-                    return Err(LinalgError::NotPositiveDefinite {
-                        size: self.n,
-                        last_shift: used,
-                    });
-                }
-                Err(_) => {
-                    used = delta * scale;
-                    shift_diagonal(&mut shifted, used);
-                    current = &shifted;
-                    delta *= 10.0;
-                    attempt += 1;
+                Ok(result.is_ok())
+            }
+            (Backend::Multigrid(plan), Numeric::Multigrid { hierarchy, .. }) => {
+                *hierarchy = None;
+                match plan.setup(values, used) {
+                    Ok(mg) => {
+                        *hierarchy = Some(mg);
+                        Ok(true)
+                    }
+                    Err(
+                        LinalgError::NonPositiveDiagonal { .. }
+                        | LinalgError::NegativePivot { .. }
+                        | LinalgError::NullDirection { .. },
+                    ) => Ok(false),
+                    Err(e) => Err(e),
                 }
             }
+            _ => Err(LinalgError::ForeignFactor),
         }
     }
 }
@@ -793,27 +948,52 @@ fn expand_upper(g: &SymbolicSparseColMat<usize>, b: usize) -> SymbolicSparseColM
     SymbolicSparseColMat::new_checked(nv * b, nv * b, col_ptr, None, row_idx)
 }
 
-/// A numeric Cholesky factor `P A P^T = L L^T`.
+/// A numeric Cholesky factor `P A P^T = L L^T`, or for the multigrid
+/// backend the hierarchy of `A` (its solves iterate).
 #[derive(Debug, Clone)]
 pub struct SpdFactor {
     n: usize,
-    cholesky: Arc<SymbolicCholesky<usize>>,
     fwd: Arc<Vec<usize>>,
-    values: Vec<f64>,
-    /// Workspace of [`SpdPattern::refactorize`].
-    scratch: Vec<MaybeUninit<u8>>,
-    /// Whether `values` hold a successful factorization.
+    numeric: Numeric,
+    /// Whether the numeric part holds a successful factorization.
     factored: bool,
 }
 
+#[derive(Debug, Clone)]
+enum Numeric {
+    Cholesky {
+        symbolic: Arc<SymbolicCholesky<usize>>,
+        values: Vec<f64>,
+        /// Workspace of [`SpdPattern::refactorize`].
+        scratch: Vec<MaybeUninit<u8>>,
+    },
+    Multigrid {
+        plan: Arc<MultigridPlan>,
+        hierarchy: Option<Multigrid>,
+    },
+}
+
 impl SpdFactor {
-    /// Solves `A x = b` in place (`b` has length `n`).
+    /// Solves `A x = b` in place (`b` has length `n`): two triangular
+    /// solves with the Cholesky factor, or conjugate gradients to the
+    /// multigrid settings' relative residual.
     ///
     /// # Errors
     /// [`LinalgError::DimensionMismatch`] for a wrong length;
     /// [`LinalgError::NotFactorized`] when the factorization failed or
-    /// never ran.
+    /// never ran; for the multigrid backend, [`LinalgError::NoConvergence`]
+    /// and [`LinalgError::Breakdown`] (the matrix is not positive
+    /// definite).
     pub fn solve_in_place(&self, b: &mut [f64]) -> Result<(), LinalgError> {
+        self.solve_reporting(b).map(|_| ())
+    }
+
+    /// As [`SpdFactor::solve_in_place`], with the multigrid solve's report
+    /// (iterations, relative residual; `None` for a Cholesky factor).
+    ///
+    /// # Errors
+    /// As [`SpdFactor::solve_in_place`].
+    pub fn solve_reporting(&self, b: &mut [f64]) -> Result<Option<PcgReport>, LinalgError> {
         if b.len() != self.n {
             return Err(LinalgError::DimensionMismatch {
                 what: "right-hand side",
@@ -824,24 +1004,34 @@ impl SpdFactor {
         if !self.factored {
             return Err(LinalgError::NotFactorized);
         }
-        let par = parallelism();
-        let mut y: Vec<f64> = self.fwd.iter().map(|&i| b[i]).collect();
-        let mut scratch = vec![
-            MaybeUninit::uninit();
-            self.cholesky
-                .solve_in_place_scratch::<f64>(1, par)
-                .unaligned_bytes_required()
-        ];
-        LltRef::new(&self.cholesky, &self.values).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut y, self.n, 1),
-            par,
-            MemStack::new(&mut scratch),
-        );
-        for (&i, yi) in self.fwd.iter().zip(&y) {
-            b[i] = *yi;
+        match &self.numeric {
+            Numeric::Cholesky {
+                symbolic, values, ..
+            } => {
+                let par = parallelism();
+                let mut y: Vec<f64> = self.fwd.iter().map(|&i| b[i]).collect();
+                let mut scratch = vec![
+                    MaybeUninit::uninit();
+                    symbolic
+                        .solve_in_place_scratch::<f64>(1, par)
+                        .unaligned_bytes_required()
+                ];
+                LltRef::new(symbolic, values).solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(&mut y, self.n, 1),
+                    par,
+                    MemStack::new(&mut scratch),
+                );
+                for (&i, yi) in self.fwd.iter().zip(&y) {
+                    b[i] = *yi;
+                }
+                Ok(None)
+            }
+            Numeric::Multigrid { plan, hierarchy } => {
+                let mg = hierarchy.as_ref().ok_or(LinalgError::NotFactorized)?;
+                plan.solve(mg, b).map(Some)
+            }
         }
-        Ok(())
     }
 }
 

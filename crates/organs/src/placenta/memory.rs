@@ -1,8 +1,9 @@
 //! The memory a placenta run will take, predicted before it optimizes
-//! (issue 18; [`unfold_mesh::memory`]): the Newton solve's factor, Hessian
-//! and per-tet buffers ([`unfold_param::memory::mesh_newton_memory`], the
-//! factor's exact size from the symbolic analysis) and one pull-back table
-//! per image on the template grid.
+//! (issue 18; [`unfold_mesh::memory`]): the Newton solve's factor (or, for
+//! large meshes, its multigrid), Hessian and per-tet buffers
+//! ([`unfold_param::memory::mesh_newton_memory`], the factor's exact size
+//! from the symbolic analysis) and one pull-back table per image on the
+//! template grid.
 
 use crate::OrganError;
 use unfold_mesh::TetMesh;
@@ -18,7 +19,7 @@ pub const BYTES_PER_TEMPLATE_VOXEL: f64 = 48.0;
 /// resident, with `template_voxels` voxels per pulled grid and `tables`
 /// pull-back tables: the solve's estimate plus
 /// `48 template_voxels tables` bytes. Runs the symbolic analysis of the
-/// Hessian (about a second per million tets).
+/// Hessian, or builds the multigrid's plan.
 ///
 /// # Errors
 /// `Param` when the mesh cannot be set up as an objective.

@@ -160,11 +160,10 @@ impl ProjectedNewton {
                 used
             } else {
                 match pattern.refactorize(factor, values, self.shift, 0) {
-                    Ok(used) => {
-                        factor.solve_in_place(d)?;
-                        used
-                    }
-                    Err(_) => {
+                    // (an iterative solve that breaks down: not positive
+                    // definite either)
+                    Ok(used) if factor.solve_in_place(d).is_ok() => used,
+                    _ => {
                         // Not positive definite here: do not pay for the
                         // attempt again in this solve.
                         *try_exact = false;
