@@ -10,25 +10,14 @@
 //! are its `distortion.final`, the quantities a series writes).
 
 use super::cohort::SubjectRow;
+use super::mitral::SERIES_COLUMNS;
 use super::{CliError, at};
 use std::path::{Path, PathBuf};
 
-/// The measurement columns, as `series.csv` names them (after `step`).
-const COLUMNS: [&str; 13] = [
-    "anterior_file",
-    "annulus_length_mm",
-    "u_extent_mm",
-    "anterior_area_mm2",
-    "posterior_area_mm2",
-    "saddle_horn_height_mm",
-    "area_above_plane_mm2",
-    "coaptation_vertices",
-    "angle_energy",
-    "area_energy",
-    "length_energy",
-    "flipped_triangles",
-    "seconds",
-];
+/// The measurement columns: those of `series.csv` after `step` up to
+/// `seconds` (the columns a series had before issue 22; the cohort's
+/// per-step table keeps them).
+const COLUMNS: &[&str] = SERIES_COLUMNS.split_at(14).0.split_at(1).1;
 
 /// A single valve's row from its report, in [`COLUMNS`] order.
 fn report_row(report: &serde_json::Value) -> Vec<String> {

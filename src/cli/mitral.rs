@@ -662,7 +662,7 @@ impl SeriesRow {
 /// The columns of `series.csv`: the first fourteen as before issue 22 (the
 /// energies final), then the initial energies, the coaptation counts near
 /// the zone and the threshold, the posterior and annulus files.
-const SERIES_COLUMNS: [&str; 21] = [
+pub(crate) const SERIES_COLUMNS: [&str; 21] = [
     "step",
     "anterior_file",
     "annulus_length_mm",
