@@ -3,7 +3,7 @@
 //! relaxation, maps and measurements; no file I/O.
 //!
 //! - `mitral/valve_2500`: one valve of about 2,500 vertices
-//!   (`annulus_segments = 120`, `depth_segments = 20`: 2,541 vertices);
+//!   (`annulus_segments = 120`, `depth_segments = 20`: 2,562 vertices);
 //! - `mitral/series_10`: a 10-step series of such valves (the generator's
 //!   coaptation and commissure gaps varied over the cycle) through
 //!   `run_series`, as `unfold mitral --series` runs it: steps in parallel,
