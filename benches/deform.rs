@@ -33,18 +33,26 @@
 //! (settings, median seconds, iterations, `E` and its parts, and the
 //! objective after every Newton iteration with its time, from one more run
 //! through [`Deform::run_with`]). The summary printed at the end gives per
-//! case the median seconds, iterations and `E`.
+//! case the median seconds, iterations and `E`, and beside each median the
+//! peak resident memory of a process that builds the bowl and solves it
+//! once (`support/peak.rs`).
 //!
 //! Target (issue 21): at least 3x less time than SLIM at equal or lower `E`
 //! on the 60k mesh. Run with `cargo bench --bench deform` (about 3 minutes
 //! on 2 cores), or through `benches/slim_compare.py`, which runs this bench
 //! and then SLIM and prints both with their ratio.
 
-use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
+#[path = "support/peak.rs"]
+mod peak;
+#[path = "support/summary.rs"]
+mod summary;
+
+use criterion::{Criterion, SamplingMode, criterion_group};
 use serde_json::json;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use summary::{Runs, Summary};
 use unfold::cli::deform::{DeformSettings, Deformed, deform_mesh};
 use unfold::io::{WriteOptions, write_mesh};
 use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
@@ -202,19 +210,19 @@ fn out_dir() -> PathBuf {
     dir
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+/// The two bowls: 7,056 and 60,516 tets.
+fn bowls() -> [Bowl; 2] {
+    [Bowl::new("bowl_7k", 14, 2), Bowl::new("bowl_60k", 41, 2)]
+}
+
+/// A case's name: the bowl's and the weight's, e.g. `bowl_60k_w1000`.
+fn case_name(bowl: &Bowl, weight: f64) -> String {
+    format!("{}_w{weight}", bowl.name)
 }
 
 fn deform(c: &mut Criterion) {
     let dir = out_dir();
-    let bowls = [Bowl::new("bowl_7k", 14, 2), Bowl::new("bowl_60k", 41, 2)];
+    let bowls = bowls();
     assert_eq!(bowls[0].tets.num_tets(), 7_056);
     assert_eq!(bowls[1].tets.num_tets(), 60_516);
 
@@ -223,12 +231,13 @@ fn deform(c: &mut Criterion) {
         .sampling_mode(SamplingMode::Flat)
         .warm_up_time(Duration::from_millis(1));
     let mut results = Vec::new();
+    let mut summary = Summary::default();
     for weight in WEIGHTS {
         for (bowl, measure) in bowls.iter().zip([5, 40]) {
             bowl.write(&dir);
-            let case = format!("{}_w{weight}", bowl.name);
+            let case = case_name(bowl, weight);
             let report = bowl.check_and_write(weight, &case, &dir);
-            let mut times = Vec::new();
+            let mut runs = Runs::default();
             g.measurement_time(Duration::from_secs(measure));
             g.bench_function(&case, |b| {
                 b.iter_custom(|iters| {
@@ -236,23 +245,24 @@ fn deform(c: &mut Criterion) {
                     for _ in 0..iters {
                         let (deformed, seconds) = bowl.solve(weight);
                         black_box(deformed);
-                        times.push(seconds);
+                        runs.push(seconds);
                         total += Duration::from_secs_f64(seconds);
                     }
                     total
                 })
             });
             // Filtered out (`cargo bench --bench deform -- bowl_7k`): no runs.
-            if !times.is_empty() {
-                let med = median(&mut times);
+            if let Some(med) = runs.median() {
                 let path = dir.join(format!("{case}.ours.json"));
                 let text = std::fs::read_to_string(&path).expect("read JSON");
-                let mut summary: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-                summary["seconds_median"] = json!(med);
-                summary["runs"] = json!(times.len());
-                write_json(&path, &summary);
-                results.push((case, bowl.tets.num_tets(), report, med, times.len()));
+                let mut json_summary: serde_json::Value =
+                    serde_json::from_str(&text).expect("JSON");
+                json_summary["seconds_median"] = json!(med);
+                json_summary["runs"] = json!(runs.len());
+                write_json(&path, &json_summary);
+                results.push((case.clone(), bowl.tets.num_tets(), report, med, runs.len()));
             }
+            summary.add(&case, format!("{} tets", bowl.tets.num_tets()), &runs);
         }
     }
     g.finish();
@@ -270,7 +280,22 @@ fn deform(c: &mut Criterion) {
         );
     }
     println!("  problem files and results in {}", dir.display());
+    summary
+        .print("deform: median time beside peak resident memory (one solve in a fresh process):");
 }
 
 criterion_group!(benches, deform);
-criterion_main!(benches);
+
+fn main() {
+    // A child of `peak::measure`: one solve of the named case, then exit.
+    peak::serve(|name| {
+        let found = bowls().into_iter().find_map(|bowl| {
+            let weight = WEIGHTS.into_iter().find(|&w| case_name(&bowl, w) == name)?;
+            Some((bowl, weight))
+        });
+        let (bowl, weight) = found.unwrap_or_else(|| panic!("deform bench: no case {name}"));
+        black_box(bowl.solve(weight));
+    });
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -6,13 +6,24 @@
 //!
 //! - `figures/demo_all`: every figure, made and encoded.
 //!
+//! The summary printed at the end gives the median of every run criterion
+//! made (warm-up included) beside the peak resident memory of a process
+//! that makes the inputs, runs the three pipelines and then makes and
+//! encodes every figure once (`support/peak.rs`): the pipelines' peak is
+//! part of it.
+//!
 //! Target: under 3 s on this machine.
 //!
 //! Run with `cargo bench --bench figures`.
 
-use criterion::{Criterion, criterion_group, criterion_main};
-use std::hint::black_box;
+#[path = "support/peak.rs"]
+mod peak;
+#[path = "support/summary.rs"]
+mod summary;
+
+use criterion::{Criterion, criterion_group};
 use std::time::Duration;
+use summary::{Runs, Summary};
 use unfold::figures::placenta::FlatImage;
 use unfold::figures::{FigureOptions, mitral, placenta, ventricle};
 use unfold::mesh::geometry::bounding_box;
@@ -50,71 +61,118 @@ fn image(points: &[Point3<f64>]) -> Volume<f32> {
     Volume::new([dims[0], dims[1], dims[2], 1], affine, data).expect("volume")
 }
 
-fn figures(c: &mut Criterion) {
-    let slab = placenta_slab(&PlacentaParams {
-        cells_radial: 12,
-        ..PlacentaParams::default()
-    })
-    .expect("slab");
-    let placenta_out = pl::Pipeline::new()
-        .run(&slab.mesh, &[], &mut unfold::organs::Quiet)
-        .expect("placenta");
-    let scan = image(&slab.mesh.positions);
-    let flat = placenta_out
-        .pullback_table([2.0; 3])
-        .expect("table")
-        .apply(&scan)
-        .expect("pull-back")
-        .0;
+/// The three pipelines' outcomes and the pulled-back image.
+struct Outcomes {
+    placenta: pl::Outcome,
+    flat: Volume<f32>,
+    ventricle: lv::Outcome,
+    mitral: mv::Outcome,
+}
 
-    let cup = ventricle_cup(&VentricleParams::default()).expect("cup");
-    let mut config = lv::Config::default();
-    config.chart.field.grid_mm = 1.0;
-    let ventricle_out = lv::Pipeline::new()
-        .config(config)
-        .run(
-            &CellMesh::from(&cup.anatomy),
-            &cup.surface,
-            &lv::LandmarkPoints {
-                anterior: cup.anterior,
-                inferior: cup.inferior,
-                apex: Some(cup.apex),
-                rim_near: None,
-            },
-        )
-        .expect("ventricle");
-
-    let valve = mitral_valve(&ValveParams::default()).expect("valve");
-    let mitral_out = mv::Pipeline::new()
-        .run(&mv::ValveInput {
-            anterior: &valve.anterior,
-            posterior: &valve.posterior,
-            annulus: &valve.annulus,
+impl Outcomes {
+    /// Runs the three pipelines (outside the timing).
+    fn run() -> Outcomes {
+        let slab = placenta_slab(&PlacentaParams {
+            cells_radial: 12,
+            ..PlacentaParams::default()
         })
-        .expect("mitral");
+        .expect("slab");
+        let placenta = pl::Pipeline::new()
+            .run(&slab.mesh, &[], &mut unfold::organs::Quiet)
+            .expect("placenta");
+        let scan = image(&slab.mesh.positions);
+        let flat = placenta
+            .pullback_table([2.0; 3])
+            .expect("table")
+            .apply(&scan)
+            .expect("pull-back")
+            .0;
 
-    let opts = FigureOptions::default();
-    let all = || {
+        let cup = ventricle_cup(&VentricleParams::default()).expect("cup");
+        let mut config = lv::Config::default();
+        config.chart.field.grid_mm = 1.0;
+        let ventricle = lv::Pipeline::new()
+            .config(config)
+            .run(
+                &CellMesh::from(&cup.anatomy),
+                &cup.surface,
+                &lv::LandmarkPoints {
+                    anterior: cup.anterior,
+                    inferior: cup.inferior,
+                    apex: Some(cup.apex),
+                    rim_near: None,
+                },
+            )
+            .expect("ventricle");
+
+        let valve = mitral_valve(&ValveParams::default()).expect("valve");
+        let mitral = mv::Pipeline::new()
+            .run(&mv::ValveInput {
+                anterior: &valve.anterior,
+                posterior: &valve.posterior,
+                annulus: &valve.annulus,
+            })
+            .expect("mitral");
+        Outcomes {
+            placenta,
+            flat,
+            ventricle,
+            mitral,
+        }
+    }
+
+    /// `demo_all`: every figure, made and PNG-encoded; returns the PNG
+    /// bytes and the figure count.
+    fn figures(&self) -> (usize, usize) {
+        let opts = FigureOptions::default();
         let images = [FlatImage {
             name: "placenta_mri",
-            volume: &flat,
+            volume: &self.flat,
         }];
-        let mut figs = placenta::figures(&placenta_out, &images, &opts).expect("placenta");
+        let mut figs = placenta::figures(&self.placenta, &images, &opts).expect("placenta");
         figs.extend(
-            ventricle::figures(&ventricle_out, lv::Chamber::Lv, None, &opts).expect("ventricle"),
+            ventricle::figures(&self.ventricle, lv::Chamber::Lv, None, &opts).expect("ventricle"),
         );
-        figs.extend(mitral::figures(&mitral_out, &opts).expect("mitral"));
-        figs.iter()
+        figs.extend(mitral::figures(&self.mitral, &opts).expect("mitral"));
+        let bytes = figs
+            .iter()
             .map(|f| f.image.to_png().expect("png").len())
-            .sum::<usize>()
-    };
-    let bytes = all();
-    println!("demo figures: {bytes} bytes of PNG");
+            .sum::<usize>();
+        (bytes, figs.len())
+    }
+}
+
+fn figures(c: &mut Criterion) {
+    let outcomes = Outcomes::run();
+    let (bytes, count) = outcomes.figures();
+    println!("demo figures: {count} figures, {bytes} bytes of PNG");
     let mut g = c.benchmark_group("figures");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
-    g.bench_function("demo_all", |b| b.iter(|| black_box(all())));
+    let mut runs = Runs::default();
+    g.bench_function("demo_all", |b| {
+        b.iter_custom(|iters| runs.time(iters, || outcomes.figures()))
+    });
     g.finish();
+    let mut summary = Summary::default();
+    summary.add(
+        "demo_all",
+        format!("{count} PNGs, {:.2} MB", bytes as f64 / 1e6),
+        &runs,
+    );
+    summary.print(
+        "figures summary (figures made and encoded; median of every run criterion made, \
+         warm-up included; the peak includes the three pipelines' runs):",
+    );
 }
 
 criterion_group!(benches, figures);
-criterion_main!(benches);
+
+fn main() {
+    // A child of `peak::measure`: the pipelines and the figures once, then exit.
+    peak::serve(|case| {
+        assert_eq!(case, "demo_all", "figures bench: no case {case}");
+        Outcomes::run().figures();
+    });
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -7,13 +7,22 @@
 //! - `mesher/placenta_128_1.5mm`: the same at `--size-mm 1.5`;
 //! - `mesher/placenta_128_3mm_graded`: the default with `--grade`.
 //!
+//! The summary printed at the end gives, per case, the median of every run
+//! criterion made (warm-up included) beside the peak resident memory of a
+//! process that makes the mask and meshes it once (`support/peak.rs`).
+//!
 //! Target: the default under 3 s on this machine.
 //!
 //! Run with `cargo bench --bench mesher`.
 
-use criterion::{Criterion, criterion_group, criterion_main};
-use std::hint::black_box;
+#[path = "support/peak.rs"]
+mod peak;
+#[path = "support/summary.rs"]
+mod summary;
+
+use criterion::{Criterion, criterion_group};
 use std::time::Duration;
+use summary::{Runs, Summary};
 use unfold::mesh::Volume;
 use unfold::mesh::mesher::{MaskMeshOptions, MeshQuality, mesh_mask};
 use unfold::mesh::nalgebra::{Matrix4, Point3, Rotation3};
@@ -47,8 +56,8 @@ fn placenta_mask() -> Volume<bool> {
     Volume::new([n, n, n, 1], a, bits).expect("mask")
 }
 
-fn mesher(c: &mut Criterion) {
-    let mask = placenta_mask();
+/// The cases: their names and options.
+fn cases() -> [(&'static str, MaskMeshOptions); 3] {
     let fine = MaskMeshOptions {
         size_mm: Some(1.5),
         ..MaskMeshOptions::default()
@@ -57,11 +66,17 @@ fn mesher(c: &mut Criterion) {
         grade: true,
         ..MaskMeshOptions::default()
     };
-    for (name, opts) in [
+    [
         ("placenta_128_3mm", MaskMeshOptions::default()),
         ("placenta_128_1.5mm", fine),
         ("placenta_128_3mm_graded", graded),
-    ] {
+    ]
+}
+
+fn mesher(c: &mut Criterion) {
+    let mask = placenta_mask();
+    let mut summary = Summary::default();
+    for (name, opts) in cases() {
         let out = mesh_mask(&mask, &opts).expect("mesh");
         let q = MeshQuality::of(&out.mesh).expect("quality");
         println!(
@@ -78,12 +93,29 @@ fn mesher(c: &mut Criterion) {
         );
         let mut g = c.benchmark_group("mesher");
         g.sample_size(10).measurement_time(Duration::from_secs(20));
+        let mut runs = Runs::default();
         g.bench_function(name, |b| {
-            b.iter(|| mesh_mask(black_box(&mask), &opts).expect("mesh"))
+            b.iter_custom(|iters| runs.time(iters, || mesh_mask(&mask, &opts).expect("mesh")))
         });
         g.finish();
+        summary.add(name, format!("128^3 mask, {} tets", q.tets), &runs);
     }
+    summary.print(
+        "mesher summary (mask to tets; median of every run criterion made, warm-up included):",
+    );
 }
 
 criterion_group!(benches, mesher);
-criterion_main!(benches);
+
+fn main() {
+    // A child of `peak::measure`: one meshing of the named case, then exit.
+    peak::serve(|case| {
+        let (_, opts) = cases()
+            .into_iter()
+            .find(|(name, _)| *name == case)
+            .unwrap_or_else(|| panic!("mesher bench: no case {case}"));
+        mesh_mask(&placenta_mask(), &opts).expect("mesh");
+    });
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

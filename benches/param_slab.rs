@@ -16,7 +16,9 @@
 //! The baseline, [`GradientDescent`] (the placenta paper's Algorithm 1,
 //! default settings), needs over a thousand iterations, so it is not sampled:
 //! it runs once on the 7k mesh at the start, and a summary printed at the
-//! end compares its seconds and iterations with Newton's median.
+//! end compares its seconds and iterations with Newton's median. Beside
+//! each time the summary gives the peak resident memory of a process that
+//! builds the slab and solves it once (`support/peak.rs`).
 //!
 //! Targets (issue): Newton under 1 s on 7k tets and under 15 s on 60k tets
 //! on a 2-core machine, and at least 30x (aim: 100x) less time than
@@ -26,9 +28,14 @@
 //! criterion warns that 10 samples of the 60k solve do not fit in the 60 s
 //! target: each sample is one solve, which is intended).
 
-use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
-use std::hint::black_box;
+#[path = "support/peak.rs"]
+mod peak;
+#[path = "support/summary.rs"]
+mod summary;
+
+use criterion::{Criterion, SamplingMode, criterion_group};
 use std::time::{Duration, Instant};
+use summary::{Runs, Summary};
 use unfold::mesh::geometry::vertex_areas;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::topology::tet_boundary;
@@ -104,13 +111,14 @@ impl Slab {
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+/// The slab and solver of a case: `newton_7k`, `newton_60k` or
+/// `gradient_descent_7k`.
+fn case(name: &str) -> (Slab, Box<dyn Solver>) {
+    match name {
+        "newton_7k" => (Slab::new(10, 4), Box::new(ProjectedNewton::default())),
+        "newton_60k" => (Slab::new(29, 4), Box::new(ProjectedNewton::default())),
+        "gradient_descent_7k" => (Slab::new(10, 4), Box::new(GradientDescent)),
+        _ => panic!("param_slab bench: no case {name}"),
     }
 }
 
@@ -127,68 +135,66 @@ fn param_slab(c: &mut Criterion) {
         "gradient descent, 7,200 tets (one run): {gd_seconds:.2} s, {} iterations",
         gd.iterations
     );
+    let mut gd_runs = Runs::default();
+    gd_runs.push(gd_seconds);
+    let mut summary = Summary::default();
+    summary.add(
+        "gradient_descent_7k",
+        format!("{} tets", small.mesh.num_elements()),
+        &gd_runs,
+    );
 
-    let mut results = Vec::new();
+    let mut reports = Vec::new();
     let mut g = c.benchmark_group("param_slab");
     g.sample_size(10)
         .sampling_mode(SamplingMode::Flat)
         .warm_up_time(Duration::from_millis(1));
     for (name, slab, measure) in [("newton_7k", &small, 5), ("newton_60k", &large, 60)] {
         let (report, _) = slab.check(&newton, name);
-        let mut times = Vec::new();
+        let mut runs = Runs::default();
         g.measurement_time(Duration::from_secs(measure));
         g.bench_function(name, |b| {
-            b.iter_custom(|iters| {
-                let mut total = Duration::ZERO;
-                for _ in 0..iters {
-                    let t0 = Instant::now();
-                    black_box(slab.solve(&newton));
-                    let dt = t0.elapsed();
-                    times.push(dt.as_secs_f64());
-                    total += dt;
-                }
-                total
-            })
+            b.iter_custom(|iters| runs.time(iters, || slab.solve(&newton)))
         });
         // Filtered out (`cargo bench --bench param_slab -- newton_7k`): no runs.
-        if !times.is_empty() {
-            results.push((
-                name,
-                slab.mesh.num_elements(),
-                report,
-                median(&mut times),
-                times.len(),
-            ));
+        if let Some(median) = runs.median() {
+            reports.push((name, report, median));
         }
+        summary.add(name, format!("{} tets", slab.mesh.num_elements()), &runs);
     }
     g.finish();
 
-    println!(
-        "\nparam_slab summary (wall clock per solve, objective construction included; \
-         Newton: every run criterion made, warm-up included):"
+    summary.print(
+        "param_slab summary (wall clock per solve, objective construction included; \
+         gradient descent: one run; Newton: every run criterion made, warm-up included):",
     );
     println!(
-        "  {:<17} {:>6} tets: {gd_seconds:8.3} s, {:6} iterations (one run; {:?}, |grad|_F {:.1e})",
-        "gradient descent",
-        small.mesh.num_elements(),
-        gd.iterations,
-        gd.reason,
-        gd.grad_norm
+        "  gradient_descent_7k: {} iterations ({:?}, |grad|_F {:.1e})",
+        gd.iterations, gd.reason, gd.grad_norm
     );
-    for (name, tets, report, med, runs) in &results {
+    for (name, report, _) in &reports {
         println!(
-            "  {name:<17} {tets:>6} tets: {med:8.3} s, {:6} iterations (median of {runs} runs; \
-             {:?}, |grad|_F {:.1e})",
+            "  {name}: {} iterations ({:?}, |grad|_F {:.1e})",
             report.iterations, report.reason, report.grad_norm
         );
     }
-    let newton_small = results[0].3;
-    println!(
-        "  ratio gradient descent / Newton on 7,200 tets: {:.1}x (target >= 30x, aim 100x)",
-        gd_seconds / newton_small
-    );
+    if let Some((_, _, newton_small)) = reports.iter().find(|r| r.0 == "newton_7k") {
+        println!(
+            "  ratio gradient descent / Newton on 7,200 tets: {:.1}x (target >= 30x, aim 100x)",
+            gd_seconds / newton_small
+        );
+    }
     println!("  targets: Newton < 1 s on 7k, < 15 s on 60k");
 }
 
 criterion_group!(benches, param_slab);
-criterion_main!(benches);
+
+fn main() {
+    // A child of `peak::measure`: one solve of the named case, then exit.
+    peak::serve(|name| {
+        let (slab, solver) = case(name);
+        slab.solve(solver.as_ref());
+    });
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
