@@ -412,7 +412,9 @@ pub fn eval2(e: &dyn DistortionEnergy, f: &Matrix2<f64>, mode: HessianMode) -> O
 ///
 /// `None` when `psi(F)` is not finite (barrier energies at `det F <= 0`,
 /// non-finite `F`). Otherwise, with the signed SVD `F = U diag(s) V^T`
-/// ([`signed_svd3`]): value `psi(s)`, gradient `U diag(dpsi/ds) V^T`, and the
+/// ([`signed_svd3`]): value `psi(s)`, gradient `U diag(dpsi/ds) V^T` (both
+/// from the energy's [`closed_form3`](DistortionEnergy::closed_form3),
+/// without the SVD, when no Hessian is asked for), and the
 /// 9x9 Hessian from the analytic eigensystem ([`crate::energy`] docs): 3
 /// scaling modes from the 3x3 `d2psi/ds2` (projected through its
 /// eigen-decomposition unless it is already positive definite), 3 twist and
@@ -420,20 +422,39 @@ pub fn eval2(e: &dyn DistortionEnergy, f: &Matrix2<f64>, mode: HessianMode) -> O
 /// [`HessianMode::Projected`] clamps every eigenvalue at 0. No heap
 /// allocation.
 pub fn eval3(e: &dyn DistortionEnergy, f: &Matrix3<f64>, mode: HessianMode) -> Option<Eval3> {
-    if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
-        return None;
+    let mut grad = Matrix3::zeros();
+    let closed = e.closed_form3(f, Some(&mut grad));
+    match closed {
+        Some(x) if !x.is_finite() => return None,
+        Some(value) if mode == HessianMode::None => {
+            return Some(Eval3 {
+                value,
+                grad,
+                hess: None,
+            });
+        }
+        None if e.is_barrier() && nonpositive_or_nan(f.determinant()) => return None,
+        _ => {}
     }
     let (u, sv, v) = signed_svd3(f);
     let s = [sv[0], sv[1], sv[2]];
-    let value = e.value(&s);
-    if !value.is_finite() {
-        return None;
-    }
-    let mut g = [0.0; 3];
-    e.gradient(&s, &mut g);
-    let grad = Matrix3::from_fn(|r, c| {
-        u[(r, 0)] * g[0] * v[(c, 0)] + u[(r, 1)] * g[1] * v[(c, 1)] + u[(r, 2)] * g[2] * v[(c, 2)]
-    });
+    let value = match closed {
+        Some(x) => x,
+        None => {
+            let x = e.value(&s);
+            if !x.is_finite() {
+                return None;
+            }
+            let mut g = [0.0; 3];
+            e.gradient(&s, &mut g);
+            grad = Matrix3::from_fn(|r, c| {
+                u[(r, 0)] * g[0] * v[(c, 0)]
+                    + u[(r, 1)] * g[1] * v[(c, 1)]
+                    + u[(r, 2)] * g[2] * v[(c, 2)]
+            });
+            x
+        }
+    };
     let hess = match mode {
         HessianMode::None => None,
         HessianMode::Exact | HessianMode::Projected => {
@@ -472,11 +493,15 @@ pub fn density2(e: &dyn DistortionEnergy, f: &Matrix2<f64>) -> f64 {
     if x.is_finite() { x } else { f64::INFINITY }
 }
 
-/// `psi(F)` for a 3x3 `F` (value only, no gradient or Hessian): `psi(s)` of
-/// the signed singular values, `f64::INFINITY` when not admissible (barrier
+/// `psi(F)` for a 3x3 `F` (value only, no gradient or Hessian): the
+/// energy's closed form ([`DistortionEnergy::closed_form3`]) where it has
+/// one, else `psi(s)` of the signed singular values, `f64::INFINITY` when not admissible (barrier
 /// energies at `det F <= 0`, which skip the SVD) or not finite. Equal to
 /// `eval3(e, f, _).value` where that is `Some`.
 pub fn density3(e: &dyn DistortionEnergy, f: &Matrix3<f64>) -> f64 {
+    if let Some(x) = e.closed_form3(f, None) {
+        return if x.is_finite() { x } else { f64::INFINITY };
+    }
     if e.is_barrier() && nonpositive_or_nan(f.determinant()) {
         return f64::INFINITY;
     }

@@ -39,7 +39,7 @@
 
 use std::fmt::Debug;
 
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Matrix3};
 
 mod arap;
 mod area_ratio;
@@ -150,6 +150,13 @@ pub trait DistortionEnergy: Send + Sync + Debug {
     fn closed_form2(&self, _f: &Matrix2<f64>, _grad: Option<&mut Matrix2<f64>>) -> Option<f64> {
         None
     }
+    /// `psi(F)` of a 3x3 `F` in closed form, and `dpsi/dF` into `grad` when
+    /// given: like [`closed_form2`](Self::closed_form2), for the 3D line
+    /// searches and gradients (a 3x3 SVD costs several Jacobi sweeps).
+    /// `None` (the default) goes through the singular values.
+    fn closed_form3(&self, _f: &Matrix3<f64>, _grad: Option<&mut Matrix3<f64>>) -> Option<f64> {
+        None
+    }
     /// The minimum value (at rotations) in dimension `dim`.
     fn minimum(&self, dim: usize) -> f64;
     /// Whether the energy is infinite at `det J -> 0` (a barrier against
@@ -185,6 +192,9 @@ impl<E: DistortionEnergy + ?Sized> DistortionEnergy for Box<E> {
     }
     fn closed_form2(&self, f: &Matrix2<f64>, grad: Option<&mut Matrix2<f64>>) -> Option<f64> {
         (**self).closed_form2(f, grad)
+    }
+    fn closed_form3(&self, f: &Matrix3<f64>, grad: Option<&mut Matrix3<f64>>) -> Option<f64> {
+        (**self).closed_form3(f, grad)
     }
     fn minimum(&self, dim: usize) -> f64 {
         (**self).minimum(dim)
@@ -253,6 +263,8 @@ mod tests {
                 e.twist_eigenvalue(&s, 0, 1)
             );
             assert_eq!(boxed.closed_form2(&f, None), e.closed_form2(&f, None));
+            let f3 = Matrix3::new(1.2, 0.3, -0.1, 0.2, 0.9, 0.4, -0.3, 0.1, 1.5);
+            assert_eq!(boxed.closed_form3(&f3, None), e.closed_form3(&f3, None));
             assert_eq!(boxed.minimum(3), e.minimum(3));
             assert_eq!(boxed.is_barrier(), e.is_barrier());
         }

@@ -1,6 +1,6 @@
 //! The symmetric Dirichlet energy, `|F|_F^2 + |F^-1|_F^2`.
 
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Matrix3};
 
 use super::{DistortionEnergy, all_positive};
 
@@ -82,12 +82,48 @@ impl DistortionEnergy for SymmetricDirichlet {
         }
         Some(value)
     }
+    /// With `C = cof F` (so `F^-1 = C^T / det F`):
+    /// `psi = |F|_F^2 + |C|_F^2 / det^2` and
+    /// `dpsi/dF = 2 F - 2 F^-T F^-1 F^-T = 2 F - 2 C C^T C / det^3`;
+    /// infinite for `det F <= 0`.
+    fn closed_form3(&self, f: &Matrix3<f64>, grad: Option<&mut Matrix3<f64>>) -> Option<f64> {
+        let det = f.determinant();
+        if det.is_nan() || det <= 0.0 {
+            return Some(f64::INFINITY);
+        }
+        let c = cofactor3(f);
+        let r = 1.0 / (det * det);
+        let value = f.norm_squared() + c.norm_squared() * r;
+        if !value.is_finite() {
+            return Some(f64::INFINITY);
+        }
+        if let Some(g) = grad {
+            *g = 2.0 * f - (2.0 * r / det) * (c * c.transpose() * c);
+        }
+        Some(value)
+    }
     fn minimum(&self, dim: usize) -> f64 {
         2.0 * dim as f64
     }
     fn is_barrier(&self) -> bool {
         true
     }
+}
+
+/// The cofactor matrix, `cof(F)_ij = (-1)^(i+j) M_ij` (`M_ij` the minor
+/// without row `i` and column `j`), so that `F^-1 = cof(F)^T / det F`.
+fn cofactor3(f: &Matrix3<f64>) -> Matrix3<f64> {
+    Matrix3::new(
+        f.m22 * f.m33 - f.m23 * f.m32,
+        f.m23 * f.m31 - f.m21 * f.m33,
+        f.m21 * f.m32 - f.m22 * f.m31,
+        f.m13 * f.m32 - f.m12 * f.m33,
+        f.m11 * f.m33 - f.m13 * f.m31,
+        f.m12 * f.m31 - f.m11 * f.m32,
+        f.m12 * f.m23 - f.m13 * f.m22,
+        f.m13 * f.m21 - f.m11 * f.m23,
+        f.m11 * f.m22 - f.m12 * f.m21,
+    )
 }
 
 #[cfg(test)]
@@ -137,6 +173,36 @@ mod tests {
             prop_assert!((x - y).abs() <= 1e-12 * y, "{} vs {}", x, y);
             let scale = gy.norm().max(1.0);
             prop_assert!((g - gy).norm() <= 1e-11 * scale, "{} vs {}", g, gy);
+        }
+    }
+    proptest! {
+        /// The 3D closed form (cofactors, no SVD) agrees with the
+        /// singular-value path to rounding, and is infinite for
+        /// `det F <= 0`.
+        #[test]
+        fn symmetric_dirichlet_closed_form3_matches_the_svd_path(
+            e in prop::collection::vec(-3.0..3.0f64, 9),
+        ) {
+            let f = Matrix3::from_row_slice(&e);
+            let mut g = Matrix3::zeros();
+            let x = SymmetricDirichlet.closed_form3(&f, Some(&mut g)).unwrap();
+            prop_assert_eq!(SymmetricDirichlet.closed_form3(&f, None), Some(x));
+            let det = f.determinant();
+            if det <= 0.0 {
+                prop_assert_eq!(x, f64::INFINITY);
+                return Ok(());
+            }
+            // Well enough conditioned that both paths keep 1e-10.
+            let (u, sv, v) = crate::energy::signed_svd3(&f);
+            prop_assume!(sv[2] > 1e-2 * sv[0]);
+            let s = [sv[0], sv[1], sv[2]];
+            let y = SymmetricDirichlet.value(&s);
+            let mut gs = [0.0; 3];
+            SymmetricDirichlet.gradient(&s, &mut gs);
+            let gy = u * Matrix3::from_diagonal(&nalgebra::Vector3::from(gs)) * v.transpose();
+            prop_assert!((x - y).abs() <= 1e-10 * y, "{} vs {}", x, y);
+            let scale = gy.norm().max(1.0);
+            prop_assert!((g - gy).norm() <= 1e-10 * scale, "{} vs {}", g, gy);
         }
     }
 }
