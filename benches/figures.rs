@@ -64,6 +64,7 @@ fn image(points: &[Point3<f64>]) -> Volume<f32> {
 /// The three pipelines' outcomes and the pulled-back image.
 struct Outcomes {
     placenta: pl::Outcome,
+    scan: Volume<f32>,
     flat: Volume<f32>,
     ventricle: lv::Outcome,
     mitral: mv::Outcome,
@@ -115,6 +116,7 @@ impl Outcomes {
             .expect("mitral");
         Outcomes {
             placenta,
+            scan,
             flat,
             ventricle,
             mitral,
@@ -128,6 +130,7 @@ impl Outcomes {
         let images = [FlatImage {
             name: "placenta_mri",
             volume: &self.flat,
+            original: Some(&self.scan),
         }];
         let mut figs = placenta::figures(&self.placenta, &images, &opts).expect("placenta");
         figs.extend(

@@ -359,6 +359,31 @@ fn images_are_pulled_into_the_template() {
     assert_eq!(images[1]["output"], s(&out.join("bold_flat.nii.gz")));
     assert_eq!(images[0]["frames"], 1);
     assert_eq!(images[1]["frames"], 3);
+    // Per image its depth slices and its sections beside the original's;
+    // the 4D series also every frame as a strip (3 thumbnails and the
+    // colour bar, half-size panels).
+    let mut figs: Vec<String> = std::fs::read_dir(out.join("figures"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("t2_") || n.starts_with("bold_"))
+        .collect();
+    figs.sort();
+    assert_eq!(
+        figs,
+        [
+            "bold_depths.png",
+            "bold_frames.png",
+            "bold_sections.png",
+            "t2_depths.png",
+            "t2_sections.png"
+        ]
+    );
+    let png = std::fs::read(out.join("figures/bold_frames.png")).unwrap();
+    let strip = unfold::figures::render::Image::from_png(&png).unwrap();
+    assert_eq!((strip.width(), strip.height()), (4 * 240, 200));
+    let png = std::fs::read(out.join("figures/t2_sections.png")).unwrap();
+    let sections = unfold::figures::render::Image::from_png(&png).unwrap();
+    assert_eq!((sections.width(), sections.height()), (4 * 480, 2 * 400));
     // One table for both: same grid.
     assert_eq!(images[0]["dims"], images[1]["dims"]);
     assert_eq!(images[0]["affine"], images[1]["affine"]);

@@ -943,6 +943,11 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
             .map(|i| FlatImage {
                 name: &i.name,
                 volume: &i.volume,
+                original: input
+                    .images
+                    .iter()
+                    .find(|o| o.name == i.name)
+                    .map(|o| &o.image.volume),
             })
             .collect();
         let figs = placenta_figures(&outcome, &images, &FigureOptions::default())

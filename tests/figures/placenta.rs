@@ -9,6 +9,7 @@ use std::sync::OnceLock;
 use unfold::figures::placenta::{
     DISTORTION_FIGURE, FlatImage, HISTOGRAM_COLOR, LOG2_DET_J_FIGURE, PROFILE_COLOR,
     PROFILE_FIGURE, SIDE_COLORS, SIDE_FIGURE, TITLE_BAND, depths_figure_name, figures,
+    frames_figure_name, sections_figure_name,
 };
 use unfold::figures::render::{Image, Rgb, Rgba};
 use unfold::figures::{Figure, FigureError, FigureOptions};
@@ -21,6 +22,8 @@ use unfold::organs::placenta::{Outcome, Pipeline};
 
 struct Fixture {
     outcome: Outcome,
+    /// The synthetic scanner image.
+    scan: Volume<f32>,
     /// The synthetic image pulled into the template.
     flat: Volume<f32>,
 }
@@ -74,7 +77,11 @@ fn fixture() -> &'static Fixture {
         let image = scanner_image(&params, &shape.mesh.positions);
         let table = outcome.pullback_table([3.0; 3]).expect("table");
         let (flat, _) = table.apply(&image).expect("pull-back");
-        Fixture { outcome, flat }
+        Fixture {
+            outcome,
+            scan: image,
+            flat,
+        }
     })
 }
 
@@ -85,6 +92,7 @@ fn default_figures() -> &'static Vec<Figure> {
         let images = [FlatImage {
             name: "mri",
             volume: &f.flat,
+            original: Some(&f.scan),
         }];
         let figs = figures(&f.outcome, &images, &FigureOptions::default()).expect("figures");
         if let Ok(dir) = std::env::var("UNFOLD_FIGURES_DIR") {
@@ -149,10 +157,13 @@ fn names_and_sizes_are_as_asked() {
             LOG2_DET_J_FIGURE,
             PROFILE_FIGURE,
             DISTORTION_FIGURE,
-            "mri_depths.png"
+            "mri_depths.png",
+            "mri_sections.png"
         ]
     );
     assert_eq!(depths_figure_name("mri"), "mri_depths.png");
+    assert_eq!(sections_figure_name("mri"), "mri_sections.png");
+    assert_eq!(frames_figure_name("mri"), "mri_frames.png");
     let (w, h) = (480, 400);
     for (name, cols, rows) in [
         (SIDE_FIGURE, 2, 2),
@@ -160,6 +171,7 @@ fn names_and_sizes_are_as_asked() {
         (PROFILE_FIGURE, 2, 1),
         (DISTORTION_FIGURE, 3, 1),
         ("mri_depths.png", 6, 1),
+        ("mri_sections.png", 4, 2),
     ] {
         let img = get(figs, name);
         assert_eq!((img.width(), img.height()), (cols * w, rows * h), "{name}");
@@ -174,6 +186,7 @@ fn names_and_sizes_are_as_asked() {
     let images = [FlatImage {
         name: "mri",
         volume: &f.flat,
+        original: None,
     }];
     let small = figures(&f.outcome, &images, &opts).expect("figures");
     for (fig, (cols, rows)) in small.iter().zip([(2, 2), (2, 2), (2, 1), (3, 1), (6, 1)]) {
@@ -192,6 +205,7 @@ fn figures_are_deterministic() {
     let images = [FlatImage {
         name: "mri",
         volume: &f.flat,
+        original: Some(&f.scan),
     }];
     let again = figures(&f.outcome, &images, &FigureOptions::default()).expect("figures");
     let first = default_figures();
@@ -414,6 +428,7 @@ fn four_d_images_show_frame_zero() {
         &[FlatImage {
             name: "mri",
             volume: &series,
+            original: None,
         }],
         &FigureOptions::default(),
     )
@@ -438,6 +453,23 @@ fn bad_images_are_errors_not_panics() {
         Err(e) => panic!("unexpected error {e}"),
         Ok(_) => panic!("{figure}: accepted"),
     };
+    // An original image that does not contain the placenta (another
+    // subject's scan, a wrong frame).
+    let mut affine = *f.scan.affine();
+    affine[(2, 3)] += 5000.0;
+    let elsewhere = Volume::new(f.scan.dims(), affine, f.scan.data().to_vec()).expect("volume");
+    is_input(
+        figures(
+            &f.outcome,
+            &[FlatImage {
+                name: "mri",
+                volume: &f.flat,
+                original: Some(&elsewhere),
+            }],
+            &opts,
+        ),
+        "mri_sections.png",
+    );
     // An image that does not cover the template (e.g. a scanner-frame image
     // far from it).
     let mut affine = *f.flat.affine();
@@ -449,6 +481,7 @@ fn bad_images_are_errors_not_panics() {
             &[FlatImage {
                 name: "far",
                 volume: &far,
+                original: None,
             }],
             &opts,
         ),
@@ -462,6 +495,7 @@ fn bad_images_are_errors_not_panics() {
             &[FlatImage {
                 name: "zero",
                 volume: &zero,
+                original: None,
             }],
             &opts,
         ),
@@ -475,6 +509,7 @@ fn bad_images_are_errors_not_panics() {
         &[FlatImage {
             name: "one",
             volume: &one,
+            original: None,
         }],
         &opts,
     )
@@ -487,6 +522,7 @@ fn bad_images_are_errors_not_panics() {
             &[FlatImage {
                 name: "a/b",
                 volume: &f.flat,
+                original: None,
             }],
             &opts,
         ),
@@ -498,6 +534,7 @@ fn bad_images_are_errors_not_panics() {
             &[FlatImage {
                 name: "",
                 volume: &f.flat,
+                original: None,
             }],
             &opts,
         ),
@@ -507,10 +544,12 @@ fn bad_images_are_errors_not_panics() {
         FlatImage {
             name: "mri",
             volume: &f.flat,
+            original: None,
         },
         FlatImage {
             name: "mri",
             volume: &f.flat,
+            original: None,
         },
     ];
     is_input(figures(&f.outcome, &twice, &opts), "mri_depths.png");
@@ -577,9 +616,107 @@ fn inconsistent_outcomes_and_tiny_panels_are_errors() {
     let images = [FlatImage {
         name: "mri",
         volume: &f.flat,
+        original: None,
     }];
     assert!(matches!(
         figures(&f.outcome, &images, &huge),
         Err(FigureError::Input { .. })
     ));
+}
+
+/// The data (viridis) pixels of the rectangle `[x0, x1) x [y0, y1)`: their
+/// coordinates and luminance.
+fn data_pixels(img: &Image, rect: (u32, u32, u32, u32)) -> Vec<(u32, u32, f64)> {
+    pixels(img, rect, |c| !(c.r == c.g && c.g == c.b))
+        .into_iter()
+        .map(|(x, y)| {
+            let c = img.get(i64::from(x), i64::from(y)).expect("inside").rgb();
+            (x, y, c.luminance())
+        })
+        .collect()
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    s / n.max(1) as f64
+}
+
+#[test]
+fn sections_show_the_original_beside_the_flattened() {
+    let img = get(default_figures(), "mri_sections.png");
+    let (w, h) = (480u32, 400u32);
+    let area = |col: u32, row: u32| {
+        (
+            col * w + 8,
+            row * h + TITLE_BAND,
+            (col + 1) * w - 8,
+            (row + 1) * h - 34,
+        )
+    };
+    for row in 0..2 {
+        for col in 0..3 {
+            let n = data_pixels(img, area(col, row)).len();
+            assert!(n > 2_000, "section ({col}, {row}) shows data: {n} pixels");
+        }
+    }
+    // The image grows towards the fetal side (template +z): in the
+    // flattened x-z section the upper half of the data is lighter.
+    let xz = data_pixels(img, area(1, 1));
+    let mut ys: Vec<u32> = xz.iter().map(|p| p.1).collect();
+    ys.sort_unstable();
+    let mid = ys[ys.len() / 2];
+    let upper = mean(xz.iter().filter(|p| p.1 < mid).map(|p| p.2));
+    let lower = mean(xz.iter().filter(|p| p.1 > mid).map(|p| p.2));
+    assert!(upper > lower + 0.1, "upper {upper} vs lower {lower}");
+    // The mid-depth slice cuts one depth: its colours spread far less than
+    // the x-z section's from top to bottom.
+    let flat = data_pixels(img, area(0, 1));
+    let m = mean(flat.iter().map(|p| p.2));
+    let sd = mean(flat.iter().map(|p| (p.2 - m) * (p.2 - m))).sqrt();
+    assert!(
+        sd < 0.25 * (upper - lower),
+        "mid-depth spread {sd} vs {upper} - {lower}"
+    );
+}
+
+#[test]
+fn every_frame_of_a_series_is_a_thumbnail_on_one_scale() {
+    let f = fixture();
+    let [nx, ny, nz, _] = f.flat.dims();
+    // Frame t: the image plus 10 t inside the mesh, 0 outside.
+    let mut data = Vec::new();
+    for t in 0..3 {
+        data.extend(
+            f.flat
+                .data()
+                .iter()
+                .map(|&x| if x != 0.0 { x + 10.0 * t as f32 } else { 0.0 }),
+        );
+    }
+    let series = Volume::new([nx, ny, nz, 3], *f.flat.affine(), data).expect("4D");
+    let figs = figures(
+        &f.outcome,
+        &[FlatImage {
+            name: "mri",
+            volume: &series,
+            original: None,
+        }],
+        &FigureOptions::default(),
+    )
+    .expect("figures");
+    let img = get(&figs, "mri_frames.png");
+    // Three thumbnails and the colour bar, each half a panel.
+    let (w, h) = (240u32, 200u32);
+    assert_eq!((img.width(), img.height()), (4 * w, h));
+    let lum: Vec<f64> = (0..3)
+        .map(|k| {
+            let d = data_pixels(img, (k * w + 8, TITLE_BAND, (k + 1) * w - 8, h - 34));
+            assert!(d.len() > 2_000, "frame {k}: {} pixels", d.len());
+            mean(d.iter().map(|p| p.2))
+        })
+        .collect();
+    // One scale: later frames are brighter.
+    assert!(lum[0] + 0.05 < lum[1] && lum[1] + 0.05 < lum[2], "{lum:?}");
+    // A single frame makes no frames figure.
+    assert!(default_figures().iter().all(|f| f.name != "mri_frames.png"));
 }

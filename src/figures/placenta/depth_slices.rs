@@ -8,62 +8,11 @@ use super::depths::Depths;
 use super::drawing::{PANEL_EDGE, colour_bar, panel, scale_bar};
 use super::meshes::Meshes;
 use super::numbers::{nice_length, percentile, signed};
+use super::sampling::sample_masked;
 use super::{DEPTH_FRACTIONS, FlatImage, TITLE_BAND};
 use crate::figures::layout::{compose, text_fit};
 use crate::figures::{FigureError, FigureOptions, INK};
-use crate::mesh::Volume;
 use crate::mesh::nalgebra::{Point3, Vector3};
-
-/// Frame 0 of `vol` at world point `p`: the trilinear interpolation over the
-/// corner voxels that hold data (finite and non-zero), renormalized; `None`
-/// when those carry less than half the weight (outside the mesh) or `p` is
-/// more than half a voxel outside the grid.
-fn sample_masked(vol: &Volume<f32>, p: &Point3<f64>) -> Option<f64> {
-    let v = vol.world_to_voxel(p);
-    let d = vol.dims();
-    let mut base = [0usize; 3];
-    let mut frac = [0.0f64; 3];
-    for a in 0..3 {
-        let n = d[a];
-        let x = v[a];
-        if !x.is_finite() || x < -0.5 || x > n as f64 - 0.5 {
-            return None;
-        }
-        if n == 1 {
-            continue;
-        }
-        let x = x.clamp(0.0, (n - 1) as f64);
-        base[a] = (x.floor() as usize).min(n - 2);
-        frac[a] = x - base[a] as f64;
-    }
-    let (mut acc, mut wsum) = (0.0, 0.0);
-    for corner in 0..8usize {
-        let mut w = 1.0;
-        let mut idx = [0usize; 3];
-        for a in 0..3 {
-            let up = (corner >> a) & 1 == 1;
-            if d[a] == 1 {
-                if up {
-                    w = 0.0;
-                }
-                continue;
-            }
-            idx[a] = base[a] + usize::from(up);
-            w *= if up { frac[a] } else { 1.0 - frac[a] };
-        }
-        if w <= 0.0 {
-            continue;
-        }
-        if let Some(x) = vol.get(idx[0], idx[1], idx[2], 0) {
-            let x = f64::from(x);
-            if x.is_finite() && x != 0.0 {
-                acc += w * x;
-                wsum += w;
-            }
-        }
-    }
-    (wsum >= 0.5).then(|| acc / wsum)
-}
 
 /// Five slices of constant template `z` of one image and a colour bar panel.
 pub(super) fn depth_slices(
@@ -102,7 +51,7 @@ pub(super) fn depth_slices(
             let y = cy - (f64::from(j) + 0.5 - h2) / s;
             for i in 0..aw {
                 let x = cx + (f64::from(i) + 0.5 - w2) / s;
-                let v = sample_masked(img.volume, &Point3::new(x, y, z));
+                let v = sample_masked(img.volume, &Point3::new(x, y, z), 0);
                 if let Some(v) = v {
                     all.push(v);
                 }

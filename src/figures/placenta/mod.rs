@@ -13,6 +13,8 @@
 //! | [`PROFILE_FIGURE`] | 2 x 1 | the original after the rigid alignment and the flattened mesh, seen exactly along the template's y axis (orthographic, x right, z up, one scale for both, silhouettes in [`PROFILE_COLOR`]), with the template's levels (`z = +-h`, `+-rz`, or the single plane's `-h` and mean fetal `z`) dashed, a scale bar and the x and z extents in mm |
 //! | [`DISTORTION_FIGURE`] | 3 x 1 | histograms of `log2 det J` (per tet), `log2` edge-length ratio (per edge) and `log2` area ratio (per boundary triangle), with counts and percentiles |
 //! | `<name>_depths.png` ([`depths_figure_name`]) | 6 x 1 | one pulled-back image (frame 0) as five slices of constant template `z` at depths 10, 30, 50, 70 and 90 % from the fetal side ([`DEPTH_FRACTIONS`]), each titled with its `z` in mm, on one viridis scale (1st to 99th percentile), voxels outside the mesh white, with a scale bar; the sixth panel holds the notes and the colour bar |
+//! | `<name>_sections.png` ([`sections_figure_name`]; when the original image is given) | 4 x 2 | the original image's three orthogonal voxel-plane sections through the placenta's centre (top) beside the pulled-back image's three sections through the flattened mesh's centre (bottom: mid-depth `z`, then `y` and `x` constant), one intensity scale and one mm scale for all six (the source paper's Fig. 5-6); notes, colour bar and the sections' positions in the fourth column |
+//! | `<name>_frames.png` ([`frames_figure_name`]; series of 2 or more frames) | 8 per row | the mid-depth slice of every frame as thumbnails on one intensity scale, then the colour bar (every `k`-th frame when they would not fit, see `frames.rs`) |
 //!
 //! Views of the original use the same directions as those of the flattened
 //! mesh, carried into the scanner frame by the inverse of the alignment's
@@ -22,9 +24,11 @@
 //!
 //! One file per figure: the mesh views (`mesh_views.rs`, both 2 x 2
 //! figures), the profile (`profile.rs`), the distortion histograms
-//! (`distortion.rs`) and the depth slices (`depth_slices.rs`); beside them
-//! what they share: the checked meshes (`meshes.rs`), the template's levels
-//! (`depths.rs`), rounding and percentiles (`numbers.rs`) and drawing
+//! (`distortion.rs`), the depth slices (`depth_slices.rs`), the sections
+//! (`sections.rs`) and the frames (`frames.rs`); beside them what they
+//! share: the checked meshes (`meshes.rs`), the template's levels
+//! (`depths.rs`), rounding and percentiles (`numbers.rs`), image sampling
+//! (`sampling.rs`), the image area of a panel (`raster.rs`) and drawing
 //! helpers (`drawing.rs`). Text layout is [`crate::figures::layout`]'s.
 
 use std::collections::BTreeSet;
@@ -39,18 +43,24 @@ mod depth_slices;
 mod depths;
 mod distortion;
 mod drawing;
+pub mod frames;
 pub mod lambda_sweep;
 mod mesh_views;
 mod meshes;
 mod numbers;
 mod profile;
+mod raster;
+mod sampling;
+mod sections;
 
 use depth_slices::depth_slices;
 use depths::depth_range;
 use distortion::distortion;
+use frames::frames;
 use mesh_views::{Paint, mesh_views};
 use meshes::Meshes;
 use profile::profile;
+use sections::sections;
 
 /// File name of the figure coloured by boundary side.
 pub const SIDE_FIGURE: &str = "meshes_side.png";
@@ -69,6 +79,18 @@ pub const DISTORTION_FIGURE: &str = "distortion.png";
 /// `<name>_depths.png`.
 pub fn depths_figure_name(name: &str) -> String {
     format!("{name}_depths.png")
+}
+
+/// The file name of the sections figure of the image `name` (original
+/// beside flattened): `<name>_sections.png`.
+pub fn sections_figure_name(name: &str) -> String {
+    format!("{name}_sections.png")
+}
+
+/// The file name of the frames figure of the 4D image `name`:
+/// `<name>_frames.png`.
+pub fn frames_figure_name(name: &str) -> String {
+    format!("{name}_frames.png")
 }
 
 /// Colours of the `side` labels 0 interior, 1 fetal, 2 maternal, 3 margin
@@ -115,14 +137,19 @@ pub const MIN_PANEL: (u32, u32) = (240, 200);
 /// `DIR/<name>_flat.nii.gz` by the pipeline (its affine is the template
 /// grid's, `z` the template's normal: the fetal side at `z = +h`, the
 /// maternal side at `z = -h` for the parallel planes). Voxels holding 0 are
-/// outside the mesh. Of a 4D series, frame 0 is shown.
+/// outside the mesh. Of a 4D series, the depth and sections figures show
+/// frame 0 and the frames figure every frame.
 #[derive(Debug, Clone, Copy)]
 pub struct FlatImage<'a> {
-    /// The image's name (the file name stem, e.g. `bold`): the figure is
-    /// `<name>_depths.png` and the name is its title.
+    /// The image's name (the file name stem, e.g. `bold`): the figures are
+    /// `<name>_depths.png`, `<name>_sections.png` and `<name>_frames.png`,
+    /// and the name is their title.
     pub name: &'a str,
     /// The pulled-back image (template frame, mm).
     pub volume: &'a Volume<f32>,
+    /// The image it was pulled back from (scanner frame, the original
+    /// mesh's), for the sections figure; without it that figure is not made.
+    pub original: Option<&'a Volume<f32>>,
 }
 
 /// Makes every placenta figure of `outcome` at the size `opts` (see the
@@ -130,16 +157,19 @@ pub struct FlatImage<'a> {
 /// meshes have a `side` point array or `outcome.labels` has one label per
 /// vertex), [`LOG2_DET_J_FIGURE`] (the flattened mesh's cell array
 /// `log2_det_j`, or, when it is missing, `log2` of the ratio of the tet
-/// volumes), [`PROFILE_FIGURE`], [`DISTORTION_FIGURE`], then one depth
-/// figure per image, in the order given.
+/// volumes), [`PROFILE_FIGURE`], [`DISTORTION_FIGURE`], then per image, in
+/// the order given, its depth figure, its sections figure (when its
+/// original is given) and its frames figure (when it has two frames or
+/// more).
 ///
 /// # Errors
 /// [`FigureError::Input`] for panels smaller than [`MIN_PANEL`] or so large
 /// that a figure would exceed [`unfold_render::MAX_SIDE`], an outcome
 /// whose meshes disagree (vertex counts, tet indices, non-finite
 /// coordinates, no boundary), an image name that is empty, repeated or not
-/// a plain file name, and an image with no data (no finite non-zero voxel)
-/// in the flattened mesh's slab; [`FigureError::Render`] if the renderer
+/// a plain file name, an image with no data (no finite non-zero voxel)
+/// in the flattened mesh's slab or on the sections, and an original image
+/// that does not contain the placenta's centre; [`FigureError::Render`] if the renderer
 /// refuses anything else.
 pub fn figures(
     outcome: &Outcome,
@@ -182,6 +212,16 @@ pub fn figures(
         let name = depths_figure_name(img.name);
         let image = depth_slices(img, &meshes, &depths, opts, &name)?;
         out.push(Figure::new(&name, image));
+        if let Some(original) = img.original {
+            let name = sections_figure_name(img.name);
+            let image = sections(img, original, &meshes, &depths, opts, &name)?;
+            out.push(Figure::new(&name, image));
+        }
+        if img.volume.frames() > 1 {
+            let name = frames_figure_name(img.name);
+            let image = frames(img, &meshes, &depths, opts, &name)?;
+            out.push(Figure::new(&name, image));
+        }
     }
     Ok(out)
 }
