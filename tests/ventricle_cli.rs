@@ -357,6 +357,31 @@ fn a_transfer_onto_a_hemisphere_is_radial_in_depth() {
         report(&out)["transfer"]["surface"],
         "the hemisphere of radius 30 mm"
     );
+    // The figures: the anatomy by AHA segment, and the anatomy beside its
+    // transfer (3 panels each); both hearts' panels show most segments'
+    // colours.
+    for name in ["anatomy_aha.png", "transfer.png"] {
+        let png = std::fs::read(out.join("figures").join(name)).unwrap();
+        let img = unfold::figures::render::Image::from_png(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (3 * 480, 400), "{name}");
+        for panel in 0..2u32 {
+            let mut seen = [false; 17];
+            for y in 60..400 {
+                for x in panel * 480..(panel + 1) * 480 {
+                    let c = img.get(i64::from(x), i64::from(y)).unwrap().rgb();
+                    // Shading scales a colour by a light factor k.
+                    if let Some(k) = unfold::figures::ventricle::AHA_COLORS
+                        .iter()
+                        .position(|a| shade_of([c.r, c.g, c.b], [a.r, a.g, a.b]))
+                    {
+                        seen[k] = true;
+                    }
+                }
+            }
+            let n = seen.iter().filter(|&&b| b).count();
+            assert!(n >= 10, "{name}, panel {panel}: {n} AHA colours");
+        }
+    }
     // not both targets at once, and a positive radius
     let o = run(
         &anatomy,
@@ -753,4 +778,12 @@ fn layers_label_the_depth_in_equal_bands() {
         );
         assert_one_line_error(&o, "--layers");
     }
+}
+
+/// Whether `c` is `base` scaled by a light factor in [0.35, 1] (to within
+/// 3 per channel, the rounding of smooth shading).
+fn shade_of(c: [u8; 3], base: [u8; 3]) -> bool {
+    let (c, b) = (c.map(f64::from), base.map(f64::from));
+    let k = (0..3).map(|i| c[i] * b[i]).sum::<f64>() / (0..3).map(|i| b[i] * b[i]).sum::<f64>();
+    (0.35..=1.01).contains(&k) && (0..3).all(|i| (c[i] - k * b[i]).abs() <= 3.0)
 }

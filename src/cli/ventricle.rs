@@ -653,7 +653,10 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         written.push(p);
     }
     drop(meshes);
-    let transfer = transferred.map(|(_, report)| report);
+    let (transferred_mesh, transfer) = match transferred {
+        Some((mesh, report)) => (Some(mesh), Some(report)),
+        None => (None, None),
+    };
     let report_path = dir.join(REPORT);
     let json = serde_json::to_string_pretty(&FullReport {
         inputs: Inputs {
@@ -699,6 +702,16 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         )
         .map_err(|e| at(dir, e))?;
         written.extend(super::write_figures(dir, &figs)?);
+        if let (Some(mesh), Some(t)) = (&transferred_mesh, &transfer) {
+            let fig = crate::figures::ventricle::transfer_figure(
+                &outcome,
+                mesh,
+                &t.surface,
+                &crate::figures::FigureOptions::default(),
+            )
+            .map_err(|e| at(dir, e))?;
+            written.extend(super::write_figures(dir, &[fig])?);
+        }
     }
     Ok(RunResult {
         outcome,

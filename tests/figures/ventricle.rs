@@ -9,8 +9,9 @@
 use std::sync::OnceLock;
 use unfold::figures::render::{Colormap, Image, NAN_COLOR, Rgb};
 use unfold::figures::ventricle::{
-    AHA_COLORS, ANGLE_COLORMAP, BULLSEYE_COLORMAP, BULLSEYE_PNG, CYLINDER_PNG, DEPTH_COLORMAP,
-    DISK_AHA_PNG, DISK_ANGLE_PNG, DiskLayout, bullseye_layout, disk_layout, figures, segment_shape,
+    AHA_COLORS, ANATOMY_AHA_PNG, ANGLE_COLORMAP, BULLSEYE_COLORMAP, BULLSEYE_PNG, CYLINDER_PNG,
+    DEPTH_COLORMAP, DISK_AHA_PNG, DISK_ANGLE_PNG, DiskLayout, bullseye_layout, disk_layout,
+    figures, segment_shape,
 };
 use unfold::figures::{Figure, FigureError, FigureOptions};
 use unfold::mesh::CellMesh;
@@ -120,7 +121,7 @@ fn inside(seg: u8) -> Vec<[f64; 2]> {
 }
 
 #[test]
-fn the_lv_gives_the_bullseye_the_disk_and_the_cylinder_at_the_asked_sizes() {
+fn the_lv_gives_the_bullseye_the_disk_the_cylinder_and_the_anatomy_at_the_asked_sizes() {
     let o = lv();
     for opts in [
         FigureOptions::default(),
@@ -130,9 +131,12 @@ fn the_lv_gives_the_bullseye_the_disk_and_the_cylinder_at_the_asked_sizes() {
         },
     ] {
         let figs = figures(o, Chamber::Lv, None, &opts).unwrap();
-        assert_eq!(names(&figs), [BULLSEYE_PNG, DISK_AHA_PNG, CYLINDER_PNG]);
+        assert_eq!(
+            names(&figs),
+            [BULLSEYE_PNG, DISK_AHA_PNG, CYLINDER_PNG, ANATOMY_AHA_PNG]
+        );
         let (pw, ph) = (opts.panel_width, opts.panel_height);
-        for (f, cols) in figs.iter().zip([2, 2, 1]) {
+        for (f, cols) in figs.iter().zip([2, 2, 1, 3]) {
             assert_eq!(
                 (f.image.width(), f.image.height()),
                 (cols * pw, ph),

@@ -20,10 +20,10 @@ use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
 /// What of the anatomy is drawn: triangles (surface cells, boundary faces
 /// of volume cells), segments (line cells) and lone points.
 #[derive(Debug, Default, PartialEq)]
-struct Drawable {
-    triangles: Vec<[u32; 3]>,
-    segments: Vec<[u32; 2]>,
-    points: Vec<u32>,
+pub(super) struct Drawable {
+    pub(super) triangles: Vec<[u32; 3]>,
+    pub(super) segments: Vec<[u32; 2]>,
+    pub(super) points: Vec<u32>,
 }
 
 /// The faces of a volume cell (VTK point order).
@@ -65,7 +65,7 @@ fn cell_faces(t: CellType, vs: &[u32]) -> Vec<Vec<u32>> {
 /// fan-triangulated, the faces of volume cells that belong to one cell
 /// only (the boundary), line cells as segments, and the points in none of
 /// those as points. Deterministic: everything in cell order.
-fn drawable(mesh: &CellMesh) -> Result<Drawable, MeshError> {
+pub(super) fn drawable(mesh: &CellMesh) -> Result<Drawable, MeshError> {
     mesh.check()?;
     let mut d = Drawable::default();
     let mut used = vec![false; mesh.positions.len()];

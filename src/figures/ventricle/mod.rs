@@ -34,6 +34,14 @@
 //!   unit circle at depth 0 and 1, the silhouette edges), depth-tested, and
 //!   the orientation words.
 //!
+//! - [`ANATOMY_AHA_PNG`] (3 x 1 panels): the anatomy in the scanner frame
+//!   coloured by AHA segment, seen from the septum and from the lateral
+//!   wall (base up), and the legend (`anatomy.rs`, [`heart_view`]).
+//!
+//! With a transfer, [`transfer_figure`] makes [`TRANSFER_PNG`]: the anatomy
+//! beside its image in the second heart or on the hemisphere, in the same
+//! colours (AHA for the LV, depth for the RV).
+//!
 //! For the RV there is no AHA labelling, hence no bull's-eye (and a `value`
 //! array is an error); [`figures`] returns
 //!
@@ -54,7 +62,8 @@
 //! a segment's pixels.
 //!
 //! One file per figure family: the bull's-eye (`bullseye.rs`), the disk
-//! figures (`disk.rs`), the cylinder (`cylinder.rs`); beside them the AHA
+//! figures (`disk.rs`), the cylinder (`cylinder.rs`), the anatomy in 3D
+//! (`anatomy.rs`); beside them the AHA
 //! segments (`segments.rs`), where the disk drawings sit (`disk_layout.rs`)
 //! and the drawing helpers the figures share (`drawing.rs`). Text layout is
 //! [`crate::figures::layout`]'s.
@@ -64,6 +73,7 @@ use unfold_render::{Colormap, Rgb, Rgba};
 
 use super::{Figure, FigureError, FigureOptions};
 
+mod anatomy;
 mod bullseye;
 mod cylinder;
 mod disk;
@@ -71,6 +81,7 @@ mod disk_layout;
 mod drawing;
 mod segments;
 
+pub use anatomy::{ANATOMY_AHA_PNG, HeartView, TRANSFER_PNG, heart_view, transfer_figure};
 use bullseye::bullseye;
 pub use bullseye::{Bullseye, bullseye_figure};
 use cylinder::cylinder;
@@ -166,8 +177,8 @@ pub(super) const COLORBAR_COLUMN: i64 = 112;
 pub(crate) const COLORBAR_HEADING_PX: u32 = COLORBAR_COLUMN as u32 - 8;
 
 /// The ventricle figures of `outcome` (see the module documentation):
-/// LV `[bullseye.png, disk_aha.png, cylinder.png]`, RV `[disk_angle.png,
-/// cylinder.png]`.
+/// LV `[bullseye.png, disk_aha.png, cylinder.png, anatomy_aha.png]`, RV
+/// `[disk_angle.png, cylinder.png]`.
 ///
 /// `value` is an optional per-anatomy-point array `(name, values)` for the
 /// bull's-eye (one value per point of `outcome.normalized`, i.e. of the
@@ -230,6 +241,7 @@ pub fn figures(
                 bullseye(outcome, name, values, default, opts)?,
                 disk_aha(outcome, opts)?,
                 cylinder(outcome, chamber, opts)?,
+                anatomy::anatomy_aha(outcome, opts)?,
             ])
         }
         Chamber::Rv => {
@@ -248,6 +260,15 @@ pub fn figures(
             ])
         }
     }
+}
+
+/// The AHA segments that label at least one point, ascending.
+pub(super) fn segments_present(aha: &[u8]) -> Vec<u8> {
+    let mut seen = [false; 256];
+    for &l in aha {
+        seen[l as usize] = true;
+    }
+    (0..=255u8).filter(|&l| seen[l as usize]).collect()
 }
 
 fn chamber_name(c: Chamber) -> &'static str {
