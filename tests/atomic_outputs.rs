@@ -485,6 +485,25 @@ fn the_demo_is_one_set_whose_reports_name_final_paths() {
         "{inputs}"
     );
     assert_eq!(names(dir.path()), ["demo"]);
+    // The ventricle demo maps its own rings and meridians: the line says
+    // how close they come to circles and rays (ALGORITHMS 3.7 bounds).
+    let text = stdout(&o);
+    let line = text
+        .lines()
+        .find(|l| l.contains("rings of constant height -> circles"))
+        .unwrap_or_else(|| panic!("no rings line in {text}"));
+    let number_after = |key: &str| -> f64 {
+        let rest = &line[line.find(key).unwrap_or_else(|| panic!("{key} in {line}")) + key.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    assert!(number_after("worst radius spread ") < 2.0, "{line}");
+    assert!(number_after("worst angle spread ") < 1.0, "{line}");
+    let normalized = unfold::io::read_mesh(out.join("ventricle/normalized.vtu")).unwrap();
+    let polylines = normalized
+        .cells()
+        .filter(|(t, _)| *t == unfold::mesh::CellType::PolyLine)
+        .count();
+    assert_eq!(polylines, 5 + 12, "rings and meridians in normalized.vtu");
 }
 
 #[test]

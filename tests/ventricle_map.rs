@@ -14,6 +14,7 @@ use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, ventricle_cup};
 use unfold::mesh::{CellMesh, TriMesh};
 use unfold::organs::OrganError;
+use unfold::organs::ventricle::rings_meridians::rings_and_meridians;
 use unfold::organs::ventricle::{
     Chart, ChartConfig, Config, CylinderPoint, LandmarkPoints, Outcome, Pipeline,
 };
@@ -248,31 +249,9 @@ fn cup_rings_to_circles_meridians_to_rays() {
     cfg.field.grid_mm = 0.5;
     let chart = Chart::new(&cup.surface, &cup.anterior, &cup.inferior, None, &cfg).unwrap();
     let fw = chart.forward_all(&cup.anatomy_points).unwrap();
-    let mut worst_ring: f64 = 0.0;
-    for ring in &cup.anatomy_rings {
-        let r: Vec<f64> = ring
-            .iter()
-            .map(|&i| fw[i].coords.xi.hypot(fw[i].coords.zeta))
-            .collect();
-        let mean = r.iter().sum::<f64>() / r.len() as f64;
-        let spread = r.iter().map(|x| (x - mean).abs()).fold(0.0, f64::max) / mean;
-        worst_ring = worst_ring.max(spread);
-    }
-    let mut worst_ray: f64 = 0.0;
-    for m in &cup.anatomy_meridians {
-        let a: Vec<f64> = m
-            .iter()
-            .map(|&i| fw[i].coords.zeta.atan2(fw[i].coords.xi))
-            .collect();
-        let (s, c) = a
-            .iter()
-            .fold((0.0, 0.0), |(s, c), x| (s + x.sin(), c + x.cos()));
-        let mean = s.atan2(c);
-        for x in &a {
-            let d = (x - mean).sin().atan2((x - mean).cos()).abs().to_degrees();
-            worst_ray = worst_ray.max(d);
-        }
-    }
+    let coords: Vec<CylinderPoint> = fw.iter().map(|f| f.coords).collect();
+    let spread = rings_and_meridians(&coords, &cup.anatomy_rings, &cup.anatomy_meridians);
+    let (worst_ring, worst_ray) = (spread.worst_radius_spread, spread.worst_angle_deg);
     println!(
         "cup: {} rings, worst radius spread {:.3} %; {} meridians, worst angle spread {:.3} deg",
         cup.anatomy_rings.len(),

@@ -11,11 +11,13 @@ use crate::io::{NiftiImage, StagedOutputs, WriteOptions, atomic_write, write_ima
 use crate::mesh::geometry::bounding_box;
 use crate::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
 use crate::mesh::shapes::{
-    PlacentaParams, Pose, ValveParams, VentricleParams, mitral_valve, placenta_slab, ventricle_cup,
+    PlacentaParams, Pose, ValveParams, VentricleParams, VentricleShape, mitral_valve,
+    placenta_slab, ventricle_cup,
 };
 use crate::mesh::spatial::TetLocator;
 use crate::mesh::{CellMesh, CellType, Volume};
 use crate::organs::placenta::{Pipeline, prepare_mesh};
+use crate::organs::ventricle::rings_meridians::rings_and_meridians;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -237,9 +239,9 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
     let ventricle_dir = dir.join("ventricle");
     let mut config = crate::organs::ventricle::Config::default();
     config.chart.field.grid_mm = VENTRICLE_GRID_MM;
-    let anatomy = CellMesh::from(&v.anatomy);
+    let (anatomy, rings, meridians) = cup_anatomy(&v);
     let result = super::ventricle::run_pipeline(&super::ventricle::PipelineInput {
-        anatomy_label: "built-in ventricle cup: inner cup",
+        anatomy_label: "built-in ventricle cup: inner cup, rings and meridians",
         anatomy: &anatomy,
         surface_label: "built-in ventricle cup: S",
         surface: &v.surface,
@@ -261,11 +263,47 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         "built-in ventricle cup: {}",
         super::ventricle::summary(&result.outcome.report)
     );
+    let check = rings_and_meridians(&result.outcome.coords, &rings, &meridians);
+    println!(
+        "built-in ventricle cup: {} rings of constant height -> circles of the disk (worst \
+         radius spread {:.2} %), {} meridians -> rays (worst angle spread {:.2} deg); drawn in \
+         figures/cylinder.png",
+        rings.len(),
+        100.0 * check.worst_radius_spread,
+        meridians.len(),
+        check.worst_angle_deg
+    );
     println!(
         "wrote {} (normalized.vtu, anatomy.vtu, disk.vtu, report.json)",
         staged.shown(&ventricle_dir).display()
     );
     Ok(())
+}
+
+/// The demo's ventricle anatomy: the cup's inner cup (triangles), then
+/// its rings of constant height (closed polylines) and its meridians (open
+/// polylines, apex to base), so that the cylinder figure shows where they
+/// go (ALGORITHMS 3.7: rings to circles, meridians to rays). Returns the
+/// mesh and the rings and meridians as indices into its points.
+fn cup_anatomy(v: &VentricleShape) -> (CellMesh, Vec<Vec<usize>>, Vec<Vec<usize>>) {
+    let mut mesh = CellMesh::from(&v.anatomy);
+    let offset = mesh.positions.len();
+    mesh.positions.extend(v.anatomy_points.iter().copied());
+    let shift = |line: &[usize]| -> Vec<usize> { line.iter().map(|&i| i + offset).collect() };
+    let rings: Vec<Vec<usize>> = v.anatomy_rings.iter().map(|r| shift(r)).collect();
+    let meridians: Vec<Vec<usize>> = v.anatomy_meridians.iter().map(|m| shift(m)).collect();
+    for ring in &rings {
+        let mut closed: Vec<u32> = ring.iter().map(|&i| i as u32).collect();
+        if let Some(&first) = closed.first() {
+            closed.push(first);
+        }
+        mesh.push_cell(CellType::PolyLine, &closed);
+    }
+    for m in &meridians {
+        let line: Vec<u32> = m.iter().map(|&i| i as u32).collect();
+        mesh.push_cell(CellType::PolyLine, &line);
+    }
+    (mesh, rings, meridians)
 }
 
 /// Grid spacing of the demo's Laplace field, mm (coarser than the default

@@ -21,6 +21,8 @@
 //!   exactly on S and H.
 //! - [`map`]: a [`Chart`] of one heart: `psi`, `psi^-1`, transfer.
 //! - [`aha`]: the AHA 17-segment label of an LV disk position.
+//! - [`rings_meridians`]: the paper's cup check, rings to circles and
+//!   meridians to rays.
 //! - [`harmonic_disk`]: [`HarmonicDisk`], the default disk initializer.
 //! - [`pipeline`]: [`Pipeline`], the whole pipeline with its outputs and
 //!   report, built from its disk map.
@@ -36,6 +38,7 @@ pub mod landmarks;
 pub mod map;
 pub mod openings;
 pub mod pipeline;
+pub mod rings_meridians;
 pub mod rv_landmarks;
 pub mod trace;
 
