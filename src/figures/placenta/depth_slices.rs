@@ -5,12 +5,12 @@
 use unfold_render::{Anchor, ColorScale, Colormap, Image, Rect, format_value};
 
 use super::depths::Depths;
-use super::drawing::{PANEL_EDGE, colour_bar, panel, scale_bar};
+use super::drawing::{PANEL_EDGE, panel, scale_bar};
 use super::meshes::Meshes;
 use super::numbers::{nice_length, percentile, signed};
 use super::sampling::sample_masked;
 use super::{DEPTH_FRACTIONS, FlatImage, TITLE_BAND};
-use crate::figures::layout::{compose, text_fit};
+use crate::figures::layout::compose;
 use crate::figures::{FigureError, FigureOptions, INK};
 use crate::mesh::nalgebra::{Point3, Vector3};
 
@@ -161,21 +161,7 @@ pub(super) fn depth_slices(
     if frames > 1 {
         notes.push(format!("frame 1 of {frames}"));
     }
-    let mut y = TITLE_BAND as i32 + 4;
-    for line in &notes {
-        text_fit(&mut p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center).map_err(err(name))?;
-        y += unfold_render::text_height(1) as i32 + 1;
-    }
-    let bar_top = y + 8;
-    let bar_h = (ph as i32 - bar_top - 10).max(40) as u32;
-    colour_bar(
-        &mut p,
-        Rect::new((pw / 2) as i32 - 40, bar_top, 120, bar_h),
-        &scale,
-        "intensity",
-        false,
-    )
-    .map_err(err(name))?;
+    super::drawing::notes(&mut p, &notes, 4, Some((&scale, 10, 40))).map_err(err(name))?;
     panels.push(p);
     compose(&panels, 6, opts).map_err(err(name))
 }

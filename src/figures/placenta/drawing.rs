@@ -67,6 +67,37 @@ pub(super) fn scale_bar(
     Ok(())
 }
 
+/// Lines of notes centred under a panel's title band (from row
+/// `TITLE_BAND + top`, scale 1, each fitted to the panel's width less 8
+/// pixels) and, when `bar` is given, an intensity colour bar below them
+/// down to `bottom` pixels above the panel's foot (at least `min_bar`
+/// pixels tall). Returns the row below the notes.
+pub(super) fn notes(
+    p: &mut Image,
+    lines: &[String],
+    top: i32,
+    bar: Option<(&ColorScale, i32, u32)>,
+) -> Result<i32, RenderError> {
+    let (pw, ph) = (p.width(), p.height());
+    let mut y = super::TITLE_BAND as i32 + top;
+    for line in lines {
+        text_fit(p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center)?;
+        y += unfold_render::text_height(1) as i32 + 1;
+    }
+    if let Some((scale, bottom, min_bar)) = bar {
+        let bar_top = y + 2 * top;
+        let bar_h = (ph as i32 - bar_top - bottom).max(min_bar as i32) as u32;
+        colour_bar(
+            p,
+            Rect::new((pw / 2) as i32 - 40, bar_top, 120, bar_h),
+            scale,
+            "intensity",
+            false,
+        )?;
+    }
+    Ok(y)
+}
+
 /// A vertical colour bar in `rect`: the title on top (scale 1), the
 /// gradient (low at the bottom) in an outline, ticks at the ends and the
 /// middle, labels 4 pixels right of the ticks (with a `+` on positive values

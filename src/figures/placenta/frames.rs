@@ -10,16 +10,16 @@
 //! rows) shows every `k`-th frame, `k` the smallest stride that fits, and
 //! says so.
 
-use unfold_render::{Anchor, ColorScale, Colormap, Image, MAX_SIDE, Rect, format_value};
+use unfold_render::{ColorScale, Colormap, Image, MAX_SIDE, format_value};
 
 use super::depths::Depths;
-use super::drawing::{colour_bar, panel};
+use super::drawing::panel;
 use super::meshes::Meshes;
 use super::numbers::{nice_length, percentile, signed};
 use super::raster::Area;
 use super::sampling::sample_masked;
-use super::{FlatImage, MIN_PANEL, TITLE_BAND};
-use crate::figures::layout::{compose, text_fit};
+use super::{FlatImage, MIN_PANEL};
+use crate::figures::layout::compose;
 use crate::figures::{FigureError, FigureOptions};
 use crate::mesh::nalgebra::Point3;
 
@@ -111,7 +111,6 @@ pub(super) fn frames(
         panels.push(p);
     }
 
-    let (pw, ph) = (thumb.panel_width, thumb.panel_height);
     let mut p = panel(&thumb, img.name, "every frame", 1).map_err(err(name))?;
     let stride = shown.get(1).map_or(1, |&k| k);
     let mut notes = vec![
@@ -122,21 +121,7 @@ pub(super) fn frames(
     if stride > 1 {
         notes.push(format!("every {stride}th frame shown"));
     }
-    let mut y = TITLE_BAND as i32 + 2;
-    for line in &notes {
-        text_fit(&mut p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center).map_err(err(name))?;
-        y += unfold_render::text_height(1) as i32 + 1;
-    }
-    let bar_top = y + 4;
-    let bar_h = (ph as i32 - bar_top - 6).max(30) as u32;
-    colour_bar(
-        &mut p,
-        Rect::new((pw / 2) as i32 - 40, bar_top, 120, bar_h),
-        &scale,
-        "intensity",
-        false,
-    )
-    .map_err(err(name))?;
+    super::drawing::notes(&mut p, &notes, 2, Some((&scale, 6, 30))).map_err(err(name))?;
     panels.push(p);
     let columns = FRAME_COLUMNS.min(panels.len() as u32);
     compose(&panels, columns, &thumb).map_err(err(name))

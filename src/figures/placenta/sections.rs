@@ -18,16 +18,16 @@
 //! flattened mesh's bounding box and `z_m` the middle between the template's
 //! fetal and maternal levels.
 
-use unfold_render::{Anchor, ColorScale, Colormap, Image, format_value};
+use unfold_render::{ColorScale, Colormap, Image, format_value};
 
+use super::FlatImage;
 use super::depths::Depths;
-use super::drawing::{colour_bar, panel};
+use super::drawing::panel;
 use super::meshes::Meshes;
 use super::numbers::{nice_length, percentile, signed};
 use super::raster::Area;
 use super::sampling::{sample_masked, sample_original};
-use super::{FlatImage, TITLE_BAND};
-use crate::figures::layout::{compose, text_fit};
+use crate::figures::layout::compose;
 use crate::figures::{FigureError, FigureOptions};
 use crate::mesh::Volume;
 use crate::mesh::nalgebra::{Point3, Vector3};
@@ -241,7 +241,6 @@ fn legend(
     name: &str,
 ) -> Result<Image, FigureError> {
     let err = FigureError::render;
-    let (pw, ph) = (opts.panel_width, opts.panel_height);
     let mut p = panel(opts, img.name, "original and flattened", 2).map_err(err(name))?;
     let mut notes = vec![
         "one intensity scale for both rows".to_string(),
@@ -253,21 +252,7 @@ fn legend(
     if frames > 1 {
         notes.push(format!("frame 1 of {frames}"));
     }
-    let mut y = TITLE_BAND as i32 + 4;
-    for line in &notes {
-        text_fit(&mut p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center).map_err(err(name))?;
-        y += unfold_render::text_height(1) as i32 + 1;
-    }
-    let bar_top = y + 8;
-    let bar_h = (ph as i32 - bar_top - 10).max(40) as u32;
-    colour_bar(
-        &mut p,
-        unfold_render::Rect::new((pw / 2) as i32 - 40, bar_top, 120, bar_h),
-        scale,
-        "intensity",
-        false,
-    )
-    .map_err(err(name))?;
+    super::drawing::notes(&mut p, &notes, 4, Some((scale, 10, 40))).map_err(err(name))?;
     Ok(p)
 }
 
@@ -280,7 +265,6 @@ fn whereabouts(
     flat: [f64; 3],
 ) -> Result<Image, FigureError> {
     let err = FigureError::render;
-    let pw = opts.panel_width;
     let mut p = panel(opts, "sections", "through the centres", 2).map_err(err(name))?;
     let mm = |v: [f64; 3]| {
         format!(
@@ -300,10 +284,6 @@ fn whereabouts(
         "flattened mesh's box, mid-depth".into(),
         format!("template {}", mm(flat)),
     ];
-    let mut y = TITLE_BAND as i32 + 4;
-    for line in &lines {
-        text_fit(&mut p, (pw / 2) as i32, y, line, 1, pw - 8, Anchor::Center).map_err(err(name))?;
-        y += unfold_render::text_height(1) as i32 + 1;
-    }
+    super::drawing::notes(&mut p, &lines, 4, None).map_err(err(name))?;
     Ok(p)
 }

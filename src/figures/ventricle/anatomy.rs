@@ -25,8 +25,8 @@ use unfold_render::nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
 use unfold_render::{Anchor, Camera, ColorScale, Coloring, Image, Rect, Renderer, Rgb, Shading};
 
 use super::cylinder::drawable;
-use super::drawing::{clamp32, colorbar_column, text, title_band};
-use super::{AHA_COLORS, AHA_NAMES, COLORBAR_COLUMN, DEPTH_COLORMAP, SOFT_INK, TITLE_BAND};
+use super::drawing::{aha_rows, colorbar_column, text, title_band};
+use super::{AHA_COLORS, COLORBAR_COLUMN, DEPTH_COLORMAP, SOFT_INK, TITLE_BAND};
 use super::{figure_size, segments_present};
 use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
 use unfold_render::NAN_COLOR;
@@ -191,31 +191,7 @@ fn aha_legend(img: &mut Image, figure: &str, x0: i64, aha: &[u8]) -> Result<(), 
         Anchor::Left,
     )?;
     y += row_h + 2;
-    for seg in 1..=17u8 {
-        let sw = (row_h - 5).clamp(6, 10);
-        let rect = Rect::new(clamp32(x0), clamp32(y - 1), sw as u32, sw as u32);
-        img.fill_rect(rect, AHA_COLORS[seg as usize - 1].opaque());
-        img.stroke_rect(rect, INK);
-        text(
-            img,
-            figure,
-            x0 + 30,
-            y,
-            &seg.to_string(),
-            INK,
-            Anchor::Right,
-        )?;
-        text(
-            img,
-            figure,
-            x0 + 38,
-            y,
-            &format!("{} ({})", AHA_NAMES[seg as usize - 1], counts[seg as usize]),
-            INK,
-            Anchor::Left,
-        )?;
-        y += row_h;
-    }
+    let y = aha_rows(img, figure, x0, y, row_h, &counts)?;
     text(
         img,
         figure,

@@ -8,17 +8,17 @@ use unfold_organs::ventricle::aha::aha_segment;
 use unfold_organs::ventricle::disk::RV_CENTRE;
 use unfold_organs::ventricle::{Chamber, Outcome};
 use unfold_render::{
-    Anchor, ColorScale, Coloring, Image, NAN_COLOR, Rect, RenderError, Renderer, Rgb, Shading, arc,
+    Anchor, ColorScale, Coloring, Image, NAN_COLOR, RenderError, Renderer, Rgb, Shading, arc,
     format_value,
 };
 
 use super::disk_layout::{DiskLayout, disk_area, disk_renderer};
 use super::drawing::{
-    apex_marker, axes_glyph, clamp32, colorbar_column, ink_on, landmark_marker, orientation_words,
+    aha_rows, apex_marker, axes_glyph, colorbar_column, ink_on, landmark_marker, orientation_words,
     text, title_band,
 };
 use super::{
-    AHA_COLORS, AHA_NAMES, ANGLE_COLORMAP, COLORBAR_COLUMN, DISK_AHA_PNG, DISK_ANGLE_PNG, SOFT_INK,
+    AHA_COLORS, ANGLE_COLORMAP, COLORBAR_COLUMN, DISK_AHA_PNG, DISK_ANGLE_PNG, SOFT_INK,
     TITLE_BAND, disk_layout, figure_size, segment_centre,
 };
 use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
@@ -220,31 +220,7 @@ pub(super) fn disk_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Figure
         Anchor::Left,
     )?;
     y += row_h + 2;
-    for seg in 1..=17u8 {
-        let sw = (row_h - 5).clamp(6, 10);
-        let rect = Rect::new(clamp32(x0), clamp32(y - 1), sw as u32, sw as u32);
-        img.fill_rect(rect, AHA_COLORS[seg as usize - 1].opaque());
-        img.stroke_rect(rect, INK);
-        text(
-            &mut img,
-            F,
-            x0 + 14 + 16,
-            y,
-            &seg.to_string(),
-            INK,
-            Anchor::Right,
-        )?;
-        text(
-            &mut img,
-            F,
-            x0 + 38,
-            y,
-            &format!("{} ({})", AHA_NAMES[seg as usize - 1], counts[seg as usize]),
-            INK,
-            Anchor::Left,
-        )?;
-        y += row_h;
-    }
+    y = aha_rows(&mut img, F, x0, y, row_h, &counts)?;
     y += 8;
     landmark_marker(&mut img, [x0 as f64 + 5.0, y as f64 + 4.0]);
     text(

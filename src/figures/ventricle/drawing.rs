@@ -216,3 +216,46 @@ pub(super) fn axes_glyph(
     )?;
     Ok(())
 }
+
+/// The 17 rows of an AHA legend from row `y` at `x0`, `row_h` apart: the
+/// segment's colour swatch, its number and `name (count)` with
+/// `counts[k]` the count of segment `k`. Returns the row after the last.
+pub(super) fn aha_rows(
+    img: &mut Image,
+    figure: &str,
+    x0: i64,
+    mut y: i64,
+    row_h: i64,
+    counts: &[usize; 18],
+) -> Result<i64, FigureError> {
+    for seg in 1..=17u8 {
+        let sw = (row_h - 5).clamp(6, 10);
+        let rect = Rect::new(clamp32(x0), clamp32(y - 1), sw as u32, sw as u32);
+        img.fill_rect(rect, super::AHA_COLORS[seg as usize - 1].opaque());
+        img.stroke_rect(rect, INK);
+        text(
+            img,
+            figure,
+            x0 + 30,
+            y,
+            &seg.to_string(),
+            INK,
+            Anchor::Right,
+        )?;
+        text(
+            img,
+            figure,
+            x0 + 38,
+            y,
+            &format!(
+                "{} ({})",
+                super::AHA_NAMES[seg as usize - 1],
+                counts[seg as usize]
+            ),
+            INK,
+            Anchor::Left,
+        )?;
+        y += row_h;
+    }
+    Ok(y)
+}
