@@ -64,7 +64,7 @@ use std::time::Instant;
 
 /// `--chamber`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum ChamberArg {
+pub(crate) enum ChamberArg {
     /// Left ventricle: the unit disk, AHA 17 segments.
     Lv,
     /// Right ventricle: the half disk (landmarks: the two septal corners).
@@ -258,7 +258,7 @@ fn landmark_points(
 }
 
 /// Parses a point `X,Y,Z` (spaces around the commas allowed).
-fn parse_point(s: &str) -> Result<Point3<f64>, String> {
+pub(crate) fn parse_point(s: &str) -> Result<Point3<f64>, String> {
     let fields: Vec<&str> = s.split(',').map(str::trim).collect();
     let bad = || format!("expected X,Y,Z (three numbers separated by commas), got {s:?}");
     if fields.len() != 3 {
@@ -273,6 +273,67 @@ fn parse_point(s: &str) -> Result<Point3<f64>, String> {
         x[k] = v;
     }
     Ok(Point3::new(x[0], x[1], x[2]))
+}
+
+/// Reads an enclosing surface S and turns it into RAS (`--mesh-frame`).
+pub(crate) fn read_surface(path: &Path, frame: super::MeshFrameArg) -> Result<TriMesh, CliError> {
+    let mut m = read_tri_mesh(path)?;
+    super::to_ras(super::mesh_frame(frame, path)?, &mut m.positions);
+    Ok(m)
+}
+
+/// The landmarks of S (named `surface_label` in messages) from the flags:
+/// `--rv-landmarks` (LV only: the rim landmarks derived from the RV
+/// insertion points, returned too for the report), else a markups file or
+/// `--anterior`/`--inferior`/`--apex` ([`landmark_points`]).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn heart_landmarks(
+    surface: &TriMesh,
+    surface_label: &str,
+    chamber: ChamberArg,
+    rv_landmarks: &[Point3<f64>],
+    file: Option<&Path>,
+    anterior: Option<Point3<f64>>,
+    inferior: Option<Point3<f64>>,
+    apex: Option<Point3<f64>>,
+    rim_near: Option<Point3<f64>>,
+) -> Result<(LandmarkPoints, Option<FromRv>), CliError> {
+    let from_rv = match rv_landmarks {
+        [] => None,
+        [p, q] => {
+            if chamber == ChamberArg::Rv {
+                return Err(CliError::Usage(
+                    "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
+                     corners as --anterior and --inferior"
+                        .into(),
+                ));
+            }
+            Some(rim_landmarks_from_rv(surface, [*p, *q]).map_err(|e| organ(surface_label, e))?)
+        }
+        more => {
+            return Err(CliError::Usage(format!(
+                "--rv-landmarks takes two points, got {}",
+                more.len()
+            )));
+        }
+    };
+    let landmarks = match &from_rv {
+        Some(f) => LandmarkPoints {
+            anterior: Point3::from(f.landmarks[0]),
+            inferior: Point3::from(f.landmarks[1]),
+            apex,
+            rim_near,
+        },
+        None => landmark_points(
+            file,
+            anterior,
+            inferior,
+            apex,
+            rim_near,
+            "--anterior and --inferior",
+        )?,
+    };
+    Ok((landmarks, from_rv))
 }
 
 impl VentricleArgs {
@@ -299,7 +360,7 @@ fn progress(line: impl FnOnce() -> String) {
 
 /// `--layers n`: the transmural layer of each point, `1` at S to `n` at H:
 /// `min(floor(d n) + 1, n)` for the depth `d` in `[0, 1]`.
-fn transmural_layers(coords: &[CylinderPoint], n: u32) -> Vec<i32> {
+pub(crate) fn transmural_layers(coords: &[CylinderPoint], n: u32) -> Vec<i32> {
     let n = f64::from(n);
     coords
         .iter()
@@ -849,14 +910,9 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             Some(_) => {}
         }
     }
-    let read_surface = |p: &Path| -> Result<_, CliError> {
-        let mut m = read_tri_mesh(p)?;
-        super::to_ras(super::mesh_frame(a.mesh_frame, p)?, &mut m.positions);
-        Ok(m)
-    };
-    let surface = read_surface(&a.surface)?;
+    let surface = read_surface(&a.surface, a.mesh_frame)?;
     let to_surface = match &a.to_surface {
-        Some(p) => Some(read_surface(p)?),
+        Some(p) => Some(read_surface(p, a.mesh_frame)?),
         None => None,
     };
     let hemisphere = match a.to_hemisphere {
@@ -870,41 +926,17 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let from_rv = match a.rv_landmarks.as_slice() {
-        [] => None,
-        [p, q] => {
-            if a.chamber == ChamberArg::Rv {
-                return Err(CliError::Usage(
-                    "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
-                     corners as --anterior and --inferior"
-                        .into(),
-                ));
-            }
-            Some(rim_landmarks_from_rv(&surface, [*p, *q]).map_err(|e| organ(&surface_label, e))?)
-        }
-        more => {
-            return Err(CliError::Usage(format!(
-                "--rv-landmarks takes two points, got {}",
-                more.len()
-            )));
-        }
-    };
-    let landmarks = match &from_rv {
-        Some(f) => LandmarkPoints {
-            anterior: Point3::from(f.landmarks[0]),
-            inferior: Point3::from(f.landmarks[1]),
-            apex: a.apex,
-            rim_near: a.rim_near,
-        },
-        None => landmark_points(
-            a.landmarks.as_deref(),
-            a.anterior,
-            a.inferior,
-            a.apex,
-            a.rim_near,
-            "--anterior and --inferior",
-        )?,
-    };
+    let (landmarks, from_rv) = heart_landmarks(
+        &surface,
+        &surface_label,
+        a.chamber,
+        &a.rv_landmarks,
+        a.landmarks.as_deref(),
+        a.anterior,
+        a.inferior,
+        a.apex,
+        a.rim_near,
+    )?;
     let transfer = match (&to_surface, &hemisphere) {
         (Some(surface), _) => Some(TransferInput {
             label: &to_label,
