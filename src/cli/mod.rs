@@ -26,6 +26,7 @@ mod pushback;
 mod repair;
 pub mod ventricle;
 mod ventricle_inverse;
+mod ventricle_sensitivity;
 
 use crate::io::IoError;
 use crate::mesh::MeshError;

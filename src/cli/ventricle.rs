@@ -27,7 +27,11 @@
 //! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
 //!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
 //! - `report.json`: the library's report, the inputs and (with a transfer)
-//!   `transfer`.
+//!   `transfer`;
+//! - with `--sensitivity MM`, the point arrays `sensitivity_mm`,
+//!   `sensitivity_disk`, `sensitivity_depth` in `normalized.vtu` and
+//!   `anatomy.vtu`, `sensitivity` in `report.json` and
+//!   `figures/sensitivity.png` ([`super::ventricle_sensitivity`]).
 //!
 //! The landmarks come from the flags or from a 3D Slicer markups file
 //! (`--landmarks FILE.mrk.json`, points labelled `anterior`, `inferior`,
@@ -86,7 +90,8 @@ impl From<ChamberArg> for Chamber {
     after_help = "Writes DIR/normalized.vtu (the anatomy at (X, Y, depth) in the cylinder), \
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
                   and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
-                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart). \
+                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart); \
+                  --sensitivity adds the sensitivity_* arrays and DIR/figures/sensitivity.png. \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
 pub struct VentricleArgs {
@@ -103,6 +108,15 @@ pub struct VentricleArgs {
     /// enclosing surface's, middle and inner thirds).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100))]
     layers: Option<u32>,
+    /// Landmark sensitivity (the source paper's Fig. 14-17): rebuild the
+    /// chart with the landmarks moved MM mm, ten ways (each rim landmark
+    /// either way along the rim, both towards and away from each other,
+    /// the apex four ways along S), and give each anatomy point the spread
+    /// of its map: point arrays sensitivity_mm (largest |v -
+    /// psi_k^-1(psi(v))|), sensitivity_disk, sensitivity_depth, report.json's
+    /// `sensitivity`, figures/sensitivity.png.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    sensitivity: Option<f64>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
     /// mapped; its cells are kept.
@@ -416,6 +430,8 @@ pub(crate) struct PipelineInput<'a> {
     pub from_rv: Option<&'a FromRv>,
     /// `--layers`: transmural layers to label.
     pub layers: Option<u32>,
+    /// `--sensitivity MM`: the landmark displacement to test.
+    pub sensitivity: Option<f64>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -431,6 +447,9 @@ pub struct FullReport<'a, M, P> {
     /// The transfer into a second heart, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transfer: Option<&'a TransferReport>,
+    /// The landmark sensitivity (`--sensitivity`), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensitivity: Option<&'a super::ventricle_sensitivity::SensitivityReport>,
     /// Predicted and measured peak memory of the run.
     pub memory: M,
     /// Version, command line, parameters, input hashes, start time.
@@ -695,6 +714,24 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
             mesh.to_mut().point_data.insert(layer.clone());
         }
     }
+    let sensitivity = match input.sensitivity {
+        None => None,
+        Some(mm) => {
+            let s = super::ventricle_sensitivity::sensitivity(
+                &outcome,
+                input.anatomy,
+                input.surface,
+                &input.landmarks,
+                input.config,
+                mm,
+                &format!("{} + {}", input.anatomy_label, input.surface_label),
+            )?;
+            for (_, mesh) in meshes.iter_mut().take(2) {
+                s.add_arrays(mesh.to_mut());
+            }
+            Some(s)
+        }
+    };
     if let Some((mesh, _)) = &transferred {
         meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
     }
@@ -724,6 +761,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         },
         report: &outcome.report,
         transfer: transfer.as_ref(),
+        sensitivity: sensitivity.as_ref().map(|s| &s.report),
         memory: super::memory::report(),
         provenance: super::provenance::this_run(),
     })
@@ -760,6 +798,9 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         )
         .map_err(|e| at(dir, e))?;
         written.extend(super::write_figures(dir, &figs)?);
+        if let Some(s) = &sensitivity {
+            written.extend(super::write_figures(dir, &[s.figure(&outcome, dir)?])?);
+        }
     }
     Ok(RunResult {
         outcome,
@@ -852,6 +893,9 @@ pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
 pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let start = Instant::now();
     let config = a.config()?;
+    if let Some(mm) = a.sensitivity {
+        positive("--sensitivity", mm)?;
+    }
     let out = a.output.as_path();
     if out.exists() && !out.is_dir() {
         return Err(at(
@@ -984,6 +1028,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         bullseye_array: a.bullseye_array.as_deref(),
         from_rv: from_rv.as_ref(),
         layers: a.layers,
+        sensitivity: a.sensitivity,
     })
     .map_err(|e| super::shown(&staged, e))?;
     staged.commit()?;

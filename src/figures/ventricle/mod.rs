@@ -70,6 +70,7 @@ mod disk;
 mod disk_layout;
 mod drawing;
 mod segments;
+mod sensitivity;
 
 use bullseye::bullseye;
 pub use bullseye::{Bullseye, bullseye_figure};
@@ -77,6 +78,7 @@ use cylinder::cylinder;
 use disk::{disk_aha, disk_angle};
 pub use disk_layout::{DiskLayout, bullseye_layout, disk_layout};
 pub use segments::{SegmentMean, SegmentShape, segment_centre, segment_means, segment_shape};
+pub use sensitivity::{SENSITIVITY_COLORMAP, SENSITIVITY_PNG, sensitivity_figure};
 
 /// File name of the LV bull's-eye.
 pub const BULLSEYE_PNG: &str = "bullseye.png";
