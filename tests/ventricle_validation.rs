@@ -1,6 +1,7 @@
 //! The validation runs of `unfold ventricle` through the binary (the
-//! source paper's §5.4): `--sensitivity MM` (landmarks moved, the spread
-//! per anatomy point).
+//! source paper's §5.1 and §5.4): `--sensitivity MM` (landmarks moved,
+//! the spread per anatomy point) and `--grid-sweep` (error, time and memory
+//! per grid of the Laplace field).
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -157,6 +158,89 @@ fn landmarks_moved_give_each_point_its_spread() {
             &["--sensitivity", bad],
         );
         assert_one_line_error(&o, "--sensitivity must be a finite number > 0");
+    }
+    assert!(!dir.path().join("bad").exists());
+}
+
+#[test]
+fn a_grid_sweep_reports_error_time_and_memory_per_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = ventricle_cup(&VentricleParams::default()).unwrap();
+    let out = dir.path().join("out");
+    let o = run(dir.path(), &v, &out, &["--grid-sweep", "2,1.5"]);
+    assert_ok(&o);
+    let text = stdout(&o);
+    assert!(
+        text.contains("grid sweep 2 mm:") && text.contains("grid sweep 1.5 mm:"),
+        "{text}"
+    );
+    let table = std::fs::read_to_string(out.join("grid_sweep.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        header,
+        [
+            "grid_mm",
+            "unknowns",
+            "cg_iterations",
+            "roundtrip_mean_um",
+            "roundtrip_max_um",
+            "disk_shift_max",
+            "depth_shift_max",
+            "seconds",
+            "disk_seconds",
+            "laplace_seconds",
+            "streamlines_seconds",
+            "inverse_seconds",
+            "estimated_field_bytes",
+            "peak_bytes"
+        ]
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2);
+    let col = |row: &[&str], name: &str| -> f64 {
+        let k = header.iter().position(|h| *h == name).unwrap();
+        row[k]
+            .parse()
+            .unwrap_or_else(|_| panic!("{name}: {:?}", row[k]))
+    };
+    assert_eq!(col(&rows[0], "grid_mm"), 2.0, "in the order given");
+    assert_eq!(col(&rows[1], "grid_mm"), 1.5);
+    // the 1.5 mm grid is the main run's
+    let r = report(&out);
+    assert_eq!(r["grid_mm"], 1.5);
+    assert_eq!(col(&rows[1], "unknowns"), f(&r["field"]["unknowns"]));
+    assert!(col(&rows[1], "unknowns") > 1.5 * col(&rows[0], "unknowns"));
+    assert!(col(&rows[1], "estimated_field_bytes") > col(&rows[0], "estimated_field_bytes"));
+    for row in &rows {
+        let (mean, max) = (col(row, "roundtrip_mean_um"), col(row, "roundtrip_max_um"));
+        assert!(0.0 <= mean && mean <= max && max < 5.0, "{row:?}");
+        assert!(col(row, "seconds") > 0.0);
+        assert!(col(row, "seconds") >= col(row, "laplace_seconds"));
+        let peak = row[header.len() - 1];
+        assert!(
+            peak.is_empty() || peak.parse::<f64>().unwrap() > 0.0,
+            "{peak}"
+        );
+    }
+    // shifts against the finest grid: 0 on it, some on the coarser one
+    assert_eq!(col(&rows[1], "disk_shift_max"), 0.0);
+    assert_eq!(col(&rows[1], "depth_shift_max"), 0.0);
+    assert!(col(&rows[0], "disk_shift_max") > 0.0);
+    assert!(col(&rows[0], "depth_shift_max") > 0.0);
+    assert!(out.join("figures/grid_sweep.png").is_file());
+
+    for (bad, msg) in [
+        ("1,-1", "--grid-sweep must be a finite number > 0"),
+        ("2,2", "--grid-sweep lists 2 twice"),
+    ] {
+        let o = run(
+            dir.path(),
+            &v,
+            &dir.path().join("bad"),
+            &["--grid-sweep", bad],
+        );
+        assert_one_line_error(&o, msg);
     }
     assert!(!dir.path().join("bad").exists());
 }

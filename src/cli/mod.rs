@@ -25,6 +25,7 @@ mod provenance;
 mod pushback;
 mod repair;
 pub mod ventricle;
+mod ventricle_grid_sweep;
 mod ventricle_inverse;
 mod ventricle_sensitivity;
 

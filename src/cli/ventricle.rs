@@ -31,7 +31,9 @@
 //! - with `--sensitivity MM`, the point arrays `sensitivity_mm`,
 //!   `sensitivity_disk`, `sensitivity_depth` in `normalized.vtu` and
 //!   `anatomy.vtu`, `sensitivity` in `report.json` and
-//!   `figures/sensitivity.png` ([`super::ventricle_sensitivity`]).
+//!   `figures/sensitivity.png` ([`super::ventricle_sensitivity`]);
+//! - with `--grid-sweep`, `grid_sweep.csv` and `figures/grid_sweep.png`
+//!   ([`super::ventricle_grid_sweep`]).
 //!
 //! The landmarks come from the flags or from a 3D Slicer markups file
 //! (`--landmarks FILE.mrk.json`, points labelled `anterior`, `inferior`,
@@ -91,7 +93,8 @@ impl From<ChamberArg> for Chamber {
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
                   and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
                   --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart); \
-                  --sensitivity adds the sensitivity_* arrays and DIR/figures/sensitivity.png. \
+                  --sensitivity adds the sensitivity_* arrays and DIR/figures/sensitivity.png, \
+                  --grid-sweep DIR/grid_sweep.csv and DIR/figures/grid_sweep.png. \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
 pub struct VentricleArgs {
@@ -117,6 +120,19 @@ pub struct VentricleArgs {
     /// `sensitivity`, figures/sensitivity.png.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     sensitivity: Option<f64>,
+    /// Also run the pipeline on each of these grid spacings of the Laplace
+    /// field (mm, comma-separated, each > 0) and write DIR/grid_sweep.csv
+    /// (per grid: unknowns, round-trip error mean and max, shift of the map
+    /// from the finest grid, seconds, estimated and peak memory) and
+    /// DIR/figures/grid_sweep.png (error and time against the grid, the
+    /// source paper's Fig. 11); the other outputs are those of --grid-mm.
+    #[arg(
+        long,
+        value_name = "MM,MM,...",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    grid_sweep: Vec<f64>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
     /// mapped; its cells are kept.
@@ -896,6 +912,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     if let Some(mm) = a.sensitivity {
         positive("--sensitivity", mm)?;
     }
+    super::ventricle_grid_sweep::check_grids(&a.grid_sweep)?;
     let out = a.output.as_path();
     if out.exists() && !out.is_dir() {
         return Err(at(
@@ -1031,6 +1048,22 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         sensitivity: a.sensitivity,
     })
     .map_err(|e| super::shown(&staged, e))?;
+    let mut written = result.written.clone();
+    if !a.grid_sweep.is_empty() {
+        written.extend(
+            super::ventricle_grid_sweep::grid_sweep(
+                &a.grid_sweep,
+                &anatomy,
+                &surface,
+                &landmarks,
+                config,
+                &format!("{anatomy_label} + {surface_label}"),
+                &staging,
+                !a.no_figures,
+            )
+            .map_err(|e| super::shown(&staged, e))?,
+        );
+    }
     staged.commit()?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
     let o = &result.outcome.report.openings;
@@ -1054,7 +1087,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             t.points, t.surface, t.seconds
         );
     }
-    for p in &result.written {
+    for p in &written {
         println!("wrote {}", staged.shown(p).display());
     }
     progress(|| format!("done in {:.2} s", start.elapsed().as_secs_f64()));
