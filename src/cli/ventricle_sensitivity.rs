@@ -334,7 +334,7 @@ pub(crate) fn sensitivity(
             Ok(chart) => chart,
             Err(e) => {
                 let msg = e.to_string();
-                first_error.get_or_insert_with(|| (p.name, e));
+                first_error.get_or_insert((p.name, e));
                 reports.push(PerturbationReport {
                     name: p.name,
                     moved_mm: [f64::NAN; 3],
