@@ -195,8 +195,8 @@ pub(crate) fn grid_sweep(
             r.laplace_seconds.to_string(),
             r.streamlines_seconds.to_string(),
             r.inverse_seconds.to_string(),
-            r.estimated_bytes.to_string(),
-            r.peak_bytes.map(|p| p.to_string()).unwrap_or_default(),
+            format!("{:.0}", r.estimated_bytes),
+            r.peak_bytes.map(|p| format!("{p:.0}")).unwrap_or_default(),
         ])
         .map_err(|e| at(&path, e))?;
     }
