@@ -229,8 +229,28 @@ pub(crate) fn resident_bytes() -> Option<f64> {
     status_bytes("VmRSS")
 }
 
-/// The process's peak resident size so far, bytes.
+/// The highest `VmHWM` seen before a [`reset_peak`], bytes.
+static PEAK_BEFORE_RESET: AtomicU64 = AtomicU64::new(0);
+
+/// The process's peak resident size so far, bytes (a [`reset_peak`] does
+/// not lower it).
 pub(crate) fn peak_resident_bytes() -> Option<f64> {
+    status_bytes("VmHWM").map(|p| p.max(PEAK_BEFORE_RESET.load(Ordering::Relaxed) as f64))
+}
+
+/// Resets the kernel's peak resident size (`VmHWM`) to the resident size
+/// now (`5` written to `/proc/self/clear_refs`, Linux 4.0 and later), so
+/// that [`peak_since_reset`] measures one stage; [`peak_resident_bytes`]
+/// keeps the peak before. False where the system does not allow it.
+pub(crate) fn reset_peak() -> bool {
+    if let Some(p) = status_bytes("VmHWM") {
+        PEAK_BEFORE_RESET.fetch_max(p as u64, Ordering::Relaxed);
+    }
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The peak resident size since the last [`reset_peak`] (`VmHWM`), bytes.
+pub(crate) fn peak_since_reset() -> Option<f64> {
     status_bytes("VmHWM")
 }
 

@@ -25,6 +25,9 @@ mod provenance;
 mod pushback;
 mod repair;
 pub mod ventricle;
+mod ventricle_grid_sweep;
+mod ventricle_inverse;
+mod ventricle_sensitivity;
 
 use crate::io::IoError;
 use crate::mesh::MeshError;
@@ -136,6 +139,10 @@ enum Command {
     /// surface flattened to a disk (LV) or half disk (RV), depth along Laplace streamlines,
     /// AHA 17 segments, exact inverse map and transfer to another heart.
     Ventricle(Box<ventricle::VentricleArgs>),
+    /// Carry a mesh or label field given in the cylinder's normalized coordinates (xi, zeta,
+    /// depth; e.g. an `unfold ventricle` run's normalized.vtu, regions drawn on the disk) back
+    /// onto a heart through the exact inverse map.
+    VentricleInverse(Box<ventricle_inverse::VentricleInverseArgs>),
     /// Run many subjects from a CSV manifest (one row each, --jobs at a time), then gather their
     /// reports into OUT/cohort.csv.
     Batch(batch::BatchArgs),
@@ -165,6 +172,7 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliEr
         cli.command,
         Command::Placenta(_)
             | Command::Ventricle(_)
+            | Command::VentricleInverse(_)
             | Command::Mitral(_)
             | Command::Deform(_)
             | Command::Demo(_)
@@ -181,6 +189,7 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliEr
         Command::Placenta(a) => placenta::run(&a),
         Command::Pushback(a) => pushback::run(&a),
         Command::Ventricle(a) => ventricle::run(&a),
+        Command::VentricleInverse(a) => ventricle_inverse::run(&a),
         Command::Mitral(a) => mitral::run(&a),
         Command::Batch(a) => batch::run(&a),
         Command::Cohort(a) => cohort::run(&a),

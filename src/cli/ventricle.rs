@@ -27,7 +27,13 @@
 //! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
 //!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
 //! - `report.json`: the library's report, the inputs and (with a transfer)
-//!   `transfer`.
+//!   `transfer`;
+//! - with `--sensitivity MM`, the point arrays `sensitivity_mm`,
+//!   `sensitivity_disk`, `sensitivity_depth` in `normalized.vtu` and
+//!   `anatomy.vtu`, `sensitivity` in `report.json` and
+//!   `figures/sensitivity.png` ([`super::ventricle_sensitivity`]);
+//! - with `--grid-sweep`, `grid_sweep.csv` and `figures/grid_sweep.png`
+//!   ([`super::ventricle_grid_sweep`]).
 //!
 //! The landmarks come from the flags or from a 3D Slicer markups file
 //! (`--landmarks FILE.mrk.json`, points labelled `anterior`, `inferior`,
@@ -64,7 +70,7 @@ use std::time::Instant;
 
 /// `--chamber`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum ChamberArg {
+pub(crate) enum ChamberArg {
     /// Left ventricle: the unit disk, AHA 17 segments.
     Lv,
     /// Right ventricle: the half disk (landmarks: the two septal corners).
@@ -86,7 +92,9 @@ impl From<ChamberArg> for Chamber {
     after_help = "Writes DIR/normalized.vtu (the anatomy at (X, Y, depth) in the cylinder), \
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
                   and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
-                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart). \
+                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart); \
+                  --sensitivity adds the sensitivity_* arrays and DIR/figures/sensitivity.png, \
+                  --grid-sweep DIR/grid_sweep.csv and DIR/figures/grid_sweep.png. \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
 pub struct VentricleArgs {
@@ -103,6 +111,28 @@ pub struct VentricleArgs {
     /// enclosing surface's, middle and inner thirds).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100))]
     layers: Option<u32>,
+    /// Landmark sensitivity (the source paper's Fig. 14-17): rebuild the
+    /// chart with the landmarks moved MM mm, ten ways (each rim landmark
+    /// either way along the rim, both towards and away from each other,
+    /// the apex four ways along S), and give each anatomy point the spread
+    /// of its map: point arrays sensitivity_mm (largest |v -
+    /// psi_k^-1(psi(v))|), sensitivity_disk, sensitivity_depth, report.json's
+    /// `sensitivity`, figures/sensitivity.png.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    sensitivity: Option<f64>,
+    /// Also run the pipeline on each of these grid spacings of the Laplace
+    /// field (mm, comma-separated, each > 0) and write DIR/grid_sweep.csv
+    /// (per grid: unknowns, round-trip error mean and max, shift of the map
+    /// from the finest grid, seconds, estimated and peak memory) and
+    /// DIR/figures/grid_sweep.png (error and time against the grid, the
+    /// source paper's Fig. 11); the other outputs are those of --grid-mm.
+    #[arg(
+        long,
+        value_name = "MM,MM,...",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    grid_sweep: Vec<f64>,
     /// The anatomy inside S (any mesh file: triangles, tets, or bare points
     /// such as VTK VERTICES or a PLY without faces), mm. Only its points are
     /// mapped; its cells are kept.
@@ -258,7 +288,7 @@ fn landmark_points(
 }
 
 /// Parses a point `X,Y,Z` (spaces around the commas allowed).
-fn parse_point(s: &str) -> Result<Point3<f64>, String> {
+pub(crate) fn parse_point(s: &str) -> Result<Point3<f64>, String> {
     let fields: Vec<&str> = s.split(',').map(str::trim).collect();
     let bad = || format!("expected X,Y,Z (three numbers separated by commas), got {s:?}");
     if fields.len() != 3 {
@@ -273,6 +303,67 @@ fn parse_point(s: &str) -> Result<Point3<f64>, String> {
         x[k] = v;
     }
     Ok(Point3::new(x[0], x[1], x[2]))
+}
+
+/// Reads an enclosing surface S and turns it into RAS (`--mesh-frame`).
+pub(crate) fn read_surface(path: &Path, frame: super::MeshFrameArg) -> Result<TriMesh, CliError> {
+    let mut m = read_tri_mesh(path)?;
+    super::to_ras(super::mesh_frame(frame, path)?, &mut m.positions);
+    Ok(m)
+}
+
+/// The landmarks of S (named `surface_label` in messages) from the flags:
+/// `--rv-landmarks` (LV only: the rim landmarks derived from the RV
+/// insertion points, returned too for the report), else a markups file or
+/// `--anterior`/`--inferior`/`--apex` ([`landmark_points`]).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn heart_landmarks(
+    surface: &TriMesh,
+    surface_label: &str,
+    chamber: ChamberArg,
+    rv_landmarks: &[Point3<f64>],
+    file: Option<&Path>,
+    anterior: Option<Point3<f64>>,
+    inferior: Option<Point3<f64>>,
+    apex: Option<Point3<f64>>,
+    rim_near: Option<Point3<f64>>,
+) -> Result<(LandmarkPoints, Option<FromRv>), CliError> {
+    let from_rv = match rv_landmarks {
+        [] => None,
+        [p, q] => {
+            if chamber == ChamberArg::Rv {
+                return Err(CliError::Usage(
+                    "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
+                     corners as --anterior and --inferior"
+                        .into(),
+                ));
+            }
+            Some(rim_landmarks_from_rv(surface, [*p, *q]).map_err(|e| organ(surface_label, e))?)
+        }
+        more => {
+            return Err(CliError::Usage(format!(
+                "--rv-landmarks takes two points, got {}",
+                more.len()
+            )));
+        }
+    };
+    let landmarks = match &from_rv {
+        Some(f) => LandmarkPoints {
+            anterior: Point3::from(f.landmarks[0]),
+            inferior: Point3::from(f.landmarks[1]),
+            apex,
+            rim_near,
+        },
+        None => landmark_points(
+            file,
+            anterior,
+            inferior,
+            apex,
+            rim_near,
+            "--anterior and --inferior",
+        )?,
+    };
+    Ok((landmarks, from_rv))
 }
 
 impl VentricleArgs {
@@ -299,7 +390,7 @@ fn progress(line: impl FnOnce() -> String) {
 
 /// `--layers n`: the transmural layer of each point, `1` at S to `n` at H:
 /// `min(floor(d n) + 1, n)` for the depth `d` in `[0, 1]`.
-fn transmural_layers(coords: &[CylinderPoint], n: u32) -> Vec<i32> {
+pub(crate) fn transmural_layers(coords: &[CylinderPoint], n: u32) -> Vec<i32> {
     let n = f64::from(n);
     coords
         .iter()
@@ -355,6 +446,8 @@ pub(crate) struct PipelineInput<'a> {
     pub from_rv: Option<&'a FromRv>,
     /// `--layers`: transmural layers to label.
     pub layers: Option<u32>,
+    /// `--sensitivity MM`: the landmark displacement to test.
+    pub sensitivity: Option<f64>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -370,6 +463,9 @@ pub struct FullReport<'a, M, P> {
     /// The transfer into a second heart, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transfer: Option<&'a TransferReport>,
+    /// The landmark sensitivity (`--sensitivity`), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensitivity: Option<&'a super::ventricle_sensitivity::SensitivityReport>,
     /// Predicted and measured peak memory of the run.
     pub memory: M,
     /// Version, command line, parameters, input hashes, start time.
@@ -634,6 +730,24 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
             mesh.to_mut().point_data.insert(layer.clone());
         }
     }
+    let sensitivity = match input.sensitivity {
+        None => None,
+        Some(mm) => {
+            let s = super::ventricle_sensitivity::sensitivity(
+                &outcome,
+                input.anatomy,
+                input.surface,
+                &input.landmarks,
+                input.config,
+                mm,
+                &format!("{} + {}", input.anatomy_label, input.surface_label),
+            )?;
+            for (_, mesh) in meshes.iter_mut().take(2) {
+                s.add_arrays(mesh.to_mut());
+            }
+            Some(s)
+        }
+    };
     if let Some((mesh, _)) = &transferred {
         meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
     }
@@ -666,6 +780,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         },
         report: &outcome.report,
         transfer: transfer.as_ref(),
+        sensitivity: sensitivity.as_ref().map(|s| &s.report),
         memory: super::memory::report(),
         provenance: super::provenance::this_run(),
     })
@@ -711,6 +826,9 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
             )
             .map_err(|e| at(dir, e))?;
             written.extend(super::write_figures(dir, &[fig])?);
+        }
+        if let Some(s) = &sensitivity {
+            written.extend(super::write_figures(dir, &[s.figure(&outcome, dir)?])?);
         }
     }
     Ok(RunResult {
@@ -804,6 +922,10 @@ pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
 pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let start = Instant::now();
     let config = a.config()?;
+    if let Some(mm) = a.sensitivity {
+        positive("--sensitivity", mm)?;
+    }
+    super::ventricle_grid_sweep::check_grids(&a.grid_sweep)?;
     let out = a.output.as_path();
     if out.exists() && !out.is_dir() {
         return Err(at(
@@ -862,14 +984,9 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             Some(_) => {}
         }
     }
-    let read_surface = |p: &Path| -> Result<_, CliError> {
-        let mut m = read_tri_mesh(p)?;
-        super::to_ras(super::mesh_frame(a.mesh_frame, p)?, &mut m.positions);
-        Ok(m)
-    };
-    let surface = read_surface(&a.surface)?;
+    let surface = read_surface(&a.surface, a.mesh_frame)?;
     let to_surface = match &a.to_surface {
-        Some(p) => Some(read_surface(p)?),
+        Some(p) => Some(read_surface(p, a.mesh_frame)?),
         None => None,
     };
     let hemisphere = match a.to_hemisphere {
@@ -883,41 +1000,17 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let from_rv = match a.rv_landmarks.as_slice() {
-        [] => None,
-        [p, q] => {
-            if a.chamber == ChamberArg::Rv {
-                return Err(CliError::Usage(
-                    "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
-                     corners as --anterior and --inferior"
-                        .into(),
-                ));
-            }
-            Some(rim_landmarks_from_rv(&surface, [*p, *q]).map_err(|e| organ(&surface_label, e))?)
-        }
-        more => {
-            return Err(CliError::Usage(format!(
-                "--rv-landmarks takes two points, got {}",
-                more.len()
-            )));
-        }
-    };
-    let landmarks = match &from_rv {
-        Some(f) => LandmarkPoints {
-            anterior: Point3::from(f.landmarks[0]),
-            inferior: Point3::from(f.landmarks[1]),
-            apex: a.apex,
-            rim_near: a.rim_near,
-        },
-        None => landmark_points(
-            a.landmarks.as_deref(),
-            a.anterior,
-            a.inferior,
-            a.apex,
-            a.rim_near,
-            "--anterior and --inferior",
-        )?,
-    };
+    let (landmarks, from_rv) = heart_landmarks(
+        &surface,
+        &surface_label,
+        a.chamber,
+        &a.rv_landmarks,
+        a.landmarks.as_deref(),
+        a.anterior,
+        a.inferior,
+        a.apex,
+        a.rim_near,
+    )?;
     let transfer = match (&to_surface, &hemisphere) {
         (Some(surface), _) => Some(TransferInput {
             label: &to_label,
@@ -965,8 +1058,25 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         bullseye_array: a.bullseye_array.as_deref(),
         from_rv: from_rv.as_ref(),
         layers: a.layers,
+        sensitivity: a.sensitivity,
     })
     .map_err(|e| super::shown(&staged, e))?;
+    let mut written = result.written.clone();
+    if !a.grid_sweep.is_empty() {
+        written.extend(
+            super::ventricle_grid_sweep::grid_sweep(
+                &a.grid_sweep,
+                &anatomy,
+                &surface,
+                &landmarks,
+                config,
+                &format!("{anatomy_label} + {surface_label}"),
+                &staging,
+                !a.no_figures,
+            )
+            .map_err(|e| super::shown(&staged, e))?,
+        );
+    }
     staged.commit()?;
     println!("{}: {}", anatomy_label, summary(&result.outcome.report));
     let o = &result.outcome.report.openings;
@@ -990,7 +1100,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             t.points, t.surface, t.seconds
         );
     }
-    for p in &result.written {
+    for p in &written {
         println!("wrote {}", staged.shown(p).display());
     }
     progress(|| format!("done in {:.2} s", start.elapsed().as_secs_f64()));

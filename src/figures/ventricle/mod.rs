@@ -79,7 +79,9 @@ mod cylinder;
 mod disk;
 mod disk_layout;
 mod drawing;
+mod grid_sweep;
 mod segments;
+mod sensitivity;
 
 pub use anatomy::{ANATOMY_AHA_PNG, HeartView, TRANSFER_PNG, heart_view, transfer_figure};
 use bullseye::bullseye;
@@ -87,7 +89,9 @@ pub use bullseye::{Bullseye, bullseye_figure};
 use cylinder::cylinder;
 use disk::{disk_aha, disk_angle};
 pub use disk_layout::{DiskLayout, bullseye_layout, disk_layout};
+pub use grid_sweep::{GRID_SWEEP_PNG, GridPoint, grid_sweep_plot};
 pub use segments::{SegmentMean, SegmentShape, segment_centre, segment_means, segment_shape};
+pub use sensitivity::{SENSITIVITY_COLORMAP, SENSITIVITY_PNG, sensitivity_figure};
 
 /// File name of the LV bull's-eye.
 pub const BULLSEYE_PNG: &str = "bullseye.png";

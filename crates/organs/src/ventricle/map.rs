@@ -128,6 +128,8 @@ pub struct Chart {
     max_length: f64,
     strip_height_mm: f64,
     original_vertices: usize,
+    /// S's own basal rim (before the strip), vertices of `surface`.
+    rim_of_s: Vec<u32>,
     openings: Openings,
     timings: ChartTimings,
 }
@@ -210,6 +212,7 @@ impl Chart {
             config.snap_mm,
         )?;
         let landmarks = Landmarks::resolve(&surface, anterior, inferior, apex, config.snap_mm)?;
+        let rim_of_s = landmarks.rim.clone();
         let ExtendedSurface {
             surface,
             landmarks,
@@ -274,6 +277,7 @@ impl Chart {
             max_length: 4.0 * diag,
             strip_height_mm,
             original_vertices,
+            rim_of_s,
             openings,
             timings: ChartTimings {
                 disk: (t1 - t0).as_secs_f64(),
@@ -292,6 +296,13 @@ impl Chart {
     /// at the start of [`Chart::surface`].
     pub fn original_vertices(&self) -> usize {
         self.original_vertices
+    }
+
+    /// S's own basal rim, vertices of [`Chart::surface`] in the order of
+    /// [`Chart::landmarks`]' rim (the same positions `anterior` and
+    /// `inferior`): the rim of S itself, not the strip's lowest layer.
+    pub fn rim_of_s(&self) -> &[u32] {
+        &self.rim_of_s
     }
 
     /// Height of the strip closing S down to its basal plane, mm (0 for a
