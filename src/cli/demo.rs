@@ -256,6 +256,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         bullseye_array: None,
         from_rv: None,
         layers: None,
+        enclosing: None,
     })?;
     println!(
         "built-in ventricle cup: {}",

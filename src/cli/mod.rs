@@ -25,6 +25,7 @@ mod provenance;
 mod pushback;
 mod repair;
 pub mod ventricle;
+mod ventricle_surface;
 
 use crate::io::IoError;
 use crate::mesh::MeshError;

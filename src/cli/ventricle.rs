@@ -26,8 +26,10 @@
 //! - `disk.vtu`: S flattened (`z = 0`), arrays `xi`, `zeta`;
 //! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
 //!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
-//! - `report.json`: the library's report, the inputs and (with a transfer)
-//!   `transfer`.
+//! - `surface.vtu` without `--surface`: S built from the anatomy
+//!   ([`super::ventricle_surface`]);
+//! - `report.json`: the library's report, the inputs, (with a transfer)
+//!   `transfer` and (with a built S) `enclosing_surface`.
 //!
 //! The landmarks come from the flags or from a 3D Slicer markups file
 //! (`--landmarks FILE.mrk.json`, points labelled `anterior`, `inferior`,
@@ -48,6 +50,7 @@ use crate::io::{
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use crate::mesh::{CellMesh, CellType, Field, TriMesh};
+use crate::organs::ventricle::enclosing::EnclosingReport;
 use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use crate::organs::ventricle::openings::RimChoice;
@@ -86,7 +89,8 @@ impl From<ChamberArg> for Chamber {
     after_help = "Writes DIR/normalized.vtu (the anatomy at (X, Y, depth) in the cylinder), \
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
                   and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
-                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart). \
+                  --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart) \
+                  and, without --surface, DIR/surface.vtu (S built from the anatomy). \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
 )]
 pub struct VentricleArgs {
@@ -108,9 +112,13 @@ pub struct VentricleArgs {
     /// mapped; its cells are kept.
     anatomy: PathBuf,
     /// The enclosing surface S of the chamber: a triangle mesh with disk
-    /// topology, its one boundary loop the basal rim.
+    /// topology, its one boundary loop the basal rim [default: S built from
+    /// the anatomy (tets or a surface), written as DIR/surface.vtu].
     #[arg(long, value_name = "S")]
-    surface: PathBuf,
+    surface: Option<PathBuf>,
+    /// Building S from the anatomy (without --surface).
+    #[command(flatten)]
+    enclosing: super::ventricle_surface::EnclosingArgs,
     /// Anterior RV insertion point (LV) or first septal corner (RV), on the
     /// rim of S.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
@@ -355,6 +363,8 @@ pub(crate) struct PipelineInput<'a> {
     pub from_rv: Option<&'a FromRv>,
     /// `--layers`: transmural layers to label.
     pub layers: Option<u32>,
+    /// How S was built from the anatomy (then written as `surface.vtu`).
+    pub enclosing: Option<&'a EnclosingReport>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -370,6 +380,9 @@ pub struct FullReport<'a, M, P> {
     /// The transfer into a second heart, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transfer: Option<&'a TransferReport>,
+    /// How S was built from the anatomy, when it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub enclosing_surface: Option<&'a EnclosingReport>,
     /// Predicted and measured peak memory of the run.
     pub memory: M,
     /// Version, command line, parameters, input hashes, start time.
@@ -637,6 +650,12 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
     if let Some((mesh, _)) = &transferred {
         meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
     }
+    if input.enclosing.is_some() {
+        meshes.push((
+            super::ventricle_surface::SURFACE,
+            Cow::Owned(CellMesh::from(input.surface)),
+        ));
+    }
     for (name, mesh) in &meshes {
         let p = dir.join(name);
         write_mesh(&p, mesh, &opts)?;
@@ -663,6 +682,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         },
         report: &outcome.report,
         transfer: transfer.as_ref(),
+        enclosing_surface: input.enclosing,
         memory: super::memory::report(),
         provenance: super::provenance::this_run(),
     })
@@ -808,7 +828,8 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
                 .into(),
         ));
     }
-    let mut inputs = vec![&a.anatomy, &a.surface];
+    let mut inputs = vec![&a.anatomy];
+    inputs.extend(&a.surface);
     inputs.extend(&a.to_surface);
     inputs.extend(&a.landmarks);
     inputs.extend(&a.to_landmarks);
@@ -854,7 +875,36 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         super::to_ras(super::mesh_frame(a.mesh_frame, p)?, &mut m.positions);
         Ok(m)
     };
-    let surface = read_surface(&a.surface)?;
+    let (surface, built) = match &a.surface {
+        Some(p) => (read_surface(p)?, None),
+        None => {
+            let given = match a.rv_landmarks.as_slice() {
+                [p, q] => LandmarkPoints {
+                    anterior: *p,
+                    inferior: *q,
+                    apex: a.apex,
+                    rim_near: None,
+                },
+                _ => landmark_points(
+                    a.landmarks.as_deref(),
+                    a.anterior,
+                    a.inferior,
+                    a.apex,
+                    a.rim_near,
+                    "--anterior and --inferior",
+                )?,
+            };
+            let b = super::ventricle_surface::build(
+                &a.enclosing,
+                &anatomy,
+                &a.anatomy,
+                &given,
+                &inputs,
+                out,
+            )?;
+            (b.surface.clone(), Some(b))
+        }
+    };
     let to_surface = match &a.to_surface {
         Some(p) => Some(read_surface(p)?),
         None => None,
@@ -864,7 +914,10 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         None => None,
     };
     let anatomy_label = a.anatomy.display().to_string();
-    let surface_label = a.surface.display().to_string();
+    let surface_label = match &a.surface {
+        Some(p) => p.display().to_string(),
+        None => format!("S built from {}", a.anatomy.display()),
+    };
     let to_label = match (&a.to_surface, a.to_hemisphere) {
         (Some(p), _) => p.display().to_string(),
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
@@ -889,7 +942,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             )));
         }
     };
-    let landmarks = match &from_rv {
+    let mut landmarks = match &from_rv {
         Some(f) => LandmarkPoints {
             anterior: Point3::from(f.landmarks[0]),
             inferior: Point3::from(f.landmarks[1]),
@@ -905,6 +958,10 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             "--anterior and --inferior",
         )?,
     };
+    if let (Some(b), None) = (&built, &from_rv) {
+        // the given rim landmarks lie on the anatomy's rim: carried to S's
+        [landmarks.anterior, landmarks.inferior] = b.rim_landmarks;
+    }
     let transfer = match (&to_surface, &hemisphere) {
         (Some(surface), _) => Some(TransferInput {
             label: &to_label,
@@ -952,6 +1009,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         bullseye_array: a.bullseye_array.as_deref(),
         from_rv: from_rv.as_ref(),
         layers: a.layers,
+        enclosing: built.as_ref().map(|b| &b.report),
     })
     .map_err(|e| super::shown(&staged, e))?;
     staged.commit()?;
