@@ -31,8 +31,8 @@ fn write(path: &Path, mesh: &CellMesh) {
 }
 
 /// `unfold ventricle ANATOMY --anterior A --inferior I -o OUT` (no
-/// `--surface`), with a 1.5 mm Laplace grid, 1 mm voxels and a 2 mm
-/// dilation, plus `extra`.
+/// `--surface`), with a 1.5 mm Laplace grid, plus `extra`, and 1 mm voxels
+/// and a 2 mm dilation unless `extra` sets a `--surface-...` flag.
 fn run(anatomy: &Path, a: &Point3<f64>, i: &Point3<f64>, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "ventricle".to_string(),
@@ -43,14 +43,15 @@ fn run(anatomy: &Path, a: &Point3<f64>, i: &Point3<f64>, out: &Path, extra: &[&s
         pt(i),
         "--grid-mm".into(),
         "1.5".into(),
-        "--surface-voxel-mm".into(),
-        "1".into(),
-        "--surface-margin-mm".into(),
-        "2".into(),
         "--no-figures".into(),
         "-o".into(),
         s(out),
     ];
+    if !extra.iter().any(|x| x.starts_with("--surface-")) {
+        for x in ["--surface-voxel-mm", "1", "--surface-margin-mm", "2"] {
+            args.push(x.into());
+        }
+    }
     args.extend(extra.iter().map(|x| x.to_string()));
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     unfold(&refs)
@@ -190,10 +191,10 @@ fn bad_inputs_are_one_line_errors() {
     write(&tri_path, &tri);
     assert_one_line_error(&run(&tri_path, a, i, &out, &[]), "flat anatomy");
     for bad in ["0", "-1", "nan"] {
-        let o = run(&anatomy, a, i, &out, &["--surface-voxel-mm", bad]);
+        let o = run(&anatomy, a, i, &out, &["--surface-voxel-mm", bad, "--surface-margin-mm", "2"]);
         assert_one_line_error(&o, "--surface-voxel-mm must be a finite number > 0");
     }
-    let o = run(&anatomy, a, i, &out, &["--surface-margin-mm", "1.5"]);
+    let o = run(&anatomy, a, i, &out, &["--surface-voxel-mm", "1", "--surface-margin-mm", "1.5"]);
     assert_one_line_error(&o, "must exceed sqrt(3) voxels");
     let o = run(
         &anatomy,
@@ -222,9 +223,9 @@ fn bad_inputs_are_one_line_errors() {
     assert!(stderr(&o).contains("--surface-voxel-mm"), "{}", stderr(&o));
     // nothing was written by the failures
     assert!(!out.join("surface.vtu").exists());
-    // an anatomy that DIR/surface.vtu would overwrite
+    // an anatomy inside DIR, which surface.vtu could overwrite
     let own = out.join("surface.vtu");
     std::fs::create_dir_all(&out).unwrap();
     write(&own, &CellMesh::from(&v.surface));
-    assert_one_line_error(&run(&own, a, i, &out, &[]), "would be overwritten by the built S");
+    assert_one_line_error(&run(&own, a, i, &out, &[]), "is an input and would be replaced by the output");
 }

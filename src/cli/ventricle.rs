@@ -899,8 +899,6 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
                 &anatomy,
                 &a.anatomy,
                 &given,
-                &inputs,
-                out,
             )?;
             (b.surface.clone(), Some(b))
         }

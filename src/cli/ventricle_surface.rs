@@ -7,7 +7,7 @@
 //! `DIR/surface.vtu` and `report.json` says how it was built
 //! (`enclosing_surface`).
 
-use super::{CliError, at, organ, positive};
+use super::{CliError, organ, positive};
 use crate::mesh::TriMesh;
 use crate::mesh::nalgebra::Point3;
 use crate::organs::ventricle::LandmarkPoints;
@@ -53,30 +53,20 @@ pub(crate) struct Built {
 }
 
 /// Builds S from `anatomy` (named `anatomy_path`) with the rim landmarks
-/// (or the RV insertion points) of `given`; refuses an anatomy or a
-/// landmarks file that `DIR/surface.vtu` would overwrite.
+/// (or the RV insertion points) of `given` (an input inside DIR, which
+/// `surface.vtu` could overwrite, is refused by the staging of the outputs
+/// before).
 pub(crate) fn build(
     args: &EnclosingArgs,
     anatomy: &crate::mesh::CellMesh,
     anatomy_path: &Path,
     given: &LandmarkPoints,
-    inputs: &[&std::path::PathBuf],
-    dir: &Path,
 ) -> Result<Built, CliError> {
     let config = EnclosingConfig {
         voxel_mm: positive("--surface-voxel-mm", args.surface_voxel_mm)?,
         margin_mm: positive("--surface-margin-mm", args.surface_margin_mm)?,
         smoothing_iterations: args.surface_smoothing,
     };
-    let out = super::canonical(&dir.join(SURFACE));
-    for input in inputs {
-        if super::canonical(input) == out {
-            return Err(at(
-                input,
-                format!("is an input and would be overwritten by the built S ({SURFACE}); choose another -o"),
-            ));
-        }
-    }
     let label = anatomy_path.display().to_string();
     let e = enclosing_surface(
         anatomy,
