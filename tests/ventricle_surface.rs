@@ -7,7 +7,9 @@ use std::path::Path;
 use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, read_tri_mesh, write_mesh};
 use unfold::mesh::nalgebra::{Point3, Vector3};
-use unfold::mesh::shapes::{ShellParams, VentricleParams, VentricleShape, bowl_shell, ventricle_cup};
+use unfold::mesh::shapes::{
+    ShellParams, VentricleParams, VentricleShape, bowl_shell, ventricle_cup,
+};
 use unfold::mesh::topology::disk_boundary_loop;
 use unfold::mesh::{CellMesh, CellType};
 
@@ -69,8 +71,11 @@ fn check_built(o: &Output, anatomy: &CellMesh, out: &Path, kind: &str) -> serde_
     let text = stdout(o);
     assert!(text.contains("built S from the anatomy"), "{text}");
     assert!(text.contains(kind), "{text}");
-    assert!(text.contains("wrote") && text.contains("surface.vtu"), "{text}");
-    let s = read_tri_mesh(&out.join("surface.vtu")).unwrap();
+    assert!(
+        text.contains("wrote") && text.contains("surface.vtu"),
+        "{text}"
+    );
+    let s = read_tri_mesh(out.join("surface.vtu")).unwrap();
     let rim = disk_boundary_loop(&s).expect("S is a disk");
     assert!(rim.len() > 20);
     let r = report(out);
@@ -83,22 +88,40 @@ fn check_built(o: &Output, anatomy: &CellMesh, out: &Path, kind: &str) -> serde_
     assert!(e["seconds"].as_f64().unwrap() > 0.0);
     assert!(e["min_clearance_mm"].as_f64().unwrap() > 0.5);
     // the rim lies on the cut plane
-    let c = Point3::from(
-        Vector3::from_iterator(e["cut_point_mm"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap())),
+    let c = Point3::from(Vector3::from_iterator(
+        e["cut_point_mm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap()),
+    ));
+    let n = Vector3::from_iterator(
+        e["cut_normal"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap()),
     );
-    let n = Vector3::from_iterator(e["cut_normal"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()));
     for &v in &rim {
         assert!(n.dot(&(s.positions[v as usize] - c)).abs() < 1e-6);
     }
     // every anatomy point mapped, none failed, and below the plane
-    assert_eq!(r["anatomy_points"].as_u64().unwrap() as usize, anatomy.positions.len());
+    assert_eq!(
+        r["anatomy_points"].as_u64().unwrap() as usize,
+        anatomy.positions.len()
+    );
     for p in &anatomy.positions {
         assert!(n.dot(&(p - c)) < 0.0);
     }
     assert!(r["roundtrip_error_um"]["max"].as_f64().unwrap() < 50.0);
-    let mapped = read_mesh(&out.join("normalized.vtu")).unwrap();
+    let mapped = read_mesh(out.join("normalized.vtu")).unwrap();
     assert_eq!(mapped.positions.len(), anatomy.positions.len());
-    assert!(r["inputs"]["surface"].as_str().unwrap().starts_with("S built from"));
+    assert!(
+        r["inputs"]["surface"]
+            .as_str()
+            .unwrap()
+            .starts_with("S built from")
+    );
     e
 }
 
@@ -166,7 +189,12 @@ fn tets_are_enclosed_by_their_boundary() {
     let e = check_built(&o, &anatomy, &out, "tets");
     assert_eq!(e["pieces_below_cut"], 2);
     // the basal plane is the rim's, z = 23
-    let n: Vec<f64> = e["cut_normal"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let n: Vec<f64> = e["cut_normal"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
     assert!((n[2] - 1.0).abs() < 1e-9, "{n:?}");
     assert!(e["highest_point_mm"].as_f64().unwrap().abs() < 1e-9);
 }
@@ -191,10 +219,22 @@ fn bad_inputs_are_one_line_errors() {
     write(&tri_path, &tri);
     assert_one_line_error(&run(&tri_path, a, i, &out, &[]), "flat anatomy");
     for bad in ["0", "-1", "nan"] {
-        let o = run(&anatomy, a, i, &out, &["--surface-voxel-mm", bad, "--surface-margin-mm", "2"]);
+        let o = run(
+            &anatomy,
+            a,
+            i,
+            &out,
+            &["--surface-voxel-mm", bad, "--surface-margin-mm", "2"],
+        );
         assert_one_line_error(&o, "--surface-voxel-mm must be a finite number > 0");
     }
-    let o = run(&anatomy, a, i, &out, &["--surface-voxel-mm", "1", "--surface-margin-mm", "1.5"]);
+    let o = run(
+        &anatomy,
+        a,
+        i,
+        &out,
+        &["--surface-voxel-mm", "1", "--surface-margin-mm", "1.5"],
+    );
     assert_one_line_error(&o, "must exceed sqrt(3) voxels");
     let o = run(
         &anatomy,
@@ -227,5 +267,8 @@ fn bad_inputs_are_one_line_errors() {
     let own = out.join("surface.vtu");
     std::fs::create_dir_all(&out).unwrap();
     write(&own, &CellMesh::from(&v.surface));
-    assert_one_line_error(&run(&own, a, i, &out, &[]), "is an input and would be replaced by the output");
+    assert_one_line_error(
+        &run(&own, a, i, &out, &[]),
+        "is an input and would be replaced by the output",
+    );
 }

@@ -894,12 +894,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
                     "--anterior and --inferior",
                 )?,
             };
-            let b = super::ventricle_surface::build(
-                &a.enclosing,
-                &anatomy,
-                &a.anatomy,
-                &given,
-            )?;
+            let b = super::ventricle_surface::build(&a.enclosing, &anatomy, &a.anatomy, &given)?;
             (b.surface.clone(), Some(b))
         }
     };

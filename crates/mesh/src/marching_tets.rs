@@ -114,7 +114,8 @@ pub fn isosurface(values: &[f32], dims: [usize; 3]) -> Result<TriMesh, MeshError
                 }
                 for tet in KUHN {
                     let t = tet.map(|m| c[m as usize]);
-                    let (ins, outs): (Vec<u32>, Vec<u32>) = t.iter().copied().partition(|&v| inside(v));
+                    let (ins, outs): (Vec<u32>, Vec<u32>) =
+                        t.iter().copied().partition(|&v| inside(v));
                     // the direction from the inside corners to the outside ones
                     let centroid = |vs: &[u32]| {
                         vs.iter().map(|&v| point(v).coords).sum::<Vector3<f64>>() / vs.len() as f64
@@ -198,12 +199,18 @@ mod tests {
         let m = isosurface(&ball(16, [7.5, 7.2, 7.9], r), [16, 16, 16]).unwrap();
         closed_manifold(&m);
         assert_eq!(euler_characteristic(&m), 2);
-        assert_eq!(connected_components(m.num_vertices(), &m.triangles).count, 1);
+        assert_eq!(
+            connected_components(m.num_vertices(), &m.triangles).count,
+            1
+        );
         let exact = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
         let v = enclosed_volume(&m);
         // outward normals: positive volume, within 3 % (the interpolant
         // cuts the sphere's chords)
-        assert!(v > 0.0 && (v - exact).abs() < 0.03 * exact, "{v} vs {exact}");
+        assert!(
+            v > 0.0 && (v - exact).abs() < 0.03 * exact,
+            "{v} vs {exact}"
+        );
         let area = 4.0 * std::f64::consts::PI * r * r;
         assert!((total_area(&m) - area).abs() < 0.05 * area);
         // every vertex within a grid diagonal of the sphere
@@ -223,7 +230,10 @@ mod tests {
         let v: Vec<f32> = outer.iter().zip(&inner).map(|(o, i)| o.max(-i)).collect();
         let m = isosurface(&v, [n, n, n]).unwrap();
         closed_manifold(&m);
-        assert_eq!(connected_components(m.num_vertices(), &m.triangles).count, 2);
+        assert_eq!(
+            connected_components(m.num_vertices(), &m.triangles).count,
+            2
+        );
         let exact = 4.0 / 3.0 * std::f64::consts::PI * (8.0f64.powi(3) - 4.0f64.powi(3));
         let vol = enclosed_volume(&m);
         assert!((vol - exact).abs() < 0.04 * exact, "{vol} vs {exact}");
@@ -239,7 +249,12 @@ mod tests {
         v[3] = f32::NAN;
         assert!(isosurface(&v, [2, 2, 2]).is_err());
         // nothing negative: no surface
-        assert!(isosurface(&[1.0; 8], [2, 2, 2]).unwrap().triangles.is_empty());
+        assert!(
+            isosurface(&[1.0; 8], [2, 2, 2])
+                .unwrap()
+                .triangles
+                .is_empty()
+        );
     }
 
     proptest! {

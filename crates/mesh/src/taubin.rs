@@ -52,7 +52,11 @@ impl Default for Taubin {
 /// `InvalidArgument` for `lambda` outside `(0, 1)`, `mu` outside
 /// `(-1, -lambda)`, or `fixed` neither empty nor one flag per vertex;
 /// `IndexOutOfRange` for a triangle with a vertex out of range.
-pub fn taubin_smooth(mesh: &mut TriMesh, settings: &Taubin, fixed: &[bool]) -> Result<(), MeshError> {
+pub fn taubin_smooth(
+    mesh: &mut TriMesh,
+    settings: &Taubin,
+    fixed: &[bool],
+) -> Result<(), MeshError> {
     let Taubin {
         iterations,
         lambda,
@@ -141,7 +145,10 @@ mod tests {
             let old = l.positions.clone();
             for (v, p) in l.positions.iter_mut().enumerate() {
                 let nb = adj.neighbors(v);
-                let mean = nb.iter().map(|&w| old[w as usize].coords).sum::<nalgebra::Vector3<f64>>()
+                let mean = nb
+                    .iter()
+                    .map(|&w| old[w as usize].coords)
+                    .sum::<nalgebra::Vector3<f64>>()
                     / nb.len() as f64;
                 *p = Point3::from(old[v].coords + (mean - old[v].coords) * 0.5);
             }
@@ -164,7 +171,13 @@ mod tests {
                 assert_eq!(*p, before[v]);
             }
         }
-        for (lambda, mu) in [(0.0, -0.5), (1.0, -1.0), (0.5, -0.4), (0.5, -1.0), (f64::NAN, -0.5)] {
+        for (lambda, mu) in [
+            (0.0, -0.5),
+            (1.0, -1.0),
+            (0.5, -0.4),
+            (0.5, -1.0),
+            (f64::NAN, -0.5),
+        ] {
             let s = Taubin {
                 iterations: 1,
                 lambda,

@@ -64,8 +64,8 @@
 //! (the project's seed 003).
 
 use crate::{ConfigError, OrganError, Requirement};
-use serde::Serialize;
 use rayon::prelude::*;
+use serde::Serialize;
 use std::collections::HashMap;
 use std::time::Instant;
 use thiserror::Error;
@@ -205,7 +205,10 @@ pub enum EnclosingError {
         suggested_mm: f64,
     },
     /// The cut leaves nothing, or no disk.
-    #[error("the cut at the basal plane leaves no disk: {0}")]
+    #[error(
+        "the cut at the basal plane leaves no disk: {0} (a basal rim far from level, or holes in \
+         the anatomy; give S with --surface)"
+    )]
     NotADisk(#[source] MeshError),
     /// The cut does not separate the wall's two sides.
     #[error(
@@ -344,7 +347,11 @@ fn anatomy_triangles(anatomy: &CellMesh) -> Result<(Vec<[u32; 3]>, AnatomyKind),
             .positions
             .iter()
             .enumerate()
-            .map(|(v, p)| *first.entry([p.x, p.y, p.z].map(f64::to_bits)).or_insert(v as u32))
+            .map(|(v, p)| {
+                *first
+                    .entry([p.x, p.y, p.z].map(f64::to_bits))
+                    .or_insert(v as u32)
+            })
             .collect();
         let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
         for t in &tris {
@@ -495,7 +502,8 @@ pub fn enclosing_surface(
         config.smoothing_iterations as f64,
         Requirement::CountWithin(0, 1000),
     )?;
-    build(anatomy, landmarks, apex, config, start).map_err(|e| super::VentricleError::from(e).into())
+    build(anatomy, landmarks, apex, config, start)
+        .map_err(|e| super::VentricleError::from(Box::new(e)).into())
 }
 
 fn build(
@@ -631,7 +639,8 @@ fn build(
     for iz in 0..nz {
         for iy in 0..ny {
             for ix in 0..nx {
-                let border = ix == 0 || iy == 0 || iz == 0 || ix == nx - 1 || iy == ny - 1 || iz == nz - 1;
+                let border =
+                    ix == 0 || iy == 0 || iz == 0 || ix == nx - 1 || iy == ny - 1 || iz == nz - 1;
                 let v = node(ix, iy, iz);
                 if border && f[v] >= 0.0 && !outside[v] {
                     outside[v] = true;
@@ -686,7 +695,12 @@ fn build(
         ..Taubin::default()
     };
     taubin_smooth(&mut closed, &smoothing, &[])?;
-    let below = clip_below(&closed, &Point3::new(0.0, 0.0, cut), &Vector3::z(), 0.05 * h)?;
+    let below = clip_below(
+        &closed,
+        &Point3::new(0.0, 0.0, cut),
+        &Vector3::z(),
+        0.05 * h,
+    )?;
     drop(closed);
     // the piece enclosing the largest volume with the plane
     let comps = connected_components(below.num_vertices(), &below.triangles);
@@ -697,7 +711,9 @@ fn build(
         volume[comps.element_label[t] as usize] += x.dot(&y.cross(&z)) / 6.0;
     }
     let Some(keep) = (0..comps.count).max_by(|&x, &y| volume[x].total_cmp(&volume[y])) else {
-        return Err(EnclosingError::NotADisk(MeshError::Empty { what: "triangles" }));
+        return Err(EnclosingError::NotADisk(MeshError::Empty {
+            what: "triangles",
+        }));
     };
     let kept: Vec<[u32; 3]> = below
         .triangles
@@ -880,7 +896,11 @@ mod tests {
             / v.rim.len() as f64;
         let expected = cup_r + (9.0f64 - 0.75 * 0.75).sqrt();
         assert!((mean_r - expected).abs() < 0.3, "{mean_r} vs {expected}");
-        assert!(r.min_clearance_mm > 1.5 && r.min_clearance_mm < 3.5, "{}", r.min_clearance_mm);
+        assert!(
+            r.min_clearance_mm > 1.5 && r.min_clearance_mm < 3.5,
+            "{}",
+            r.min_clearance_mm
+        );
         // the landmarks are carried outward at their angle
         for (given, carried) in [v.anterior, v.inferior].iter().zip(&e.rim_landmarks) {
             let a = given.y.atan2(given.x);
@@ -911,7 +931,9 @@ mod tests {
             ..Default::default()
         })
         .unwrap();
-        let boundary = unfold_mesh::topology::tet_boundary(&shell.mesh).unwrap().surface;
+        let boundary = unfold_mesh::topology::tet_boundary(&shell.mesh)
+            .unwrap()
+            .surface;
         let anatomy = CellMesh::from(&boundary);
         let at = |deg: f64| {
             let a = deg.to_radians();
@@ -945,7 +967,7 @@ mod tests {
         let lm = [v.anterior, v.inferior];
         let err = |a: &CellMesh, lm: [Point3<f64>; 2], apex, c: &EnclosingConfig| {
             match enclosing_surface(a, lm, apex, c).unwrap_err() {
-                OrganError::Ventricle(super::super::VentricleError::Enclosing(e)) => e,
+                OrganError::Ventricle(super::super::VentricleError::Enclosing(e)) => *e,
                 e => panic!("{e}"),
             }
         };
@@ -1010,14 +1032,19 @@ mod tests {
         // the cup's wall cut down to z = -10 on the far side from the
         // landmarks: the plane at the highest point passes over the notch
         let v = cup();
-        let notched =
-            unfold_mesh::clip::clip_below(&v.surface, &Point3::new(-8.0, 0.0, 0.0), &Vector3::new(-0.6, 0.0, 1.0), 1e-9)
-                .unwrap();
+        let notched = unfold_mesh::clip::clip_below(
+            &v.surface,
+            &Point3::new(-8.0, 0.0, 0.0),
+            &Vector3::new(-0.6, 0.0, 1.0),
+            1e-9,
+        )
+        .unwrap();
         let anatomy = CellMesh::from(&notched);
         match enclosing_surface(&anatomy, [v.anterior, v.inferior], None, &coarse()) {
-            Err(OrganError::Ventricle(super::super::VentricleError::Enclosing(
-                EnclosingError::NotSeparated { winding, .. },
-            ))) => assert!(winding < 0.5),
+            Err(OrganError::Ventricle(super::super::VentricleError::Enclosing(e))) => match *e {
+                EnclosingError::NotSeparated { winding, .. } => assert!(winding < 0.5),
+                other => panic!("{other}"),
+            },
             other => panic!("{other:?}"),
         }
     }

@@ -284,9 +284,9 @@ pub enum VentricleError {
     },
 
     // ---- building S from the anatomy (ALGORITHMS 3.9) ----
-    /// S cannot be built from the anatomy.
+    /// S cannot be built from the anatomy (boxed: the variant is large).
     #[error(transparent)]
-    Enclosing(#[from] super::enclosing::EnclosingError),
+    Enclosing(#[from] Box<super::enclosing::EnclosingError>),
 }
 
 /// Why one point cannot be mapped by `psi` or `psi^-1`.
