@@ -171,6 +171,7 @@ pub(crate) fn ventricle<'py>(
         report: &outcome.report,
         transfer: transferred.as_ref().map(|(_, r)| r),
         sensitivity: None,
+        enclosing_surface: None,
         memory: Memory::predicted(outcome.report.field.estimated_bytes),
         provenance: Provenance::new(parameters, started),
     })?;

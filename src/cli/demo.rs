@@ -259,6 +259,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         from_rv: None,
         layers: None,
         sensitivity: None,
+        enclosing: None,
     })?;
     println!(
         "built-in ventricle cup: {}",

@@ -28,6 +28,7 @@ pub mod ventricle;
 mod ventricle_grid_sweep;
 mod ventricle_inverse;
 mod ventricle_sensitivity;
+mod ventricle_surface;
 
 use crate::io::IoError;
 use crate::mesh::MeshError;

@@ -26,8 +26,10 @@
 //! - `disk.vtu`: S flattened (`z = 0`), arrays `xi`, `zeta`;
 //! - `transferred.vtu` with `--to-surface`: the anatomy carried into the
 //!   second heart, `psi_2^-1(psi(v))`, with the arrays of `anatomy.vtu`;
-//! - `report.json`: the library's report, the inputs and (with a transfer)
-//!   `transfer`;
+//! - `surface.vtu` without `--surface`: S built from the anatomy
+//!   ([`super::ventricle_surface`]);
+//! - `report.json`: the library's report, the inputs, (with a transfer)
+//!   `transfer` and (with a built S) `enclosing_surface`;
 //! - with `--sensitivity MM`, the point arrays `sensitivity_mm`,
 //!   `sensitivity_disk`, `sensitivity_depth` in `normalized.vtu` and
 //!   `anatomy.vtu`, `sensitivity` in `report.json` and
@@ -54,6 +56,7 @@ use crate::io::{
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 use crate::mesh::{CellMesh, CellType, Field, TriMesh};
+use crate::organs::ventricle::enclosing::EnclosingReport;
 use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM, FieldConfig};
 use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use crate::organs::ventricle::openings::RimChoice;
@@ -93,6 +96,7 @@ impl From<ChamberArg> for Chamber {
                   DIR/anatomy.vtu (the input anatomy), both with the point arrays xi, zeta, depth \
                   and (LV) aha, DIR/disk.vtu (S flattened), DIR/report.json and, with \
                   --to-surface, DIR/transferred.vtu (the anatomy carried into the second heart); \
+                  without --surface, DIR/surface.vtu (S built from the anatomy); \
                   --sensitivity adds the sensitivity_* arrays and DIR/figures/sensitivity.png, \
                   --grid-sweep DIR/grid_sweep.csv and DIR/figures/grid_sweep.png. \
                   Points are X,Y,Z in mm, e.g. --anterior 14.3,20.5,0 (or \"14.3, 20.5, 0\")."
@@ -138,9 +142,13 @@ pub struct VentricleArgs {
     /// mapped; its cells are kept.
     anatomy: PathBuf,
     /// The enclosing surface S of the chamber: a triangle mesh with disk
-    /// topology, its one boundary loop the basal rim.
+    /// topology, its one boundary loop the basal rim [default: S built from
+    /// the anatomy (tets or a surface), written as DIR/surface.vtu].
     #[arg(long, value_name = "S")]
-    surface: PathBuf,
+    surface: Option<PathBuf>,
+    /// Building S from the anatomy (without --surface).
+    #[command(flatten)]
+    enclosing: super::ventricle_surface::EnclosingArgs,
     /// Anterior RV insertion point (LV) or first septal corner (RV), on the
     /// rim of S.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
@@ -448,6 +456,8 @@ pub(crate) struct PipelineInput<'a> {
     pub layers: Option<u32>,
     /// `--sensitivity MM`: the landmark displacement to test.
     pub sensitivity: Option<f64>,
+    /// How S was built from the anatomy (then written as `surface.vtu`).
+    pub enclosing: Option<&'a EnclosingReport>,
 }
 
 /// `report.json`: `inputs`, the library's report, the optional transfer,
@@ -466,6 +476,9 @@ pub struct FullReport<'a, M, P> {
     /// The landmark sensitivity (`--sensitivity`), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensitivity: Option<&'a super::ventricle_sensitivity::SensitivityReport>,
+    /// How S was built from the anatomy, when it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub enclosing_surface: Option<&'a EnclosingReport>,
     /// Predicted and measured peak memory of the run.
     pub memory: M,
     /// Version, command line, parameters, input hashes, start time.
@@ -751,6 +764,12 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
     if let Some((mesh, _)) = &transferred {
         meshes.push((TRANSFERRED, with_vertex_cells(mesh)));
     }
+    if input.enclosing.is_some() {
+        meshes.push((
+            super::ventricle_surface::SURFACE,
+            Cow::Owned(CellMesh::from(input.surface)),
+        ));
+    }
     for (name, mesh) in &meshes {
         let p = dir.join(name);
         write_mesh(&p, mesh, &opts)?;
@@ -781,6 +800,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         report: &outcome.report,
         transfer: transfer.as_ref(),
         sensitivity: sensitivity.as_ref().map(|s| &s.report),
+        enclosing_surface: input.enclosing,
         memory: super::memory::report(),
         provenance: super::provenance::this_run(),
     })
@@ -943,7 +963,8 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
                 .into(),
         ));
     }
-    let mut inputs = vec![&a.anatomy, &a.surface];
+    let mut inputs = vec![&a.anatomy];
+    inputs.extend(&a.surface);
     inputs.extend(&a.to_surface);
     inputs.extend(&a.landmarks);
     inputs.extend(&a.to_landmarks);
@@ -984,7 +1005,29 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
             Some(_) => {}
         }
     }
-    let surface = read_surface(&a.surface, a.mesh_frame)?;
+    let (surface, built) = match &a.surface {
+        Some(p) => (read_surface(p, a.mesh_frame)?, None),
+        None => {
+            let given = match a.rv_landmarks.as_slice() {
+                [p, q] => LandmarkPoints {
+                    anterior: *p,
+                    inferior: *q,
+                    apex: a.apex,
+                    rim_near: None,
+                },
+                _ => landmark_points(
+                    a.landmarks.as_deref(),
+                    a.anterior,
+                    a.inferior,
+                    a.apex,
+                    a.rim_near,
+                    "--anterior and --inferior",
+                )?,
+            };
+            let b = super::ventricle_surface::build(&a.enclosing, &anatomy, &a.anatomy, &given)?;
+            (b.surface.clone(), Some(b))
+        }
+    };
     let to_surface = match &a.to_surface {
         Some(p) => Some(read_surface(p, a.mesh_frame)?),
         None => None,
@@ -994,13 +1037,16 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         None => None,
     };
     let anatomy_label = a.anatomy.display().to_string();
-    let surface_label = a.surface.display().to_string();
+    let surface_label = match &a.surface {
+        Some(p) => p.display().to_string(),
+        None => format!("S built from {}", a.anatomy.display()),
+    };
     let to_label = match (&a.to_surface, a.to_hemisphere) {
         (Some(p), _) => p.display().to_string(),
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let (landmarks, from_rv) = heart_landmarks(
+    let (mut landmarks, from_rv) = heart_landmarks(
         &surface,
         &surface_label,
         a.chamber,
@@ -1011,6 +1057,10 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         a.apex,
         a.rim_near,
     )?;
+    if let (Some(b), None) = (&built, &from_rv) {
+        // the given rim landmarks lie on the anatomy's rim: carried to S's
+        [landmarks.anterior, landmarks.inferior] = b.rim_landmarks;
+    }
     let transfer = match (&to_surface, &hemisphere) {
         (Some(surface), _) => Some(TransferInput {
             label: &to_label,
@@ -1059,6 +1109,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         from_rv: from_rv.as_ref(),
         layers: a.layers,
         sensitivity: a.sensitivity,
+        enclosing: built.as_ref().map(|b| &b.report),
     })
     .map_err(|e| super::shown(&staged, e))?;
     let mut written = result.written.clone();

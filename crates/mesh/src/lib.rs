@@ -13,16 +13,21 @@
 //! - [`Volume`]: 3D / 4D images with their voxel-to-world affine; [`mask`]
 //!   operations and [`mesher`]: tet meshes of segmentations by isosurface
 //!   [`stuffing`].
+//! - [`marching_tets`]: the zero level set of a sampled field as a closed
+//!   surface; [`taubin`]: non-shrinking smoothing; [`clip`]: a surface cut
+//!   by a plane.
 //! - [`shapes`]: deterministic synthetic placenta, ventricle and valve.
 
 pub mod bcc;
 pub mod cells;
 pub mod chain;
+pub mod clip;
 pub mod coarsen;
 mod error;
 pub mod field;
 pub mod geodesic;
 pub mod geometry;
+pub mod marching_tets;
 pub mod mask;
 pub mod memory;
 pub mod mesher;
@@ -32,6 +37,7 @@ pub mod repair;
 pub mod shapes;
 pub mod spatial;
 pub mod stuffing;
+pub mod taubin;
 #[cfg(test)]
 mod test_meshes;
 pub mod tetmesh;

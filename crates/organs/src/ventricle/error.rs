@@ -282,6 +282,11 @@ pub enum VentricleError {
         /// Why it failed.
         reason: PointFailure,
     },
+
+    // ---- building S from the anatomy (ALGORITHMS 3.9) ----
+    /// S cannot be built from the anatomy (boxed: the variant is large).
+    #[error(transparent)]
+    Enclosing(#[from] Box<super::enclosing::EnclosingError>),
 }
 
 /// Why one point cannot be mapped by `psi` or `psi^-1`.

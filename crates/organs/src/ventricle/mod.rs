@@ -10,6 +10,9 @@
 //!   apex (given and snapped, or the vertex farthest from the rim centroid).
 //! - [`openings`]: the basal rim among S's boundary loops, the others
 //!   capped so that S is a disk.
+//! - [`enclosing`]: S built from the anatomy when none is given (voxelize,
+//!   dilate, fill, marching tetrahedra, Taubin smoothing, cut at the basal
+//!   plane).
 //! - [`base`]: S closed down to a planar base (a strip under a tilted rim).
 //! - [`disk`]: the LV disk map `phi: S -> D` (harmonic map with arc-length
 //!   boundary, the landmarks' bisector along +x, a thin-plate-spline warp
@@ -31,6 +34,7 @@
 pub mod aha;
 pub mod base;
 pub mod disk;
+pub mod enclosing;
 pub mod error;
 pub mod field;
 pub mod harmonic_disk;
