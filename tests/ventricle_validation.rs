@@ -160,6 +160,22 @@ fn landmarks_moved_give_each_point_its_spread() {
         assert_one_line_error(&o, "--sensitivity must be a finite number > 0");
     }
     assert!(!dir.path().join("bad").exists());
+
+    // A displacement under half a rim edge moves no landmark: the run
+    // succeeds and says so on stderr.
+    let small = dir.path().join("small");
+    let o = run(
+        dir.path(),
+        &v,
+        &small,
+        &["--sensitivity", "0.1", "--no-figures"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning:") && err.contains("perturbations left every landmark on its vertex"),
+        "{err}"
+    );
 }
 
 #[test]

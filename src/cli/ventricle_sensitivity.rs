@@ -406,6 +406,20 @@ pub(crate) fn sensitivity(
             e,
         ));
     }
+    // Landmarks snap to S's vertices: a displacement shorter than half an
+    // edge moves nothing, which the numbers alone would not say.
+    let unmoved = reports
+        .iter()
+        .filter(|r| r.error.is_none() && r.moved_mm.iter().all(|&m| m == 0.0))
+        .count();
+    if unmoved > 0 {
+        eprintln!(
+            "warning: {label}: --sensitivity {mm}: {unmoved} of {} perturbations left every \
+             landmark on its vertex (the landmarks snap to S's vertices; a displacement under \
+             half an edge of S moves nothing); see report.json's sensitivity.perturbations",
+            reports.len()
+        );
+    }
     for j in 0..n {
         if failed[j] {
             error_mm[j] = f64::NAN;
