@@ -384,16 +384,21 @@ impl LaplaceField {
             crossings: &crossings,
             radius,
         };
-        let (a, b) = ctx.assemble()?;
-        // the hierarchy keeps A as its finest level: no second copy
-        let small = (a.n_rows() <= COARSEST).then(|| a.clone());
-        let mg = Multigrid::for_grid(a, dims, &index)?;
-        let a = small
-            .as_ref()
-            .or(mg.matrix())
-            .ok_or(VentricleError::NoFinestLevel)?;
-        let mut f = vec![0.0; unknowns];
-        let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
+        // A, b and the hierarchy live in this block only: they are freed
+        // before the gradients are allocated
+        let (f, levels, report) = {
+            let (a, b) = ctx.assemble()?;
+            // the hierarchy keeps A as its finest level: no second copy
+            let small = (a.n_rows() <= COARSEST).then(|| a.clone());
+            let mg = Multigrid::for_grid(a, dims, &index)?;
+            let a = small
+                .as_ref()
+                .or(mg.matrix())
+                .ok_or(VentricleError::NoFinestLevel)?;
+            let mut f = vec![0.0; unknowns];
+            let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
+            (f, mg.levels(), report)
+        };
         let (slot, grad, value) = ctx.gradients(&f);
         Ok(LaplaceField {
             frame,
@@ -405,7 +410,7 @@ impl LaplaceField {
             stats: FieldStats {
                 grid_nodes: total,
                 unknowns,
-                levels: mg.levels(),
+                levels,
                 iterations: report.iterations,
                 relative_residual: report.relative_residual,
                 estimated_bytes: estimate.total(),
