@@ -5,9 +5,7 @@
 //! inverse map back (the round trip); no file I/O.
 //!
 //! - `ventricle/geo2_1mm`: the whole [`Pipeline::run`];
-//! - `ventricle/geo2_chart_1mm`: only the chart (disk map and field);
-//! - `ventricle/geo2_1mm_monopole`: the whole run with the monopole of H
-//!   subtracted (`FieldConfig::subtract_monopole`, ALGORITHMS 3.8).
+//! - `ventricle/geo2_chart_1mm`: only the chart (disk map and field).
 //!
 //! The summary printed at the end gives, per case, the median of every run
 //! criterion made (warm-up included) beside the peak resident memory of a
@@ -69,22 +67,10 @@ impl Geo2 {
 
     /// `geo2_1mm`: the whole pipeline.
     fn run(&self) -> Outcome {
-        self.run_with(self.config)
-    }
-
-    /// The whole pipeline with `config`.
-    fn run_with(&self, config: Config) -> Outcome {
         Pipeline::new()
-            .config(config)
+            .config(self.config)
             .run(&self.anatomy, &self.s, &self.landmarks)
             .expect("pipeline")
-    }
-
-    /// `geo2_1mm_monopole`: the whole pipeline less the monopole of H.
-    fn monopole(&self) -> Config {
-        let mut c = self.config;
-        c.chart.field.subtract_monopole = true;
-        c
     }
 
     /// `geo2_chart_1mm`: the chart alone; returns the field's unknowns.
@@ -127,18 +113,6 @@ fn ventricle(c: &mut Criterion) {
         b.iter_custom(|iters| runs.time(iters, || geo2.chart()))
     });
     summary.add("geo2_chart_1mm", size.as_str(), &runs);
-    let mut runs = Runs::default();
-    let less = geo2.monopole();
-    g.bench_function("geo2_1mm_monopole", |b| {
-        b.iter_custom(|iters| {
-            runs.time(iters, || geo2.run_with(less).report.roundtrip_error_um.max)
-        })
-    });
-    summary.add(
-        "geo2_1mm_monopole",
-        format!("{size}, monopole subtracted"),
-        &runs,
-    );
     g.finish();
     summary.print(
         "ventricle summary (no file I/O; median of every run criterion made, warm-up included):",
@@ -158,9 +132,6 @@ fn main() {
             }
             "geo2_chart_1mm" => {
                 geo2.chart();
-            }
-            "geo2_1mm_monopole" => {
-                geo2.run_with(geo2.monopole());
             }
             _ => panic!("ventricle bench: no case {case}"),
         }

@@ -22,9 +22,6 @@
 //! - `transfer H`: geo2 -> ellipsoid -> geo2 at grid `H` (the test
 //!   `transfer_geo2_to_the_ellipsoid_and_back`): the largest distance.
 //!
-//! `--monopole` anywhere sets `FieldConfig::subtract_monopole` (the grid
-//! solves the field less the monopole of H).
-//!
 //! Every mode ends with `peak_mib` (the process's `VmHWM`, Linux) and the
 //! wall time.
 
@@ -44,18 +41,8 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
-/// `--monopole` was given.
-static MONOPOLE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-fn monopole() -> bool {
-    MONOPOLE.load(std::sync::atomic::Ordering::Relaxed)
-}
-
 fn main() -> Res<()> {
-    let all: Vec<String> = std::env::args().skip(1).collect();
-    let monopole = all.iter().any(|a| a == "--monopole");
-    MONOPOLE.store(monopole, std::sync::atomic::Ordering::Relaxed);
-    let args: Vec<String> = all.into_iter().filter(|a| a != "--monopole").collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
     let t0 = Instant::now();
     let num = |k: usize| -> Res<f64> {
         Ok(args
@@ -100,7 +87,6 @@ fn hemisphere(grid_mm: f64) -> Res<()> {
     })?;
     let mut cfg = ChartConfig::default();
     cfg.field.grid_mm = grid_mm;
-    cfg.field.subtract_monopole = monopole();
     let t = Instant::now();
     let chart = Chart::new(
         &cup.surface,
@@ -145,9 +131,8 @@ fn hemisphere(grid_mm: f64) -> Res<()> {
         worst_depth = worst_depth.max((f.coords.depth - expect).abs());
     }
     println!(
-        "hemisphere grid {grid_mm} mm monopole {}: unknowns {} chart_s {chart_s:.2} trace_s {trace_s:.2} \
+        "hemisphere grid {grid_mm} mm: unknowns {} chart_s {chart_s:.2} trace_s {trace_s:.2} \
          direction_deg {worst_dir:.4} depth {worst_depth:.3e}",
-        chart.field().monopole(),
         chart.field().stats().unknowns
     );
     Ok(())
@@ -172,7 +157,6 @@ fn run(surface: &str, anatomy: &str, grid_mm: f64) -> Res<Outcome> {
     let landmarks = rim_landmarks(&s)?;
     let mut c = Config::default();
     c.chart.field.grid_mm = grid_mm;
-    c.chart.field.subtract_monopole = monopole();
     Ok(Pipeline::new().config(c).run(&a, &s, &landmarks)?)
 }
 
@@ -187,9 +171,8 @@ fn geo2(grid_mm: f64, out: Option<&str>) -> Res<()> {
     let total = t.elapsed().as_secs_f64();
     let r = &o.report;
     println!(
-        "geo2 grid {grid_mm} mm monopole {}: unknowns {} cg {} seconds {:?} total_s {total:.2} \
+        "geo2 grid {grid_mm} mm: unknowns {} cg {} seconds {:?} total_s {total:.2} \
          round trip um mean {:.2e} max {:.2e}",
-        o.chart.field().monopole(),
         r.field.unknowns,
         r.field.cg_iterations,
         r.seconds,

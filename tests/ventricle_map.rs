@@ -175,32 +175,6 @@ fn transfer_geo2_to_the_ellipsoid_and_back() {
 /// `d = (R - |v|) / (R - r)`.
 #[test]
 fn hemisphere_streamlines_are_radial() {
-    let (worst_dir, worst_depth) = hemisphere_errors(0.5, false);
-    println!("hemisphere: direction error {worst_dir:.3} deg, depth error {worst_depth:.2e}");
-    assert!(worst_dir < 0.5, "{worst_dir} deg");
-    assert!(worst_depth < 0.01, "{worst_depth}");
-}
-
-/// [`hemisphere_streamlines_are_radial`] with the monopole of H subtracted
-/// (`FieldConfig::subtract_monopole`) on a grid twice as coarse, within the
-/// same bounds. The concentric solution is the monopole itself, so this
-/// checks the subtraction's plumbing (boundary values, gradients, the
-/// estimate of `c` from S's volume) more than its accuracy, which
-/// `examples/ventricle_field.rs` measures on geo2 against finer grids.
-#[test]
-fn hemisphere_streamlines_are_radial_less_the_monopole() {
-    let (worst_dir, worst_depth) = hemisphere_errors(1.0, true);
-    println!(
-        "hemisphere less the monopole, 1 mm: direction error {worst_dir:.3} deg, \
-         depth error {worst_depth:.2e}"
-    );
-    assert!(worst_dir < 0.5, "{worst_dir} deg");
-    assert!(worst_depth < 0.01, "{worst_depth}");
-}
-
-/// The worst direction (degrees) and depth errors of 60 points between H
-/// and S on a hemispherical S of radius 20 mm at grid `grid_mm`.
-fn hemisphere_errors(grid_mm: f64, monopole: bool) -> (f64, f64) {
     let radius = 20.0;
     let p = VentricleParams {
         radius,
@@ -211,8 +185,7 @@ fn hemisphere_errors(grid_mm: f64, monopole: bool) -> (f64, f64) {
     };
     let cup = ventricle_cup(&p).unwrap();
     let mut cfg = ChartConfig::default();
-    cfg.field.grid_mm = grid_mm;
-    cfg.field.subtract_monopole = monopole;
+    cfg.field.grid_mm = 0.5;
     // every vertex of a hemisphere is equally far from the rim's centre:
     // the apex is given
     let chart = Chart::new(
@@ -260,7 +233,9 @@ fn hemisphere_errors(grid_mm: f64, monopole: bool) -> (f64, f64) {
         let expect = (radius - rad) / (radius - r_h);
         worst_depth = worst_depth.max((f.coords.depth - expect).abs());
     }
-    (worst_dir, worst_depth)
+    println!("hemisphere: direction error {worst_dir:.3} deg, depth error {worst_depth:.2e}");
+    assert!(worst_dir < 0.5, "{worst_dir} deg");
+    assert!(worst_depth < 0.01, "{worst_depth}");
 }
 
 /// ALGORITHMS 3.7 on the half-ellipsoid cup: anatomy rings of constant

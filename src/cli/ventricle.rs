@@ -163,10 +163,6 @@ pub struct VentricleArgs {
     /// Radius of the hemisphere H at the centre of the base, mm.
     #[arg(long, value_name = "MM", default_value_t = DEFAULT_HEMISPHERE_MM, allow_negative_numbers = true)]
     hemisphere_mm: f64,
-    /// Solve the field less the monopole of H (as accurate on a coarser
-    /// grid; see the README's ventricle section).
-    #[arg(long)]
-    subtract_monopole: bool,
     /// Display exponent n of the LV disk, r' = r^n (the AHA labels follow
     /// the displayed disk; 1 labels the harmonic disk) [default: 1/3].
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
@@ -282,15 +278,13 @@ fn parse_point(s: &str) -> Result<Point3<f64>, String> {
 impl VentricleArgs {
     /// The pipeline settings, every flag checked ([`settings`]).
     fn config(&self) -> Result<Config, CliError> {
-        let mut config = settings(
+        settings(
             self.chamber.into(),
             self.grid_mm,
             self.hemisphere_mm,
             self.display_exponent,
             self.snap_mm,
-        )?;
-        config.chart.field.subtract_monopole = self.subtract_monopole;
-        Ok(config)
+        )
     }
 }
 

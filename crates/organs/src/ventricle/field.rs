@@ -80,16 +80,6 @@ pub struct FieldConfig {
     /// grid is allocated); `None`: no limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_memory_bytes: Option<f64>,
-    /// Subtract the monopole of H before solving (ALGORITHMS 3.8): the grid
-    /// solves `u = f - c / |x|` (see [`LaplaceField::monopole`]), whose
-    /// variation near the small hemisphere is far smaller than `f`'s, and
-    /// `grad f = grad u + grad (c / |x|)` with the second term exact.
-    #[serde(default, skip_serializing_if = "is_false")]
-    pub subtract_monopole: bool,
-}
-
-fn is_false(b: &bool) -> bool {
-    !*b
 }
 
 impl Default for FieldConfig {
@@ -99,7 +89,6 @@ impl Default for FieldConfig {
             hemisphere_mm: DEFAULT_HEMISPHERE_MM,
             tolerance: 1e-10,
             max_memory_bytes: None,
-            subtract_monopole: false,
         }
     }
 }
@@ -295,8 +284,6 @@ pub struct LaplaceField {
     frame: BasalFrame,
     grid: Grid,
     radius: f64,
-    /// `c` of the subtracted monopole `w = c / |x|` (0: none).
-    monopole: f64,
     /// Box node -> slot in `grad`/`value`, `u32::MAX` without a gradient.
     slot: Vec<u32>,
     grad: Vec<[f64; 3]>,
@@ -385,11 +372,6 @@ impl LaplaceField {
             .map(|&v| [local[v as usize][0], local[v as usize][1]])
             .collect();
         let mut state = classify(&grid, &crossings[2], &rim2, radius);
-        let monopole = if config.subtract_monopole {
-            monopole_coefficient(&grid, &state, radius)
-        } else {
-            0.0
-        };
         let index = connected_unknowns(&grid, &mut state);
         let unknowns = index.iter().filter(|&&x| x != u32::MAX).count();
         if unknowns == 0 {
@@ -401,7 +383,6 @@ impl LaplaceField {
             index: &index,
             crossings: &crossings,
             radius,
-            monopole,
         };
         // A, b and the hierarchy live in this block only: they are freed
         // before the gradients are allocated
@@ -423,7 +404,6 @@ impl LaplaceField {
             frame,
             grid,
             radius,
-            monopole,
             slot,
             grad,
             value,
@@ -480,18 +460,6 @@ impl LaplaceField {
     /// Solver statistics.
     pub fn stats(&self) -> FieldStats {
         self.stats
-    }
-
-    /// `c` of the monopole `w(x) = c / |x|` subtracted from the field
-    /// ([`FieldConfig::subtract_monopole`]; 0 without): `B = 2 r R / (R - r)`
-    /// of the concentric half spheres (`f = A + B / |x|` between H of radius
-    /// `r` at `+1` and S of radius `R` at `-1`), with `R` the radius of the
-    /// half ball of S's volume. The grid holds `u = f - w`, with
-    /// `u = -1 - w` on S and `u = 1 - c / r` on H; `w` is harmonic away
-    /// from the centre and even in `z` (zero flux through the cap), so `u`
-    /// solves the same problem with those boundary values.
-    pub fn monopole(&self) -> f64 {
-        self.monopole
     }
 
     /// Corner slots and trilinear weights of the cell containing `q`
@@ -555,21 +523,15 @@ impl LaplaceField {
         if q[2] < 0.0 {
             g[2] = -g[2];
         }
-        if self.monopole != 0.0 {
-            let w = monopole_gradient(self.monopole, q);
-            g = [g[0] + w[0], g[1] + w[1], g[2] + w[2]];
-        }
         Some(g)
     }
 
     /// `f` at basal-frame point `q` (trilinear; `-1` beyond S and `+1` in H
-    /// at the nodes; plus the monopole `c / |q|` where it is subtracted);
-    /// `None` where the field is not defined.
+    /// at the nodes); `None` where the field is not defined.
     pub fn value(&self, q: [f64; 3]) -> Option<f64> {
         let (s, t) = self.cell(q)?;
         let w = trilinear_weights(t);
-        let u: f64 = (0..8).map(|c| w[c] * self.value[s[c] as usize]).sum();
-        Some(u + monopole_at(self.monopole, q))
+        Some((0..8).map(|c| w[c] * self.value[s[c] as usize]).sum())
     }
 
     /// Distance along the unit direction `d` from `q` to the face where the
@@ -792,8 +754,6 @@ struct Ctx<'a> {
     index: &'a [u32],
     crossings: &'a [AxisCrossings; 3],
     radius: f64,
-    /// `c` of the subtracted monopole (0: none).
-    monopole: f64,
 }
 
 impl Ctx<'_> {
@@ -818,10 +778,7 @@ impl Ctx<'_> {
                 // the crossing nearest p on the node's side
                 let t = if dir > 0 { -target - pa } else { pa - target };
                 let theta = (t / g.h).clamp(THETA_MIN, 1.0);
-                Link::Boundary {
-                    theta,
-                    value: 1.0 - self.monopole / self.radius,
-                }
+                Link::Boundary { theta, value: 1.0 }
             }
             _ => {
                 let c = g.coord(a, ijk[a]);
@@ -837,14 +794,10 @@ impl Ctx<'_> {
                         .map(|x| c - x)
                 };
                 match hit {
-                    Some(d) => {
-                        let mut b = [0, 1, 2].map(|b| g.coord(b, ijk[b]));
-                        b[a] += if dir > 0 { d } else { -d };
-                        Link::Boundary {
-                            theta: (d / g.h).clamp(THETA_MIN, 1.0),
-                            value: -1.0 - monopole_at(self.monopole, b),
-                        }
-                    }
+                    Some(d) => Link::Boundary {
+                        theta: (d / g.h).clamp(THETA_MIN, 1.0),
+                        value: -1.0,
+                    },
                     None => Link::Wall,
                 }
             }
@@ -975,13 +928,7 @@ impl Ctx<'_> {
             for (id, q) in new {
                 slot[id] = grad.len() as u32;
                 grad.push(q);
-                let ijk = g.ijk(id);
-                let w = monopole_at(self.monopole, [0, 1, 2].map(|b| g.coord(b, ijk[b])));
-                value.push(if self.state[id] == IN_H {
-                    1.0 - self.monopole / self.radius
-                } else {
-                    -1.0 - w
-                });
+                value.push(if self.state[id] == IN_H { 1.0 } else { -1.0 });
             }
             defined = std::mem::take(&mut frontier);
         }
@@ -1010,41 +957,6 @@ fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
                 f(g.id(ii as usize, jj as usize, kk as usize));
             }
         }
-    }
-}
-
-/// `c / |q|` (0 for `c = 0`).
-#[inline]
-fn monopole_at(c: f64, q: [f64; 3]) -> f64 {
-    if c == 0.0 {
-        0.0
-    } else {
-        c / (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
-    }
-}
-
-/// `grad (c / |q|) = -c q / |q|^3`.
-#[inline]
-fn monopole_gradient(c: f64, q: [f64; 3]) -> [f64; 3] {
-    let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-    let s = -c / (r2 * r2.sqrt());
-    [s * q[0], s * q[1], s * q[2]]
-}
-
-/// [`LaplaceField::monopole`]: `c = 2 r R / (R - r)` with `R` the radius of
-/// the half ball whose volume `2 pi R^3 / 3` is that of the nodes inside S
-/// (in U or in H; cap nodes count half), `h^3` each; 0 when `R <= r`.
-fn monopole_coefficient(grid: &Grid, state: &[u8], radius: f64) -> f64 {
-    let plane = grid.dims[0] * grid.dims[1];
-    let inside = |s: &[u8]| s.iter().filter(|&&x| x == UNKNOWN || x == IN_H).count() as f64;
-    let (cap, above) = state.split_at(plane.min(state.len()));
-    let cells = inside(above) + 0.5 * inside(cap);
-    let volume = cells * grid.h.powi(3);
-    let big = (1.5 * volume / std::f64::consts::PI).cbrt();
-    if big > radius {
-        2.0 * radius * big / (big - radius)
-    } else {
-        0.0
     }
 }
 
@@ -1419,81 +1331,6 @@ mod tests {
         // just inside S it is defined, and near -1
         let f = h.field.value([0.0, 0.0, R - 0.2]).unwrap();
         assert!((f + 1.0).abs() < 0.05, "{f}");
-    }
-
-    /// The hemisphere's field on a 1 mm grid less the monopole, solved once.
-    fn hemi_monopole() -> &'static LaplaceField {
-        static H: OnceLock<LaplaceField> = OnceLock::new();
-        H.get_or_init(|| {
-            let h = hemi();
-            let c = FieldConfig {
-                subtract_monopole: true,
-                ..config(1.0)
-            };
-            LaplaceField::solve(&h.cup.surface, &h.landmarks, &c).unwrap()
-        })
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
-
-        /// The monopole's gradient is the derivative of its value (central
-        /// differences, step 1e-5 mm).
-        #[test]
-        fn the_monopole_gradient_is_the_derivative_of_its_value(
-            c in 0.1..20.0f64,
-            q in prop::array::uniform3(-30.0..30.0f64),
-        ) {
-            prop_assume!(norm(q) > 1.0);
-            let g = monopole_gradient(c, q);
-            let e = 1e-5;
-            for a in 0..3 {
-                let (mut p, mut m) = (q, q);
-                p[a] += e;
-                m[a] -= e;
-                let fd = (monopole_at(c, p) - monopole_at(c, m)) / (2.0 * e);
-                prop_assert!((fd - g[a]).abs() <= 1e-6 * (1.0 + g[a].abs()), "{a}: {fd} vs {}", g[a]);
-            }
-        }
-
-        /// Less the monopole, the hemisphere's field is the concentric-spheres
-        /// solution too, closer than the plain grid's bounds (values within
-        /// 0.01, directions within 1 degree, magnitudes within 2 %), and
-        /// still mirrored across the cap.
-        #[test]
-        fn the_field_less_the_monopole_is_the_concentric_spheres_solution(
-            u in 0.0..1.0f64,
-            polar in 0.0..1.5f64,
-            az in 0.0..TAU,
-        ) {
-            let field = hemi_monopole();
-            let r = field.hemisphere_radius();
-            let rho = r + 2.0 + u * (R - r - 4.0);
-            let q = spherical(rho, polar, az);
-            let (want, b) = analytic(rho, r);
-            let f = field.value(q).unwrap();
-            prop_assert!((f - want).abs() < 0.01, "f({rho}) = {f}, want {want}");
-            let g = field.gradient(q).unwrap();
-            let a = angle_deg(g, [-q[0], -q[1], -q[2]]);
-            prop_assert!(a < 1.0, "gradient {g:?} at {q:?}: {a} degrees off");
-            let mag = b / (rho * rho);
-            prop_assert!((norm(g) / mag - 1.0).abs() < 0.02, "|g| = {}, want {mag}", norm(g));
-            let m = field.gradient([q[0], q[1], -q[2]]).unwrap();
-            prop_assert_eq!([m[0], m[1]], [g[0], g[1]]);
-            prop_assert_eq!(m[2], -g[2]);
-        }
-    }
-
-    /// The monopole's `c` is the concentric half spheres' `B` of S's volume:
-    /// on the hemisphere within 2 % of `2 r R / (R - r)`; 0 without the
-    /// option.
-    #[test]
-    fn the_monopole_is_that_of_the_concentric_half_spheres() {
-        let r = DEFAULT_HEMISPHERE_MM;
-        let want = 2.0 * r * R / (R - r);
-        let c = hemi_monopole().monopole();
-        assert!((c / want - 1.0).abs() < 0.02, "c = {c}, want {want}");
-        assert_eq!(hemi().field.monopole(), 0.0);
     }
 
     #[test]
