@@ -425,7 +425,11 @@ impl LaplaceField {
     /// ellipsoid fills about half its box) the 7-point matrix, the
     /// multigrid hierarchy, the conjugate gradient's vectors and the
     /// gradients (500 B, with the allocator's slack: measured 490 to 560 B
-    /// per unknown on the demo heart at 0.35 to 1 mm), and 48 MiB besides.
+    /// per unknown on the demo heart at 0.35 to 1 mm before the Galerkin
+    /// product stopped storing `A P` and the hierarchy was freed before the
+    /// gradients; geo2's peak fell by 24 to 27 % then, so this is now about
+    /// twice the peak: 373.8 MiB against 186.0 MiB measured for the cup at
+    /// 0.6 mm, `tests/memory_cli.rs`), and 48 MiB besides.
     ///
     /// # Errors
     /// The landmark and frame errors of [`LaplaceField::solve`].
