@@ -714,9 +714,9 @@ impl Csr {
     /// (P^T A P)_{IJ} = sum_{i,j} p_{iI} a_{ij} p_{jJ}
     /// ```
     ///
-    /// computed as `AP = A P`, then `P^T (AP)` with the explicit transpose,
-    /// both row by row (Gustavson) with a dense accumulator and marker array
-    /// of size `m` per rayon task.
+    /// computed row by row from the explicit transpose `P^T` without storing
+    /// `A P` (Gustavson, a dense accumulator and marker array of size `m`
+    /// per rayon task; see [`Csr::galerkin_with_transpose`]).
     ///
     /// # Errors
     /// [`LinalgError::NotSquare`] if `A` is not square,
@@ -736,20 +736,84 @@ impl Csr {
                 found: p.n_rows,
             });
         }
-        let ap = spgemm(self, p);
-        let c = spgemm(&p.transpose(), &ap);
+        self.galerkin_with_transpose(p, &p.transpose())
+    }
+
+    /// [`Csr::galerkin`] with `P^T` given (a multigrid keeps it as its
+    /// restriction): row `I` of `P^T A P` is
+    /// `sum_i (P^T)_{Ii} sum_k a_{ik} p_{k.}`, gathered without storing `A P`.
+    ///
+    /// # Errors
+    /// Those of [`Csr::galerkin`]; [`LinalgError::DimensionMismatch`] if
+    /// `pt` is not `m x n`.
+    pub fn galerkin_with_transpose(&self, p: &Csr, pt: &Csr) -> Result<Csr, LinalgError> {
+        if self.n_rows != self.n_cols {
+            return Err(LinalgError::NotSquare {
+                rows: self.n_rows,
+                cols: self.n_cols,
+            });
+        }
+        if p.n_rows != self.n_rows {
+            return Err(LinalgError::DimensionMismatch {
+                what: "galerkin: rows of the prolongation P",
+                expected: self.n_rows,
+                found: p.n_rows,
+            });
+        }
+        if pt.n_rows != p.n_cols {
+            return Err(LinalgError::DimensionMismatch {
+                what: "galerkin: rows of the transpose P^T (columns of P)",
+                expected: p.n_cols,
+                found: pt.n_rows,
+            });
+        }
+        if pt.n_cols != p.n_rows {
+            return Err(LinalgError::DimensionMismatch {
+                what: "galerkin: columns of the transpose P^T (rows of P)",
+                expected: p.n_rows,
+                found: pt.n_cols,
+            });
+        }
+        let c = triple_product(pt, self, p);
         c.check_finite("value of the Galerkin product P^T A P")?;
         Ok(c)
     }
 }
 
-/// The sparse product `C = A B` (`a.n_cols == b.n_rows`), row by row:
-/// `c_{i.} = sum_k a_ik b_{k.}` gathered in a dense accumulator of size
-/// `b.n_cols` with a marker array (no per-row allocation), rows in parallel
-/// blocks.
-pub(crate) fn spgemm(a: &Csr, b: &Csr) -> Csr {
-    debug_assert_eq!(a.n_cols, b.n_rows);
-    let (n, m) = (a.n_rows, b.n_cols);
+/// The dense accumulator of one Gustavson row: `add(j, v)` adds `v` to
+/// column `j` of the current row.
+struct RowAcc {
+    /// `marker[j] == row` iff column `j` already has an entry in the row
+    /// (`row < n <= u32::MAX`, so `u32::MAX` is never a row).
+    marker: Vec<u32>,
+    acc: Vec<f64>,
+    pattern: Vec<u32>,
+    row: u32,
+}
+
+impl RowAcc {
+    #[inline]
+    fn add(&mut self, j: u32, v: f64) {
+        let ju = j as usize;
+        if self.marker[ju] != self.row {
+            self.marker[ju] = self.row;
+            self.acc[ju] = v;
+            self.pattern.push(j);
+        } else {
+            self.acc[ju] += v;
+        }
+    }
+}
+
+/// An `n x m` sparse matrix built row by row (Gustavson): `row(i, acc)`
+/// adds row `i`'s contributions to `acc` ([`RowAcc::add`]), which gathers
+/// them in a dense accumulator of size `m` with a marker array (no per-row
+/// allocation); rows in parallel blocks, each block's rows stored once and
+/// then copied into the result.
+fn gustavson<F>(n: usize, m: usize, row: F) -> Csr
+where
+    F: Fn(usize, &mut RowAcc) + Sync,
+{
     let tasks = 4 * rayon::current_num_threads().max(1);
     let block = n.div_ceil(tasks).max(ROW_CHUNK);
     let starts: Vec<usize> = (0..n).step_by(block).collect();
@@ -757,35 +821,23 @@ pub(crate) fn spgemm(a: &Csr, b: &Csr) -> Csr {
         .par_iter()
         .map(|&s| {
             let e = (s + block).min(n);
-            // `marker[j] == i` iff column j already has an entry in row i
-            // (`i < n <= u32::MAX`, so `u32::MAX` is never a row).
-            let mut marker = vec![u32::MAX; m];
-            let mut acc = vec![0.0; m];
-            let mut pattern: Vec<u32> = Vec::new();
+            let mut acc = RowAcc {
+                marker: vec![u32::MAX; m],
+                acc: vec![0.0; m],
+                pattern: Vec::new(),
+                row: 0,
+            };
             let mut lens = Vec::with_capacity(e - s);
             let mut col = Vec::new();
             let mut val = Vec::new();
             for i in s..e {
-                let row = i as u32;
-                pattern.clear();
-                let (ac, av) = a.row(i);
-                for (&k, &aik) in ac.iter().zip(av) {
-                    let (bc, bv) = b.row(k as usize);
-                    for (&j, &bkj) in bc.iter().zip(bv) {
-                        let ju = j as usize;
-                        if marker[ju] != row {
-                            marker[ju] = row;
-                            acc[ju] = aik * bkj;
-                            pattern.push(j);
-                        } else {
-                            acc[ju] += aik * bkj;
-                        }
-                    }
-                }
-                pattern.sort_unstable();
-                col.extend_from_slice(&pattern);
-                val.extend(pattern.iter().map(|&j| acc[j as usize]));
-                lens.push(pattern.len());
+                acc.row = i as u32;
+                acc.pattern.clear();
+                row(i, &mut acc);
+                acc.pattern.sort_unstable();
+                col.extend_from_slice(&acc.pattern);
+                val.extend(acc.pattern.iter().map(|&j| acc.acc[j as usize]));
+                lens.push(acc.pattern.len());
             }
             (lens, col, val)
         })
@@ -819,6 +871,45 @@ pub(crate) fn spgemm(a: &Csr, b: &Csr) -> Csr {
         col,
         val,
     }
+}
+
+/// The sparse product `C = A B` (`a.n_cols == b.n_rows`), row by row:
+/// `c_{i.} = sum_k a_ik b_{k.}` ([`gustavson`]).
+pub(crate) fn spgemm(a: &Csr, b: &Csr) -> Csr {
+    debug_assert_eq!(a.n_cols, b.n_rows);
+    gustavson(a.n_rows, b.n_cols, |i, acc| {
+        let (ac, av) = a.row(i);
+        for (&k, &aik) in ac.iter().zip(av) {
+            let (bc, bv) = b.row(k as usize);
+            for (&j, &bkj) in bc.iter().zip(bv) {
+                acc.add(j, aik * bkj);
+            }
+        }
+    })
+}
+
+/// The triple product `C = R A P` (`r.n_cols == a.n_rows`,
+/// `a.n_cols == p.n_rows`) without storing `A P`: row `I` of `C` is
+/// `c_{I.} = sum_i r_{Ii} sum_k a_{ik} p_{k.}` ([`gustavson`]). With
+/// `R = P^T` it is the Galerkin product; `A P` is recomputed for each of a
+/// fine row's coarse parents (a few more multiply-adds) instead of being
+/// held, which is the largest allocation of a multigrid setup.
+pub(crate) fn triple_product(r: &Csr, a: &Csr, p: &Csr) -> Csr {
+    debug_assert_eq!(r.n_cols, a.n_rows);
+    debug_assert_eq!(a.n_cols, p.n_rows);
+    gustavson(r.n_rows, p.n_cols, |ci, acc| {
+        let (rc, rv) = r.row(ci);
+        for (&i, &rii) in rc.iter().zip(rv) {
+            let (ac, av) = a.row(i as usize);
+            for (&k, &aik) in ac.iter().zip(av) {
+                let w = rii * aik;
+                let (pc, pv) = p.row(k as usize);
+                for (&j, &pkj) in pc.iter().zip(pv) {
+                    acc.add(j, w * pkj);
+                }
+            }
+        }
+    })
 }
 
 #[cfg(test)]
@@ -1070,6 +1161,54 @@ mod tests {
                 }
             }
         }
+    }
+
+    proptest! {
+        /// The fused `R A P` equals `R (A P)` from two products, for any
+        /// `R` (not only `P^T`).
+        #[test]
+        fn triple_product_matches_two_products(
+            m in 1usize..10, n in 1usize..16, k in 1usize..12,
+            nnz_r in 0usize..60, nnz_a in 0usize..100, nnz_p in 0usize..40,
+            seed in any::<u64>(),
+        ) {
+            let mut rng = Rng(seed);
+            let r = random_csr(m, n, nnz_r, &mut rng);
+            let a = random_csr(n, n, nnz_a, &mut rng);
+            let p = random_csr(n, k, nnz_p, &mut rng);
+            let c = triple_product(&r, &a, &p);
+            assert_structure(&c);
+            prop_assert_eq!((c.n_rows(), c.n_cols()), (m, k));
+            let (got, expect) = (dense(&c), dense(&spgemm(&r, &spgemm(&a, &p))));
+            for i in 0..m {
+                for j in 0..k {
+                    prop_assert!(
+                        (got[(i, j)] - expect[(i, j)]).abs() <= 1e-12 * (1.0 + expect[(i, j)].abs()),
+                        "({}, {}): {} vs {}", i, j, got[(i, j)], expect[(i, j)]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn galerkin_with_a_wrong_transpose_is_refused() {
+        let mut rng = Rng(5);
+        let a = random_csr(6, 6, 20, &mut rng);
+        let p = random_csr(6, 3, 8, &mut rng);
+        for (pt, what) in [
+            (random_csr(4, 6, 8, &mut rng), "rows of the transpose"),
+            (random_csr(3, 5, 8, &mut rng), "columns of the transpose"),
+        ] {
+            match a.galerkin_with_transpose(&p, &pt).unwrap_err() {
+                e @ LinalgError::DimensionMismatch { .. } => {
+                    assert!(e.to_string().contains(what), "{e}")
+                }
+                e => panic!("{e:?}"),
+            }
+        }
+        let ok = a.galerkin_with_transpose(&p, &p.transpose()).unwrap();
+        assert_eq!(ok, a.galerkin(&p).unwrap());
     }
 
     #[test]

@@ -134,9 +134,9 @@ impl Multigrid {
                     found: p.n_rows(),
                 });
             }
-            let next = cur.galerkin(&p)?;
-            let inv_diag = smoother_diagonal(&cur);
             let r = p.transpose();
+            let next = cur.galerkin_with_transpose(&p, &r)?;
+            let inv_diag = smoother_diagonal(&cur);
             levels.push(Level {
                 a: cur,
                 inv_diag,

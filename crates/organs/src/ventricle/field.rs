@@ -384,16 +384,21 @@ impl LaplaceField {
             crossings: &crossings,
             radius,
         };
-        let (a, b) = ctx.assemble()?;
-        // the hierarchy keeps A as its finest level: no second copy
-        let small = (a.n_rows() <= COARSEST).then(|| a.clone());
-        let mg = Multigrid::for_grid(a, dims, &index)?;
-        let a = small
-            .as_ref()
-            .or(mg.matrix())
-            .ok_or(VentricleError::NoFinestLevel)?;
-        let mut f = vec![0.0; unknowns];
-        let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
+        // A, b and the hierarchy live in this block only: they are freed
+        // before the gradients are allocated
+        let (f, levels, report) = {
+            let (a, b) = ctx.assemble()?;
+            // the hierarchy keeps A as its finest level: no second copy
+            let small = (a.n_rows() <= COARSEST).then(|| a.clone());
+            let mg = Multigrid::for_grid(a, dims, &index)?;
+            let a = small
+                .as_ref()
+                .or(mg.matrix())
+                .ok_or(VentricleError::NoFinestLevel)?;
+            let mut f = vec![0.0; unknowns];
+            let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
+            (f, mg.levels(), report)
+        };
         let (slot, grad, value) = ctx.gradients(&f);
         Ok(LaplaceField {
             frame,
@@ -405,7 +410,7 @@ impl LaplaceField {
             stats: FieldStats {
                 grid_nodes: total,
                 unknowns,
-                levels: mg.levels(),
+                levels,
                 iterations: report.iterations,
                 relative_residual: report.relative_residual,
                 estimated_bytes: estimate.total(),
@@ -420,7 +425,11 @@ impl LaplaceField {
     /// ellipsoid fills about half its box) the 7-point matrix, the
     /// multigrid hierarchy, the conjugate gradient's vectors and the
     /// gradients (500 B, with the allocator's slack: measured 490 to 560 B
-    /// per unknown on the demo heart at 0.35 to 1 mm), and 48 MiB besides.
+    /// per unknown on the demo heart at 0.35 to 1 mm before the Galerkin
+    /// product stopped storing `A P` and the hierarchy was freed before the
+    /// gradients; geo2's peak fell by 24 to 27 % then, so this is now about
+    /// twice the peak: 373.8 MiB against 186.0 MiB measured for the cup at
+    /// 0.6 mm, `tests/memory_cli.rs`), and 48 MiB besides.
     ///
     /// # Errors
     /// The landmark and frame errors of [`LaplaceField::solve`].
