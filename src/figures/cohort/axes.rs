@@ -280,6 +280,48 @@ pub fn draw_frame(
     Ok(())
 }
 
+/// The frame of an x-y plot filling a panel of `img` under its title band
+/// (one line of space above, two lines and 22 pixels for the x labels
+/// below), for data in `x_range` and `y_range` (their padded ranges, see
+/// [`padded_range`]): nice ticks, about one per 40 rows and 70 columns,
+/// drawn by [`draw_frame`]. Returns the x and y axes (data to pixels).
+pub fn xy_frame(
+    img: &mut Image,
+    (xlo, xhi): (f64, f64),
+    (ylo, yhi): (f64, f64),
+    x_label: &str,
+    y_label: &str,
+) -> Result<(Axis, Axis), RenderError> {
+    let (w, h) = (img.width(), img.height());
+    let lh = line_height();
+    let top = TITLE_BAND + lh;
+    let bottom = i64::from(h) - 2 * lh - 22;
+    let rows = (bottom - top).max(20);
+    let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
+    let left = 12 + label_width(&y_ticks);
+    let right = i64::from(w) - 16;
+    let cols = (right - left).max(20);
+    let x_ticks = nice_ticks(xlo, xhi, (cols / 70).clamp(2, 8) as usize);
+    let area = Rect::new(
+        i32::try_from(left).unwrap_or(0),
+        i32::try_from(top).unwrap_or(0),
+        u32::try_from(cols).unwrap_or(20),
+        u32::try_from(rows).unwrap_or(20),
+    );
+    let ya = Axis::over(&y_ticks, (area.bottom() - 1) as f64, top as f64);
+    let xa = Axis::over(&x_ticks, left as f64, (area.right() - 1) as f64);
+    draw_frame(
+        img,
+        area,
+        &ya,
+        &y_ticks,
+        Some((&xa, &x_ticks)),
+        y_label,
+        x_label,
+    )?;
+    Ok((xa, ya))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,11 +3,10 @@
 //! (how flat the sides are) against its Dirichlet excess (how much it
 //! distorts), the runs joined in the order of `lambda`, each labelled.
 
-use unfold_render::{Anchor, FillRule, Image, Rect, Rgba, arc, format_value};
+use unfold_render::{Anchor, FillRule, Image, Rgba, arc, format_value};
 
 use crate::figures::cohort::axes::{
-    Axis, TITLE_BAND, check_panel, draw_frame, label_width, line_height, nice_ticks, padded_range,
-    text, title_band,
+    check_panel, line_height, padded_range, text, title_band, xy_frame,
 };
 use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
 
@@ -65,33 +64,15 @@ fn panel(
     }
     title_band(&mut img, "template error against distortion", &subtitle)?;
     let lh = line_height();
-    let top = TITLE_BAND + lh;
-    let bottom = i64::from(h) - 2 * lh - 22;
-    let (ylo, yhi) = padded_range(pts.iter().map(|p| p.template_error_mm)).unwrap_or((0.0, 1.0));
-    let (xlo, xhi) =
+    let y_range = padded_range(pts.iter().map(|p| p.template_error_mm)).unwrap_or((0.0, 1.0));
+    let x_range =
         padded_range(pts.iter().map(|p| p.dirichlet_excess_percent)).unwrap_or((0.0, 1.0));
-    let rows = (bottom - top).max(20);
-    let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
-    let left = 12 + label_width(&y_ticks);
-    let right = i64::from(w) - 16;
-    let cols = (right - left).max(20);
-    let x_ticks = nice_ticks(xlo, xhi, (cols / 70).clamp(2, 8) as usize);
-    let area = Rect::new(
-        i32::try_from(left).unwrap_or(0),
-        i32::try_from(top).unwrap_or(0),
-        u32::try_from(cols).unwrap_or(20),
-        u32::try_from(rows).unwrap_or(20),
-    );
-    let ya = Axis::over(&y_ticks, (area.bottom() - 1) as f64, top as f64);
-    let xa = Axis::over(&x_ticks, left as f64, (area.right() - 1) as f64);
-    draw_frame(
+    let (xa, ya) = xy_frame(
         &mut img,
-        area,
-        &ya,
-        &y_ticks,
-        Some((&xa, &x_ticks)),
-        "template error (mm)",
+        x_range,
+        y_range,
         "Dirichlet excess (%)",
+        "template error (mm)",
     )?;
     let xy: Vec<[f64; 2]> = pts
         .iter()

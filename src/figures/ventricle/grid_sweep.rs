@@ -5,11 +5,10 @@
 //! (mm), the grids joined in order of spacing. Drawn with the cohort
 //! figures' axes, like the placenta's lambda sweep.
 
-use unfold_render::{Anchor, FillRule, Image, Rect, RenderError, Rgba, arc};
+use unfold_render::{Anchor, FillRule, Image, RenderError, Rgba, arc};
 
 use crate::figures::cohort::axes::{
-    Axis, TITLE_BAND, check_panel, draw_frame, label_width, line_height, nice_ticks, padded_range,
-    text, title_band,
+    TITLE_BAND, check_panel, line_height, padded_range, text, title_band, xy_frame,
 };
 use crate::figures::{Figure, FigureError, FigureOptions, PAPER};
 
@@ -101,36 +100,14 @@ fn panel(
     let (w, h) = (opts.panel_width, opts.panel_height);
     let mut img = Image::new(w, h, PAPER)?;
     title_band(&mut img, title, subtitle)?;
-    let lh = line_height();
-    let top = TITLE_BAND + lh;
-    let bottom = i64::from(h) - 2 * lh - 22;
-    let (ylo, yhi) = padded_range(series.iter().flat_map(|s| s.2.iter().copied()))
+    let y_range = padded_range(series.iter().flat_map(|s| s.2.iter().copied()))
         .map(|(lo, hi)| (lo.max(0.0), hi))
         .unwrap_or((0.0, 1.0));
-    let (xlo, xhi) = padded_range(pts.iter().map(|p| p.grid_mm)).unwrap_or((0.0, 1.0));
-    let rows = (bottom - top).max(20);
-    let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
-    let left = 12 + label_width(&y_ticks);
-    let right = i64::from(w) - 16;
-    let cols = (right - left).max(20);
-    let x_ticks = nice_ticks(xlo, xhi, (cols / 70).clamp(2, 8) as usize);
-    let area = Rect::new(
-        i32::try_from(left).unwrap_or(0),
-        i32::try_from(top).unwrap_or(0),
-        u32::try_from(cols).unwrap_or(20),
-        u32::try_from(rows).unwrap_or(20),
-    );
-    let ya = Axis::over(&y_ticks, (area.bottom() - 1) as f64, top as f64);
-    let xa = Axis::over(&x_ticks, left as f64, (area.right() - 1) as f64);
-    draw_frame(
-        &mut img,
-        area,
-        &ya,
-        &y_ticks,
-        Some((&xa, &x_ticks)),
-        y_label,
-        "grid spacing (mm)",
-    )?;
+    let x_range = padded_range(pts.iter().map(|p| p.grid_mm)).unwrap_or((0.0, 1.0));
+    let (xa, ya) = xy_frame(&mut img, x_range, y_range, "grid spacing (mm)", y_label)?;
+    // the legend's corner: the frame's top right (see `xy_frame`)
+    let lh = line_height();
+    let (right, top) = (i64::from(w) - 16, TITLE_BAND + lh);
     for (k, (name, color, values)) in series.iter().enumerate() {
         let xy: Vec<[f64; 2]> = pts
             .iter()
