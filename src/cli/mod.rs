@@ -27,6 +27,7 @@ mod repair;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 mod ventricle_inverse;
+mod ventricle_landmark_args;
 mod ventricle_sensitivity;
 mod ventricle_surface;
 

@@ -48,6 +48,7 @@
 //! so that viewers show it. Progress lines (`ventricle: ...`) go to stderr
 //! when it is a terminal.
 
+use super::ventricle_landmark_args::HeartLandmarkArgs;
 use super::{CliError, at, organ, positive};
 use crate::io::{
     FilePath, IoError, MarkupsError, StagedOutputs, WriteOptions, atomic_write, read_markups,
@@ -149,38 +150,8 @@ pub struct VentricleArgs {
     /// Building S from the anatomy (without --surface).
     #[command(flatten)]
     enclosing: super::ventricle_surface::EnclosingArgs,
-    /// Anterior RV insertion point (LV) or first septal corner (RV), on the
-    /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
-    anterior: Option<Point3<f64>>,
-    /// Inferior RV insertion point (LV) or second septal corner (RV), on the
-    /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
-    inferior: Option<Point3<f64>>,
-    /// LV: the anterior and inferior RV insertion points where the user
-    /// marked them (at the base of the RV ridges, outside S): the rim
-    /// landmarks are derived from them, as the source paper does (rays from
-    /// the rim's centroid through them meet S; the nearest rim vertices).
-    /// Instead of --anterior/--inferior.
-    #[arg(long, value_name = "X,Y,Z", num_args = 2, value_parser = parse_point,
-          allow_hyphen_values = true, conflicts_with_all = ["anterior", "inferior", "landmarks"])]
-    rv_landmarks: Vec<Point3<f64>>,
-    /// The apex (snapped to the nearest vertex of S) [default: the vertex of
-    /// S farthest from the rim's centroid].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    apex: Option<Point3<f64>>,
-    /// The landmarks from a 3D Slicer markups file (.mrk.json, or .fcsv):
-    /// points labelled anterior, inferior and (optional) apex, any case; LPS
-    /// points are converted to RAS. Instead of --anterior/--inferior/--apex.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["anterior", "inferior", "apex"])]
-    landmarks: Option<PathBuf>,
-    /// A point on or near the basal rim, naming it when S has several
-    /// openings [default: the opening nearest the rim landmarks]; the other
-    /// openings are capped.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    rim_near: Option<Point3<f64>>,
+    #[command(flatten)]
+    heart: HeartLandmarkArgs,
     /// The frame of the mesh files' coordinates: auto (3D Slicer's SPACE=
     /// marker in each file, else RAS), ras, or lps (ITK, Slicer's default
     /// for models). Meshes are turned into RAS, the frame of the
@@ -329,13 +300,18 @@ pub(crate) fn heart_landmarks(
     surface: &TriMesh,
     surface_label: &str,
     chamber: ChamberArg,
-    rv_landmarks: &[Point3<f64>],
-    file: Option<&Path>,
-    anterior: Option<Point3<f64>>,
-    inferior: Option<Point3<f64>>,
-    apex: Option<Point3<f64>>,
-    rim_near: Option<Point3<f64>>,
+    flags: &HeartLandmarkArgs,
 ) -> Result<(LandmarkPoints, Option<FromRv>), CliError> {
+    let HeartLandmarkArgs {
+        anterior,
+        inferior,
+        ref rv_landmarks,
+        apex,
+        landmarks: ref file,
+        rim_near,
+    } = *flags;
+    let file = file.as_deref();
+    let rv_landmarks = rv_landmarks.as_slice();
     let from_rv = match rv_landmarks {
         [] => None,
         [p, q] => {
@@ -966,7 +942,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let mut inputs = vec![&a.anatomy];
     inputs.extend(&a.surface);
     inputs.extend(&a.to_surface);
-    inputs.extend(&a.landmarks);
+    inputs.extend(&a.heart.landmarks);
     inputs.extend(&a.to_landmarks);
     check_not_inputs(out, &inputs)?;
     // Every output checked (and staged) before any input is read.
@@ -1008,19 +984,20 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let (surface, built) = match &a.surface {
         Some(p) => (read_surface(p, a.mesh_frame)?, None),
         None => {
-            let given = match a.rv_landmarks.as_slice() {
+            let h = &a.heart;
+            let given = match h.rv_landmarks.as_slice() {
                 [p, q] => LandmarkPoints {
                     anterior: *p,
                     inferior: *q,
-                    apex: a.apex,
+                    apex: h.apex,
                     rim_near: None,
                 },
                 _ => landmark_points(
-                    a.landmarks.as_deref(),
-                    a.anterior,
-                    a.inferior,
-                    a.apex,
-                    a.rim_near,
+                    h.landmarks.as_deref(),
+                    h.anterior,
+                    h.inferior,
+                    h.apex,
+                    h.rim_near,
                     "--anterior and --inferior",
                 )?,
             };
@@ -1046,17 +1023,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         (None, Some(r)) => format!("the hemisphere of radius {r} mm"),
         _ => String::new(),
     };
-    let (mut landmarks, from_rv) = heart_landmarks(
-        &surface,
-        &surface_label,
-        a.chamber,
-        &a.rv_landmarks,
-        a.landmarks.as_deref(),
-        a.anterior,
-        a.inferior,
-        a.apex,
-        a.rim_near,
-    )?;
+    let (mut landmarks, from_rv) = heart_landmarks(&surface, &surface_label, a.chamber, &a.heart)?;
     if let (Some(b), None) = (&built, &from_rv) {
         // the given rim landmarks lie on the anatomy's rim: carried to S's
         [landmarks.anterior, landmarks.inferior] = b.rim_landmarks;

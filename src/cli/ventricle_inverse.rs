@@ -40,9 +40,9 @@
 //!   and landmarks, seconds, memory and provenance.
 
 use super::ventricle::{
-    ChamberArg, heart_landmarks, parse_point, read_surface, settings, transmural_layers,
-    with_vertex_cells,
+    ChamberArg, heart_landmarks, read_surface, settings, transmural_layers, with_vertex_cells,
 };
+use super::ventricle_landmark_args::HeartLandmarkArgs;
 use super::{CliError, MeshFrameArg, at, organ};
 use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
@@ -97,32 +97,8 @@ pub struct VentricleInverseArgs {
     /// ventricle`).
     #[arg(long, value_name = "S")]
     surface: PathBuf,
-    /// Anterior RV insertion point (LV) or first septal corner (RV), on the
-    /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
-    anterior: Option<Point3<f64>>,
-    /// Inferior RV insertion point (LV) or second septal corner (RV), on the
-    /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
-    inferior: Option<Point3<f64>>,
-    /// LV: the RV insertion points as marked (outside S), as for `unfold
-    /// ventricle`. Instead of --anterior/--inferior.
-    #[arg(long, value_name = "X,Y,Z", num_args = 2, value_parser = parse_point,
-          allow_hyphen_values = true, conflicts_with_all = ["anterior", "inferior", "landmarks"])]
-    rv_landmarks: Vec<Point3<f64>>,
-    /// The apex [default: the vertex of S farthest from the rim's centroid].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    apex: Option<Point3<f64>>,
-    /// The landmarks from a 3D Slicer markups file (points labelled
-    /// anterior, inferior, apex). Instead of --anterior/--inferior/--apex.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["anterior", "inferior", "apex"])]
-    landmarks: Option<PathBuf>,
-    /// A point on or near the basal rim of S, naming it among several
-    /// openings.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
-    rim_near: Option<Point3<f64>>,
+    #[command(flatten)]
+    heart: HeartLandmarkArgs,
     /// The frame of S's coordinates (auto, ras, lps); NORMALIZED is in
     /// cylinder coordinates and is not converted.
     #[arg(long, value_enum, default_value = "auto")]
@@ -399,7 +375,7 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
         ));
     }
     let mut inputs = vec![&a.normalized, &a.surface];
-    inputs.extend(&a.landmarks);
+    inputs.extend(&a.heart.landmarks);
     let d = super::canonical(out);
     for input in &inputs {
         for f in [MAPPED, REPORT] {
@@ -433,17 +409,7 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
     )?;
     let surface = read_surface(&a.surface, a.mesh_frame)?;
     let surface_label = a.surface.display().to_string();
-    let (landmarks, from_rv) = heart_landmarks(
-        &surface,
-        &surface_label,
-        a.chamber,
-        &a.rv_landmarks,
-        a.landmarks.as_deref(),
-        a.anterior,
-        a.inferior,
-        a.apex,
-        a.rim_near,
-    )?;
+    let (landmarks, from_rv) = heart_landmarks(&surface, &surface_label, a.chamber, &a.heart)?;
     // The field checks its estimate against the room left (issue 18).
     let mut chart_config = config;
     chart_config.chart.field.max_memory_bytes = super::memory::room();
