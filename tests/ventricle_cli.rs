@@ -3,7 +3,7 @@
 //! second heart, and one-line errors for inputs that do not fit the
 //! contract.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::{Point3, Vector3};
@@ -12,11 +12,6 @@ use unfold::mesh::{CellMesh, CellType, FieldValues, TriMesh};
 
 mod common;
 use common::*;
-
-/// `x,y,z` with every digit (so the point is exactly the one meant).
-fn pt(p: &Point3<f64>) -> String {
-    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
 
 fn cup() -> VentricleShape {
     ventricle_cup(&VentricleParams::default()).unwrap()
@@ -29,34 +24,7 @@ fn write(path: &Path, mesh: &CellMesh) {
 /// Runs `unfold ventricle` on `anatomy` in `surface` with the cup's
 /// landmarks (`--grid-mm 1.5`), plus `extra`.
 fn run(anatomy: &Path, surface: &Path, v: &VentricleShape, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "ventricle".to_string(),
-        s(anatomy),
-        "--surface".into(),
-        s(surface),
-        "--anterior".into(),
-        pt(&v.anterior),
-        "--inferior".into(),
-        pt(&v.inferior),
-        "--apex".into(),
-        pt(&v.apex),
-        "--grid-mm".into(),
-        "1.5".into(),
-        "-o".into(),
-        s(out),
-    ];
-    args.extend(extra.iter().map(|x| x.to_string()));
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    unfold(&refs)
-}
-
-/// The cup's S and anatomy surface written into `dir`.
-fn write_cup(dir: &Path, v: &VentricleShape) -> (PathBuf, PathBuf) {
-    let surface = dir.join("surface.vtp");
-    let anatomy = dir.join("anatomy_in.vtp");
-    write(&surface, &CellMesh::from(&v.surface));
-    write(&anatomy, &CellMesh::from(&v.anatomy));
-    (anatomy, surface)
+    run_heart("ventricle", anatomy, &cup_heart(surface, v), out, extra)
 }
 
 fn report(out: &Path) -> serde_json::Value {

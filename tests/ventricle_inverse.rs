@@ -3,57 +3,17 @@
 //! a label field drawn on the disk carried onto a heart, and bad inputs
 //! (per-point statuses, one-line errors).
 
-use std::path::{Path, PathBuf};
-use std::process::Output;
+use std::path::Path;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
 use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
+use unfold::mesh::shapes::{VentricleParams, ventricle_cup};
 use unfold::mesh::{CellMesh, CellType, Field, FieldValues};
 
 mod common;
 use common::*;
 
-fn pt(p: &Point3<f64>) -> String {
-    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
-
 fn write(path: &Path, mesh: &CellMesh) {
     write_mesh(path, mesh, &WriteOptions::default()).unwrap();
-}
-
-/// The cup's S and anatomy surface written into `dir`.
-fn write_cup(dir: &Path, v: &VentricleShape) -> (PathBuf, PathBuf) {
-    let surface = dir.join("surface.vtp");
-    let anatomy = dir.join("anatomy_in.vtp");
-    write(&surface, &CellMesh::from(&v.surface));
-    write(&anatomy, &CellMesh::from(&v.anatomy));
-    (anatomy, surface)
-}
-
-/// The cup's landmarks and a 1.5 mm grid.
-fn heart(surface: &Path, v: &VentricleShape) -> Vec<String> {
-    vec![
-        "--surface".into(),
-        s(surface),
-        "--anterior".into(),
-        pt(&v.anterior),
-        "--inferior".into(),
-        pt(&v.inferior),
-        "--apex".into(),
-        pt(&v.apex),
-        "--grid-mm".into(),
-        "1.5".into(),
-    ]
-}
-
-/// Runs `unfold COMMAND INPUT <heart> -o OUT EXTRA`.
-fn run(command: &str, input: &Path, heart: &[String], out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![command.to_string(), s(input)];
-    args.extend(heart.iter().cloned());
-    args.extend(["-o".to_string(), s(out)]);
-    args.extend(extra.iter().map(|x| x.to_string()));
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    unfold(&refs)
 }
 
 fn report(out: &Path) -> serde_json::Value {
@@ -76,9 +36,15 @@ fn the_normalized_anatomy_maps_back_within_the_round_trip_error() {
     let dir = tempfile::tempdir().unwrap();
     let v = ventricle_cup(&VentricleParams::default()).unwrap();
     let (anatomy, surface) = write_cup(dir.path(), &v);
-    let h = heart(&surface, &v);
+    let h = cup_heart(&surface, &v);
     let out = dir.path().join("out");
-    assert_ok(&run("ventricle", &anatomy, &h, &out, &["--no-figures"]));
+    assert_ok(&run_heart(
+        "ventricle",
+        &anatomy,
+        &h,
+        &out,
+        &["--no-figures"],
+    ));
     let max_um = report(&out)["roundtrip_error_um"]["max"].as_f64().unwrap();
     let normalized = out.join("normalized.vtu");
     let n = v.anatomy.positions.len();
@@ -90,7 +56,7 @@ fn the_normalized_anatomy_maps_back_within_the_round_trip_error() {
         .enumerate()
     {
         let inv = dir.path().join(format!("inv{k}"));
-        let o = run("ventricle-inverse", &normalized, &h, &inv, extra);
+        let o = run_heart("ventricle-inverse", &normalized, &h, &inv, extra);
         assert_ok(&o);
         assert!(
             stdout(&o).contains(&format!("{n} of {n} points mapped onto")),
@@ -183,12 +149,12 @@ fn a_label_field_drawn_on_the_disk_is_carried_onto_the_heart() {
     let dir = tempfile::tempdir().unwrap();
     let v = ventricle_cup(&VentricleParams::default()).unwrap();
     let (_, surface) = write_cup(dir.path(), &v);
-    let h = heart(&surface, &v);
+    let h = cup_heart(&surface, &v);
     let field = disk_label_field();
     let input = dir.path().join("regions.vtu");
     write(&input, &field);
     let inv = dir.path().join("inv");
-    let o = run("ventricle-inverse", &input, &h, &inv, &["--layers", "2"]);
+    let o = run_heart("ventricle-inverse", &input, &h, &inv, &["--layers", "2"]);
     assert_ok(&o);
     let r = report(&inv);
     assert_eq!(r["inputs"]["coordinates"], "points");
@@ -205,7 +171,7 @@ fn a_label_field_drawn_on_the_disk_is_carried_onto_the_heart() {
     assert!(labels(&m, "layer").iter().all(|&l| l == 2));
     // Forward again through `unfold ventricle`: the drawing comes back.
     let fwd = dir.path().join("fwd");
-    assert_ok(&run(
+    assert_ok(&run_heart(
         "ventricle",
         &inv.join("mapped.vtu"),
         &h,
@@ -231,7 +197,7 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
     let dir = tempfile::tempdir().unwrap();
     let v = ventricle_cup(&VentricleParams::default()).unwrap();
     let (_, surface) = write_cup(dir.path(), &v);
-    let h = heart(&surface, &v);
+    let h = cup_heart(&surface, &v);
 
     // A good point, one below H (depth 1.5), one off the disk (X = 1.5),
     // one above S (depth -0.1): statuses 0, 1, 2, 1.
@@ -244,7 +210,7 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
     let input = dir.path().join("points.vtu");
     write(&input, &pts);
     let inv = dir.path().join("inv");
-    let o = run("ventricle-inverse", &input, &h, &inv, &["--layers", "4"]);
+    let o = run_heart("ventricle-inverse", &input, &h, &inv, &["--layers", "4"]);
     assert_ok(&o);
     assert!(
         stdout(&o).contains("1 of 4 points mapped") && stdout(&o).contains("3 not"),
@@ -291,7 +257,7 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
     let input = dir.path().join("off.vtu");
     write(&input, &off);
     let none = dir.path().join("none");
-    let o = run("ventricle-inverse", &input, &h, &none, &[]);
+    let o = run_heart("ventricle-inverse", &input, &h, &none, &[]);
     assert_one_line_error(&o, "none of its 2 points maps onto the heart");
     assert!(!none.exists());
 
@@ -305,12 +271,12 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
         .insert(Field::scalars("depth", vec![0.5; 4]));
     let input = dir.path().join("partial.vtu");
     write(&input, &partial);
-    let o = run("ventricle-inverse", &input, &h, &none, &[]);
+    let o = run_heart("ventricle-inverse", &input, &h, &none, &[]);
     assert_one_line_error(
         &o,
         "has the point array(s) xi, depth but not all of xi, zeta, depth",
     );
-    let o = run(
+    let o = run_heart(
         "ventricle-inverse",
         &input,
         &h,
@@ -329,18 +295,18 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
         .insert(Field::vectors("depth", &[[0.5; 3]; 4]));
     let input = dir.path().join("vector.vtu");
     write(&input, &vector);
-    let o = run("ventricle-inverse", &input, &h, &none, &[]);
+    let o = run_heart("ventricle-inverse", &input, &h, &none, &[]);
     assert_one_line_error(&o, "point array depth has 3 component(s)");
 
     // Missing file, output clashing with the input, bad flags.
     let missing = dir.path().join("missing.vtu");
-    let o = run("ventricle-inverse", &missing, &h, &none, &[]);
+    let o = run_heart("ventricle-inverse", &missing, &h, &none, &[]);
     assert_one_line_error(&o, "No such file");
     let clash = dir.path().join("mapped.vtu");
     write(&clash, &pts);
-    let o = run("ventricle-inverse", &clash, &h, dir.path(), &[]);
+    let o = run_heart("ventricle-inverse", &clash, &h, dir.path(), &[]);
     assert_one_line_error(&o, "would be overwritten");
-    let o = run(
+    let o = run_heart(
         "ventricle-inverse",
         &clash,
         &h,
@@ -348,7 +314,7 @@ fn points_off_the_cylinder_get_a_status_and_bad_inputs_are_one_line_errors() {
         &["--display-exponent", "0"],
     );
     assert_one_line_error(&o, "--display-exponent must be a finite number > 0");
-    let o = run("ventricle-inverse", &clash, &h, &none, &["--layers", "0"]);
+    let o = run_heart("ventricle-inverse", &clash, &h, &none, &["--layers", "0"]);
     assert_one_line_error(&o, "--layers");
     assert!(!none.exists());
 }

@@ -19,11 +19,6 @@ const HOLE_MM: f64 = 6.0;
 /// every hole centre, mm.
 const FAR_MM: f64 = 20.0;
 
-/// `x,y,z` with every digit.
-fn pt(p: &Point3<f64>) -> String {
-    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
-
 fn cup() -> VentricleShape {
     ventricle_cup(&VentricleParams::default()).unwrap()
 }

@@ -16,10 +16,6 @@ use unfold::mesh::{CellMesh, CellType};
 mod common;
 use common::*;
 
-fn pt(p: &Point3<f64>) -> String {
-    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
-
 fn cup() -> VentricleShape {
     ventricle_cup(&VentricleParams {
         rings: 16,

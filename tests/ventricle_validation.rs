@@ -3,52 +3,19 @@
 //! the spread per anatomy point) and `--grid-sweep` (error, time and memory
 //! per grid of the Laplace field).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
-use unfold::io::{WriteOptions, read_mesh, write_mesh};
+use unfold::io::read_mesh;
 use unfold::mesh::CellMesh;
-use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
 
 mod common;
 use common::*;
 
-fn pt(p: &Point3<f64>) -> String {
-    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
-}
-
-/// The cup's S and anatomy surface written into `dir`.
-fn write_cup(dir: &Path, v: &VentricleShape) -> (PathBuf, PathBuf) {
-    let surface = dir.join("surface.vtp");
-    let anatomy = dir.join("anatomy_in.vtp");
-    let o = WriteOptions::default();
-    write_mesh(&surface, &CellMesh::from(&v.surface), &o).unwrap();
-    write_mesh(&anatomy, &CellMesh::from(&v.anatomy), &o).unwrap();
-    (anatomy, surface)
-}
-
 /// `unfold ventricle` on the cup (1.5 mm grid) plus `extra`.
 fn run(dir: &Path, v: &VentricleShape, out: &Path, extra: &[&str]) -> Output {
     let (anatomy, surface) = write_cup(dir, v);
-    let mut args = vec![
-        "ventricle".to_string(),
-        s(&anatomy),
-        "--surface".into(),
-        s(&surface),
-        "--anterior".into(),
-        pt(&v.anterior),
-        "--inferior".into(),
-        pt(&v.inferior),
-        "--apex".into(),
-        pt(&v.apex),
-        "--grid-mm".into(),
-        "1.5".into(),
-        "-o".into(),
-        s(out),
-    ];
-    args.extend(extra.iter().map(|x| x.to_string()));
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    unfold(&refs)
+    run_heart("ventricle", &anatomy, &cup_heart(&surface, v), out, extra)
 }
 
 fn report(out: &Path) -> serde_json::Value {

@@ -72,3 +72,56 @@ pub fn first_use_order<const N: usize>(
         .collect();
     (ordered, renumbered, number)
 }
+
+/// A point as the command line takes it: `X,Y,Z` (full precision).
+pub fn pt(p: &unfold::mesh::nalgebra::Point3<f64>) -> String {
+    format!("{:?},{:?},{:?}", p.x, p.y, p.z)
+}
+
+/// The ventricle cup's S and anatomy surface written into `dir` as
+/// `surface.vtp` and `anatomy_in.vtp`: `(anatomy, surface)`.
+pub fn write_cup(
+    dir: &Path,
+    v: &unfold::mesh::shapes::VentricleShape,
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    use unfold::mesh::CellMesh;
+    let surface = dir.join("surface.vtp");
+    let anatomy = dir.join("anatomy_in.vtp");
+    let o = unfold::io::WriteOptions::default();
+    unfold::io::write_mesh(&surface, &CellMesh::from(&v.surface), &o).unwrap();
+    unfold::io::write_mesh(&anatomy, &CellMesh::from(&v.anatomy), &o).unwrap();
+    (anatomy, surface)
+}
+
+/// The heart flags of the cup: `--surface S` and its landmarks, on a 1.5
+/// mm grid.
+pub fn cup_heart(surface: &Path, v: &unfold::mesh::shapes::VentricleShape) -> Vec<String> {
+    vec![
+        "--surface".into(),
+        s(surface),
+        "--anterior".into(),
+        pt(&v.anterior),
+        "--inferior".into(),
+        pt(&v.inferior),
+        "--apex".into(),
+        pt(&v.apex),
+        "--grid-mm".into(),
+        "1.5".into(),
+    ]
+}
+
+/// Runs `unfold COMMAND INPUT <heart> -o OUT EXTRA`.
+pub fn run_heart(
+    command: &str,
+    input: &Path,
+    heart: &[String],
+    out: &Path,
+    extra: &[&str],
+) -> Output {
+    let mut args = vec![command.to_string(), s(input)];
+    args.extend(heart.iter().cloned());
+    args.extend(["-o".to_string(), s(out)]);
+    args.extend(extra.iter().map(|x| x.to_string()));
+    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    unfold(&refs)
+}
