@@ -723,19 +723,6 @@ impl Csr {
     /// [`LinalgError::DimensionMismatch`] if `P` does not have `n` rows,
     /// [`LinalgError::NotFinite`] if the product overflows.
     pub fn galerkin(&self, p: &Csr) -> Result<Csr, LinalgError> {
-        if self.n_rows != self.n_cols {
-            return Err(LinalgError::NotSquare {
-                rows: self.n_rows,
-                cols: self.n_cols,
-            });
-        }
-        if p.n_rows != self.n_rows {
-            return Err(LinalgError::DimensionMismatch {
-                what: "galerkin: rows of the prolongation P",
-                expected: self.n_rows,
-                found: p.n_rows,
-            });
-        }
         self.galerkin_with_transpose(p, &p.transpose())
     }
 
