@@ -24,7 +24,7 @@ use unfold_organs::ventricle::{Chamber, Outcome};
 use unfold_render::nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
 use unfold_render::{Anchor, Camera, ColorScale, Coloring, Image, Rect, Renderer, Rgb, Shading};
 
-use super::cylinder::drawable;
+use super::cylinder::{Drawable, drawable};
 use super::drawing::{aha_rows, colorbar_column, text, title_band};
 use super::{AHA_COLORS, COLORBAR_COLUMN, DEPTH_COLORMAP, SOFT_INK, TITLE_BAND};
 use super::{figure_size, segments_present};
@@ -106,16 +106,16 @@ pub fn heart_view(points: &[Point3<f64>], aha: Option<&[u8]>) -> Option<HeartVie
 
 /// The anatomy `mesh` rendered into `aw x ah` pixels, coloured per point,
 /// seen from `side` (`+1` the septum, `-1` the lateral wall) of `view`,
-/// framed on the points.
+/// framed on the points; `d` is what of `mesh` is drawn ([`drawable`]).
 fn render_heart(
     mesh: &CellMesh,
+    d: &Drawable,
     colors: &[Rgb],
     view: &HeartView,
     side: f64,
     (aw, ah): (u32, u32),
     figure: &str,
 ) -> Result<Image, FigureError> {
-    let d = drawable(mesh).map_err(|e| FigureError::input(figure, format!("the anatomy: {e}")))?;
     let forward = -side * view.septal;
     let up = -view.axis;
     let right = forward.cross(&up);
@@ -222,13 +222,14 @@ pub(super) fn anatomy_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Fig
         )
     })?;
     let colors = aha_colors(aha);
+    let d = drawable(mesh).map_err(|e| FigureError::input(F, format!("the anatomy: {e}")))?;
     let (pw, ah) = (opts.panel_width, (i64::from(h) - TITLE_BAND) as u32);
     let mut img = Image::new(w, h, PAPER).map_err(FigureError::render(F))?;
     for (k, (side, words)) in [(1.0, "from the septum"), (-1.0, "from the lateral wall")]
         .into_iter()
         .enumerate()
     {
-        let panel = render_heart(mesh, &colors, &view, side, (pw, ah), F)?;
+        let panel = render_heart(mesh, &d, &colors, &view, side, (pw, ah), F)?;
         let x = i64::from(pw) * k as i64;
         img.blit(&panel, x, TITLE_BAND);
         text(
@@ -253,7 +254,8 @@ pub(super) fn anatomy_aha(outcome: &Outcome, opts: &FigureOptions) -> Result<Fig
 
 /// [`TRANSFER_PNG`]: 3 x 1 panels, the anatomy of `outcome` in its heart
 /// and the same points `transferred` into a second heart (or onto a
-/// hemisphere) named `target`, each from its own lateral wall
+/// hemisphere) named `target` (the anatomy with its points moved: its
+/// cells are drawn as the anatomy's), each from its own lateral wall
 /// ([`heart_view`]); LV points coloured by AHA segment (legend), RV points
 /// by depth (colour bar).
 ///
@@ -288,6 +290,9 @@ pub fn transfer_figure(
             (None, scale.colors(&depth), Some(scale))
         }
     };
+    // The transferred anatomy keeps the anatomy's cells: one drawable.
+    let d = drawable(&outcome.anatomy)
+        .map_err(|e| FigureError::input(F, format!("the anatomy: {e}")))?;
     let (pw, ah) = (opts.panel_width, (i64::from(h) - TITLE_BAND) as u32);
     let mut img = Image::new(w, h, PAPER).map_err(FigureError::render(F))?;
     for (k, (mesh, words)) in [
@@ -300,7 +305,7 @@ pub fn transfer_figure(
         let view = heart_view(&mesh.positions, aha).ok_or_else(|| {
             FigureError::input(F, format!("{words}: the points do not give a view"))
         })?;
-        let panel = render_heart(mesh, &colors, &view, -1.0, (pw, ah), F)?;
+        let panel = render_heart(mesh, &d, &colors, &view, -1.0, (pw, ah), F)?;
         let x = i64::from(pw) * k as i64;
         img.blit(&panel, x, TITLE_BAND);
         text(
