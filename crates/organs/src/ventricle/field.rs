@@ -424,12 +424,13 @@ impl LaplaceField {
     /// crossings (60 B), and per unknown (taken as `0.55 n`, a cup or an
     /// ellipsoid fills about half its box) the 7-point matrix, the
     /// multigrid hierarchy, the conjugate gradient's vectors and the
-    /// gradients (500 B, with the allocator's slack: measured 490 to 560 B
-    /// per unknown on the demo heart at 0.35 to 1 mm before the Galerkin
-    /// product stopped storing `A P` and the hierarchy was freed before the
-    /// gradients; geo2's peak fell by 24 to 27 % then, so this is now about
-    /// twice the peak: 373.8 MiB against 186.0 MiB measured for the cup at
-    /// 0.6 mm, `tests/memory_cli.rs`), and 48 MiB besides.
+    /// gradients (220 B, with the allocator's slack), and 48 MiB besides:
+    /// 181 B per box node in all. Measured peaks of whole runs
+    /// (`unfold ventricle`, `VmHWM`): 135 to 150 B per box node, Cobiveco
+    /// geo2 at 1 mm (2.06 M nodes, 343 MiB) and 0.5 mm (14.7 M nodes,
+    /// 1,925 MiB), the demo cup at 0.6 mm (186 MiB,
+    /// `tests/memory_cli.rs`); so the estimate is 1.15 to 1.35 times the
+    /// peak.
     ///
     /// # Errors
     /// The landmark and frame errors of [`LaplaceField::solve`].
@@ -971,7 +972,7 @@ fn field_estimate(dims: [f64; 3]) -> MemoryEstimate {
     MemoryEstimate::new()
         .with("base", 1.0, 48.0 * 1024.0 * 1024.0)
         .with("field grid", nodes, 60.0)
-        .with("field unknowns", 0.55 * nodes, 500.0)
+        .with("field unknowns", 0.55 * nodes, 220.0)
 }
 
 /// Which vertices of `surface` a triangle uses.
