@@ -11,7 +11,11 @@ use pyo3::types::{PyDict, PyTuple};
 use unfold::cli::ventricle::{
     FullReport, Inputs, Mapped, TransferInput, hemisphere, map_anatomy, settings, with_vertex_cells,
 };
+use unfold::cli::ventricle_surface::build_from;
 use unfold::mesh::CellMesh;
+use unfold::organs::ventricle::enclosing::{
+    DEFAULT_MARGIN_MM, DEFAULT_SMOOTHING_ITERATIONS, DEFAULT_VOXEL_MM,
+};
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
 use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use unfold::organs::ventricle::{Chamber, LandmarkPoints};
@@ -36,11 +40,16 @@ fn chamber(name: &str) -> PyResult<Chamber> {
 }
 
 /// Maps an anatomy into the canonical cylinder; returns `(normalized,
-/// anatomy, disk, transferred or None, report_json)`, each mesh as
-/// `(points, cells, point_data, cell_data)`.
+/// anatomy, disk, transferred or None, report_json, built S or None)`,
+/// each mesh as `(points, cells, point_data, cell_data)`. Without
+/// `points` and `triangles`, S is built from the anatomy
+/// ([`unfold::cli::ventricle_surface::build_from`], `surface_voxel_mm`,
+/// `surface_margin_mm`, `surface_smoothing`), as the command line does
+/// without `--surface`.
 #[pyfunction]
 #[pyo3(signature = (
     points, triangles, anatomy, *, anterior, inferior, apex=None, rim_near=None,
+    surface_voxel_mm=None, surface_margin_mm=None, surface_smoothing=None,
     chamber="lv", grid_mm=None, hemisphere_mm=None, display_exponent=None, snap_mm=None,
     to_points=None, to_triangles=None, to_anterior=None, to_inferior=None, to_apex=None,
     to_rim_near=None, to_hemisphere=None, anatomy_name="anatomy", surface_name="surface",
@@ -49,13 +58,16 @@ fn chamber(name: &str) -> PyResult<Chamber> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn ventricle<'py>(
     py: Python<'py>,
-    points: PyReadonlyArray2<'py, f64>,
-    triangles: PyReadonlyArray2<'py, i64>,
+    points: Option<PyReadonlyArray2<'py, f64>>,
+    triangles: Option<PyReadonlyArray2<'py, i64>>,
     anatomy: Anatomy<'py>,
     anterior: [f64; 3],
     inferior: [f64; 3],
     apex: Option<[f64; 3]>,
     rim_near: Option<[f64; 3]>,
+    surface_voxel_mm: Option<f64>,
+    surface_margin_mm: Option<f64>,
+    surface_smoothing: Option<usize>,
     chamber: &str,
     grid_mm: Option<f64>,
     hemisphere_mm: Option<f64>,
@@ -82,7 +94,26 @@ pub(crate) fn ventricle<'py>(
     )
     .map_err(crate::error)?;
     let parameters = format!("{config:?}");
-    let surface = tri_mesh(&points, &triangles, surface_name)?;
+    let given = match (&points, &triangles) {
+        (Some(p), Some(t)) => {
+            if surface_voxel_mm.is_some()
+                || surface_margin_mm.is_some()
+                || surface_smoothing.is_some()
+            {
+                return Err(crate::error(
+                    "surface_voxel_mm, surface_margin_mm and surface_smoothing are for S built \
+                     from the anatomy; give them without points and triangles",
+                ));
+            }
+            Some(tri_mesh(p, t, surface_name)?)
+        }
+        (None, None) => None,
+        _ => {
+            return Err(crate::error(
+                "give both points and triangles of S, or neither (S built from the anatomy)",
+            ));
+        }
+    };
     let (ap, ac, apd, acd) = anatomy;
     let anatomy = cell_mesh(ap, &ac, apd.as_ref(), acd.as_ref())?;
     if anatomy.positions.is_empty() {
@@ -90,11 +121,32 @@ pub(crate) fn ventricle<'py>(
             "{anatomy_name}: has no points; the anatomy to map is a mesh or points inside S"
         )));
     }
-    let landmarks = LandmarkPoints {
+    let mut landmarks = LandmarkPoints {
         anterior: point(anterior, "anterior")?,
         inferior: point(inferior, "inferior")?,
         apex: opt_point(apex, "apex")?,
         rim_near: opt_point(rim_near, "rim_near")?,
+    };
+    let built_label = format!("S built from {anatomy_name}");
+    let (surface, built, surface_name) = match given {
+        Some(s) => (s, None, surface_name),
+        None => {
+            let built = py
+                .detach(|| {
+                    build_from(
+                        &anatomy,
+                        anatomy_name,
+                        &landmarks,
+                        surface_voxel_mm.unwrap_or(DEFAULT_VOXEL_MM),
+                        surface_margin_mm.unwrap_or(DEFAULT_MARGIN_MM),
+                        surface_smoothing.unwrap_or(DEFAULT_SMOOTHING_ITERATIONS),
+                    )
+                })
+                .map_err(crate::error)?;
+            // the given rim landmarks lie on the anatomy's rim: carried to S's
+            [landmarks.anterior, landmarks.inferior] = built.rim_landmarks;
+            (built.surface.clone(), Some(built), built_label.as_str())
+        }
     };
     if to_hemisphere.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
         return Err(crate::error(format!(
@@ -171,7 +223,7 @@ pub(crate) fn ventricle<'py>(
         report: &outcome.report,
         transfer: transferred.as_ref().map(|(_, r)| r),
         sensitivity: None,
-        enclosing_surface: None,
+        enclosing_surface: built.as_ref().map(|b| &b.report),
         memory: Memory::predicted(outcome.report.field.estimated_bytes),
         provenance: Provenance::new(parameters, started),
     })?;
@@ -182,6 +234,10 @@ pub(crate) fn ventricle<'py>(
         Some((mesh, _)) => mesh_tuple(py, &with_vertex_cells(mesh))?.into_any(),
         None => py.None().into_bound(py),
     };
+    let built = match &built {
+        Some(b) => mesh_tuple(py, &CellMesh::from(&b.surface))?.into_any(),
+        None => py.None().into_bound(py),
+    };
     PyTuple::new(
         py,
         [
@@ -190,6 +246,7 @@ pub(crate) fn ventricle<'py>(
             disk.into_any(),
             transferred,
             json.into_pyobject(py)?.into_any(),
+            built,
         ],
     )
 }

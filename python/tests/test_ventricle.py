@@ -139,3 +139,55 @@ def test_a_transfer_to_a_second_surface_equals_the_cli(cup, unfold_bin, tmp_path
     assert r.report["transfer"]["surface"] == str(tmp_path / "s2.vtu")
     # Scaling the heart scales the carried points (to the grid's accuracy).
     assert np.abs(t.points - 1.2 * pts).max() < 0.5 * GRID
+
+
+BUILT_FLAGS = ["--surface-voxel-mm", 1, "--surface-margin-mm", 2]
+
+
+def test_s_built_from_the_anatomy_equals_the_cli(cup, unfold_bin, tmp_path):
+    # The cup's own wall as the anatomy (an open surface): S is built outside it.
+    anatomy = tmp_path / "wall.vtu"
+    unfold.write_mesh(anatomy, cup.surface)
+    cli(unfold_bin, "ventricle", anatomy, *landmark_flags(cup), *BUILT_FLAGS,
+        "--grid-mm", GRID, "-o", tmp_path / "out", "--no-figures")
+    r = unfold.ventricle(anatomy=cup.surface, anterior=cup.anterior, inferior=cup.inferior,
+                         apex=cup.apex, surface_voxel_mm=1, surface_margin_mm=2,
+                         grid_mm=GRID, anatomy_name=str(anatomy))
+    out = tmp_path / "out"
+    assert_mesh_equal(meshio.read(out / "normalized.vtu"), r.points, r.cells, r.arrays)
+    s = r.surface
+    assert_mesh_equal(meshio.read(out / "surface.vtu"), s.points, s.cells,
+                      {**s.point_data, **s.cell_data})
+    cli_report = json.loads((out / "report.json").read_text())
+    assert set(r.report) == set(cli_report)
+    assert r.report["inputs"] == cli_report["inputs"]
+    assert r.report["inputs"]["surface"] == f"S built from {anatomy}"
+    built = {k: v for k, v in r.report["enclosing_surface"].items() if k != "seconds"}
+    assert built == {k: v for k, v in cli_report["enclosing_surface"].items() if k != "seconds"}
+    assert built["voxel_mm"] == 1.0 and built["margin_mm"] == 2.0
+    assert r.report["anatomy_points"] == len(cup.surface.points)
+
+
+def test_a_given_s_has_no_built_surface(both):
+    result, _ = both
+    assert result.surface is None
+    assert "enclosing_surface" not in result.report
+
+
+def test_bad_inputs_of_a_built_s(cup, unfold_bin, tmp_path):
+    s = cup.surface
+    kw = {"anterior": cup.anterior, "inferior": cup.inferior}
+    with pytest.raises(unfold.UnfoldError, match="give both points and triangles of S"):
+        unfold.ventricle(s.points, anatomy=s, **kw)
+    with pytest.raises(unfold.UnfoldError, match="or the anatomy to build it from"):
+        unfold.ventricle(**kw)
+    with pytest.raises(unfold.UnfoldError, match="are for S built from the anatomy"):
+        unfold.ventricle(s.points, s.cells["triangle"], surface_voxel_mm=1.0, **kw)
+    anatomy = tmp_path / "wall.vtu"
+    unfold.write_mesh(anatomy, s)
+    out = cli(unfold_bin, "ventricle", anatomy, *landmark_flags(cup),
+              "--surface-voxel-mm", "-1", "-o", tmp_path / "o", ok=False)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.ventricle(anatomy=s, surface_voxel_mm=-1.0, **kw)
+    assert str(e.value) == "--surface-voxel-mm must be a finite number > 0, got -1"
+    assert f"unfold: error: {e.value}" in out.stderr

@@ -41,6 +41,7 @@ class VentricleResult(MapResult):
     anatomy: Mesh
     disk: Mesh
     transferred: Optional[Mesh]
+    surface: Optional[Mesh]
 
 class MitralResult(MapResult):
     original: Mesh
@@ -121,14 +122,17 @@ def tet_mesh(
     name: str = ...,
 ) -> TetMeshResult: ...
 def ventricle(
-    points: np.ndarray,
-    triangles: np.ndarray,
+    points: Optional[np.ndarray] = ...,
+    triangles: Optional[np.ndarray] = ...,
     *,
     anterior: _Point,
     inferior: _Point,
     apex: Optional[_Point] = ...,
     rim_near: Optional[_Point] = ...,
     anatomy: Union[Mesh, np.ndarray, None] = ...,
+    surface_voxel_mm: Optional[float] = ...,
+    surface_margin_mm: Optional[float] = ...,
+    surface_smoothing: Optional[int] = ...,
     chamber: str = ...,
     grid_mm: Optional[float] = ...,
     hemisphere_mm: Optional[float] = ...,

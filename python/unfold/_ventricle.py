@@ -33,14 +33,18 @@ class VentricleResult(MapResult):
             (``disk.vtu``).
         transferred: the anatomy carried into the second heart
             (``transferred.vtu``), or None without a transfer.
+        surface: S when it was built from the anatomy (``surface.vtu``),
+            None when it was given.
         report: ``report.json``'s keys: ``inputs``, the library report's,
-            ``transfer`` (with one), ``memory`` (the field's prediction only)
+            ``transfer`` (with one), ``enclosing_surface`` (with a built
+            S), ``memory`` (the field's prediction only)
             and ``provenance`` (``interface: "python"``).
     """
 
     anatomy: Mesh
     disk: Mesh
     transferred: Optional[Mesh]
+    surface: Optional[Mesh] = None
 
     @property
     def mesh(self) -> Mesh:
@@ -54,14 +58,17 @@ def _surface(s, what: str) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def ventricle(
-    points,
-    triangles,
+    points=None,
+    triangles=None,
     *,
     anterior,
     inferior,
     apex=None,
     rim_near=None,
     anatomy: Union[Mesh, np.ndarray, None] = None,
+    surface_voxel_mm: Optional[float] = None,
+    surface_margin_mm: Optional[float] = None,
+    surface_smoothing: Optional[int] = None,
     chamber: str = "lv",
     grid_mm: Optional[float] = None,
     hemisphere_mm: Optional[float] = None,
@@ -87,8 +94,14 @@ def ventricle(
     ``d(v) = len(v_S -> v) / len(v_S -> v_H)`` along the streamline through
     ``v``. The GIL is released while the Rust code runs.
 
+    Without ``points`` and ``triangles``, S is built from the anatomy as the
+    command line does without ``--surface``: voxelized, dilated, filled,
+    its boundary smoothed and cut at the basal plane; the rim landmarks
+    given on the anatomy's rim are carried onto S's.
+
     Args:
-        points: (n, 3) vertices of S, mm (RAS).
+        points: (n, 3) vertices of S, mm (RAS); None (with ``triangles``)
+            to build S from ``anatomy``.
         triangles: (m, 3) triangles of S.
         anterior: the anterior RV insertion point (LV) or first septal corner
             (RV), X, Y, Z on the rim of S (``--anterior``).
@@ -98,7 +111,14 @@ def ventricle(
         rim_near: a point near the basal rim when S has several openings.
         anatomy: what to map: a :class:`Mesh` (its points are mapped, its
             cells and arrays kept) or (k, 3) points; None maps S's own
-            vertices.
+            vertices. Required, as a :class:`Mesh` with cells (tets or
+            triangles), when S is built from it.
+        surface_voxel_mm: with S built: the voxel size, mm (None: 0.5,
+            ``--surface-voxel-mm``).
+        surface_margin_mm: with S built: how far S stays from the anatomy,
+            mm (None: the default, ``--surface-margin-mm``).
+        surface_smoothing: with S built: Taubin iterations (None: the
+            default, ``--surface-smoothing``).
         chamber: "lv" (default) or "rv".
         grid_mm: Laplace grid spacing, mm (None: the command line's default).
         hemisphere_mm: radius of H, mm (None: the default).
@@ -120,7 +140,18 @@ def ventricle(
         UnfoldError: a bad setting, surface, landmark or anatomy, with the
             command line's message.
     """
-    sp, st = _surface((points, triangles), surface_name)
+    if points is None and triangles is None:
+        if anatomy is None:
+            raise _native.UnfoldError(
+                "give S (points and triangles) or the anatomy to build it from"
+            )
+        sp = st = None
+    elif points is None or triangles is None:
+        raise _native.UnfoldError(
+            "give both points and triangles of S, or neither (S built from the anatomy)"
+        )
+    else:
+        sp, st = _surface((points, triangles), surface_name)
     if anatomy is None:
         anatomy = Mesh(sp, {"triangle": st})
     elif not isinstance(anatomy, Mesh):
@@ -128,7 +159,7 @@ def ventricle(
     to_points = to_triangles = None
     if to_surface is not None:
         to_points, to_triangles = _surface(to_surface, to_name)
-    normalized, anat, disk, transferred, report = _native.ventricle(
+    normalized, anat, disk, transferred, report, built = _native.ventricle(
         sp,
         st,
         mesh_args(anatomy),
@@ -136,6 +167,9 @@ def ventricle(
         inferior=point3(inferior, "inferior"),
         apex=point3(apex, "apex"),
         rim_near=point3(rim_near, "rim_near"),
+        surface_voxel_mm=None if surface_voxel_mm is None else float(surface_voxel_mm),
+        surface_margin_mm=None if surface_margin_mm is None else float(surface_margin_mm),
+        surface_smoothing=None if surface_smoothing is None else int(surface_smoothing),
         chamber=chamber,
         grid_mm=None if grid_mm is None else float(grid_mm),
         hemisphere_mm=None if hemisphere_mm is None else float(hemisphere_mm),
@@ -157,4 +191,5 @@ def ventricle(
         anatomy=Mesh._from_tuple(anat),
         disk=Mesh._from_tuple(disk),
         transferred=None if transferred is None else Mesh._from_tuple(transferred),
+        surface=None if built is None else Mesh._from_tuple(built),
     )

@@ -29,7 +29,7 @@ mod ventricle_grid_sweep;
 mod ventricle_inverse;
 mod ventricle_landmark_args;
 mod ventricle_sensitivity;
-mod ventricle_surface;
+pub mod ventricle_surface;
 
 use crate::io::IoError;
 use crate::mesh::MeshError;

@@ -12,7 +12,7 @@ use crate::mesh::TriMesh;
 use crate::mesh::nalgebra::Point3;
 use crate::organs::ventricle::LandmarkPoints;
 use crate::organs::ventricle::enclosing::{
-    DEFAULT_MARGIN_MM, DEFAULT_SMOOTHING_ITERATIONS, DEFAULT_VOXEL_MM, EnclosingConfig,
+    DEFAULT_MARGIN_MM, DEFAULT_SMOOTHING_ITERATIONS, DEFAULT_VOXEL_MM, Enclosing, EnclosingConfig,
     EnclosingReport, enclosing_surface,
 };
 use clap::Args;
@@ -52,6 +52,37 @@ pub(crate) struct Built {
     pub report: EnclosingReport,
 }
 
+/// S built from `anatomy` (called `label` in messages) with the rim
+/// landmarks (or RV insertion points) and apex of `given`, with
+/// `voxel_mm` voxels, a `margin_mm` dilation and `smoothing` Taubin
+/// iterations (the command line's and Python's one path; errors as the
+/// command line words them).
+///
+/// # Errors
+/// A usage error for a size that is not finite and positive; the
+/// pipeline's error about `label` when S cannot be built.
+pub fn build_from(
+    anatomy: &crate::mesh::CellMesh,
+    label: &str,
+    given: &LandmarkPoints,
+    voxel_mm: f64,
+    margin_mm: f64,
+    smoothing: usize,
+) -> Result<Enclosing, CliError> {
+    let config = EnclosingConfig {
+        voxel_mm: positive("--surface-voxel-mm", voxel_mm)?,
+        margin_mm: positive("--surface-margin-mm", margin_mm)?,
+        smoothing_iterations: smoothing,
+    };
+    enclosing_surface(
+        anatomy,
+        [given.anterior, given.inferior],
+        given.apex,
+        &config,
+    )
+    .map_err(|e| organ(label, e))
+}
+
 /// Builds S from `anatomy` (named `anatomy_path`) with the rim landmarks
 /// (or the RV insertion points) of `given` (an input inside DIR, which
 /// `surface.vtu` could overwrite, is refused by the staging of the outputs
@@ -62,19 +93,15 @@ pub(crate) fn build(
     anatomy_path: &Path,
     given: &LandmarkPoints,
 ) -> Result<Built, CliError> {
-    let config = EnclosingConfig {
-        voxel_mm: positive("--surface-voxel-mm", args.surface_voxel_mm)?,
-        margin_mm: positive("--surface-margin-mm", args.surface_margin_mm)?,
-        smoothing_iterations: args.surface_smoothing,
-    };
     let label = anatomy_path.display().to_string();
-    let e = enclosing_surface(
+    let e = build_from(
         anatomy,
-        [given.anterior, given.inferior],
-        given.apex,
-        &config,
-    )
-    .map_err(|e| organ(&label, e))?;
+        &label,
+        given,
+        args.surface_voxel_mm,
+        args.surface_margin_mm,
+        args.surface_smoothing,
+    )?;
     let r = &e.report;
     println!(
         "{label}: built S from the anatomy ({}, {} mm voxels, {} mm dilation, {} smoothing \
