@@ -20,6 +20,7 @@ mod shapes;
 mod template;
 mod tet_mesh;
 mod ventricle;
+mod ventricle_inverse;
 
 use pyo3::prelude::*;
 
@@ -68,6 +69,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     }
     m.add_function(wrap_pyfunction!(tet_mesh::tet_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(ventricle::ventricle, m)?)?;
+    m.add_function(wrap_pyfunction!(ventricle_inverse::ventricle_inverse, m)?)?;
     m.add_function(wrap_pyfunction!(mitral::mitral, m)?)?;
     m.add_function(wrap_pyfunction!(deform::deform, m)?)?;
     m.add_function(wrap_pyfunction!(shapes::ventricle_cup_shape, m)?)?;

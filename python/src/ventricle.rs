@@ -29,7 +29,7 @@ type Anatomy<'py> = (
 );
 
 /// The chamber of a name ("lv", "rv").
-fn chamber(name: &str) -> PyResult<Chamber> {
+pub(crate) fn chamber(name: &str) -> PyResult<Chamber> {
     match name.to_ascii_lowercase().as_str() {
         "lv" => Ok(Chamber::Lv),
         "rv" => Ok(Chamber::Rv),

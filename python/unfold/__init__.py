@@ -12,6 +12,8 @@ its defaults and its one-line error messages:
   a :class:`PlacentaResult`;
 * :func:`ventricle`: ``unfold ventricle`` on an enclosing surface, its
   landmarks and an anatomy, returning a :class:`VentricleResult`;
+* :func:`ventricle_inverse`: ``unfold ventricle-inverse``, a mesh in the
+  cylinder carried back onto a heart, returning an :class:`InverseResult`;
 * :func:`mitral`: ``unfold mitral`` on one valve, returning a
   :class:`MitralResult`;
 * :func:`deform`: ``unfold deform`` on a tet mesh and targets, returning a
@@ -40,12 +42,14 @@ from ._placenta import PlacentaResult, placenta
 from ._template import Side, Template, check_template
 from ._tet_mesh import TetMeshResult, tet_mesh
 from ._ventricle import VentricleResult, ventricle
+from ._ventricle_inverse import InverseResult, ventricle_inverse
 from ._mitral import MitralResult, mitral
 from ._deform import DeformResult, deform
 from . import shapes
 
 __all__ = [
     "DeformResult",
+    "InverseResult",
     "MapResult",
     "Mesh",
     "MitralResult",
@@ -64,5 +68,6 @@ __all__ = [
     "shapes",
     "tet_mesh",
     "ventricle",
+    "ventricle_inverse",
     "write_mesh",
 ]

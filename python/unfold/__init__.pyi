@@ -43,6 +43,8 @@ class VentricleResult(MapResult):
     transferred: Optional[Mesh]
     surface: Optional[Mesh]
 
+class InverseResult(MapResult): ...
+
 class MitralResult(MapResult):
     original: Mesh
 
@@ -148,6 +150,25 @@ def ventricle(
     surface_name: str = ...,
     to_name: str = ...,
 ) -> VentricleResult: ...
+def ventricle_inverse(
+    normalized: Union[Mesh, np.ndarray],
+    points: np.ndarray,
+    triangles: np.ndarray,
+    *,
+    anterior: _Point,
+    inferior: _Point,
+    apex: Optional[_Point] = ...,
+    rim_near: Optional[_Point] = ...,
+    coordinates: str = ...,
+    layers: Optional[int] = ...,
+    chamber: str = ...,
+    grid_mm: Optional[float] = ...,
+    hemisphere_mm: Optional[float] = ...,
+    display_exponent: Optional[float] = ...,
+    snap_mm: Optional[float] = ...,
+    normalized_name: str = ...,
+    surface_name: str = ...,
+) -> InverseResult: ...
 def mitral(
     anterior: _Surface,
     posterior: _Surface,

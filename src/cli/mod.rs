@@ -26,7 +26,7 @@ mod pushback;
 mod repair;
 pub mod ventricle;
 mod ventricle_grid_sweep;
-mod ventricle_inverse;
+pub mod ventricle_inverse;
 mod ventricle_landmark_args;
 mod ventricle_sensitivity;
 pub mod ventricle_surface;

@@ -46,23 +46,25 @@ use super::ventricle_landmark_args::HeartLandmarkArgs;
 use super::{CliError, MeshFrameArg, at, organ};
 use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
-use crate::mesh::{CellMesh, Field};
+use crate::mesh::{CellMesh, Field, TriMesh};
 use crate::organs::ventricle::disk::display_warp;
 use crate::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
 use crate::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
 use crate::organs::ventricle::rv_landmarks::FromRv;
-use crate::organs::ventricle::{Chamber, CylinderPoint, Pipeline, PointFailure};
+use crate::organs::ventricle::{
+    Chamber, Config, CylinderPoint, LandmarkPoints, Pipeline, PointFailure,
+};
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// `--coordinates`: where the cylinder coordinates of NORMALIZED's points
 /// come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
-pub(crate) enum CoordinatesArg {
+pub enum CoordinatesArg {
     /// The point arrays when all three are present, else the points.
     Auto,
     /// The point arrays `xi`, `zeta`, `depth` (harmonic disk and depth).
@@ -160,8 +162,10 @@ const LISTED_FAILURES: usize = 20;
 /// Where the coordinates came from, for the report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
-enum Source {
+pub enum Source {
+    /// The point arrays `xi`, `zeta`, `depth`.
     Arrays,
+    /// The points as `(X, Y, depth)`.
     Points,
 }
 
@@ -176,7 +180,7 @@ const ARRAYS: [&str; 3] = ["xi", "zeta", "depth"];
 /// `auto`), an array missing (with `arrays`) or not one value per point.
 fn cylinder_coordinates(
     mesh: &CellMesh,
-    path: &Path,
+    path: &str,
     how: CoordinatesArg,
     chamber: Chamber,
     display_exponent: f64,
@@ -195,7 +199,7 @@ fn cylinder_coordinates(
                     .copied()
                     .filter(|n| !present.contains(n))
                     .collect();
-                return Err(at(
+                return Err(about(
                     path,
                     format!(
                         "has no point array {} (--coordinates arrays reads xi, zeta and depth)",
@@ -209,7 +213,7 @@ fn cylinder_coordinates(
             3 => Source::Arrays,
             0 => Source::Points,
             _ => {
-                return Err(at(
+                return Err(about(
                     path,
                     format!(
                         "has the point array(s) {} but not all of xi, zeta, depth: give all \
@@ -228,9 +232,9 @@ fn cylinder_coordinates(
                 let f = mesh
                     .point_data
                     .get(name)
-                    .ok_or_else(|| at(path, format!("has no point array {name}")))?;
+                    .ok_or_else(|| about(path, format!("has no point array {name}")))?;
                 if f.components() != 1 || f.tuples() != n {
-                    return Err(at(
+                    return Err(about(
                         path,
                         format!(
                             "point array {name} has {} component(s) and {} tuple(s); one value \
@@ -266,6 +270,11 @@ fn cylinder_coordinates(
     Ok((coords, source))
 }
 
+/// A usage error about the input called `label`.
+fn about(label: &str, msg: impl std::fmt::Display) -> CliError {
+    CliError::Usage(format!("{label}: {msg}"))
+}
+
 /// The harmonic disk positions of displayed ones: the LV's display warp
 /// `r' = r^n` inverted, `r = r'^(1/n)` (the warp with exponent `1/n`); the
 /// RV's half disk is not warped. Non-finite positions stay non-finite.
@@ -287,7 +296,7 @@ pub(crate) fn harmonic_positions(
 
 /// Failures per reason in `report.json`.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
-struct FailureCounts {
+pub struct FailureCounts {
     /// Not a cylinder point (not finite, depth outside `[0, 1]`).
     not_on_cylinder: usize,
     /// Disk position outside the flattened S.
@@ -298,7 +307,7 @@ struct FailureCounts {
 
 /// One failure listed in `report.json`.
 #[derive(Debug, Clone, Serialize)]
-struct FailureEntry {
+pub struct FailureEntry {
     /// Index of the point in NORMALIZED.
     point: usize,
     /// Its `inverse_status`.
@@ -309,7 +318,7 @@ struct FailureEntry {
 
 /// Seconds per step.
 #[derive(Debug, Clone, Copy, Serialize)]
-struct InverseSeconds {
+pub struct InverseSeconds {
     /// Repair, landmarks and disk map of S.
     disk: f64,
     /// The Laplace field.
@@ -322,7 +331,7 @@ struct InverseSeconds {
 
 /// The inputs named in `report.json`.
 #[derive(Serialize)]
-struct InverseInputs<'a> {
+pub struct InverseInputs<'a> {
     normalized: &'a str,
     surface: &'a str,
     /// `arrays` or `points`.
@@ -331,9 +340,22 @@ struct InverseInputs<'a> {
     rv_landmarks: Option<&'a FromRv>,
 }
 
-/// `report.json` of `unfold ventricle-inverse`.
+/// `report.json` of `unfold ventricle-inverse`: [`InverseBody`], then
+/// the memory and provenance sections (the command line's or Python's).
 #[derive(Serialize)]
-struct InverseReport<'a, M, P> {
+pub struct InverseReport<'a, M, P> {
+    /// What [`invert`] found.
+    #[serde(flatten)]
+    pub body: &'a InverseBody<'a>,
+    /// Predicted (and measured) peak memory.
+    pub memory: M,
+    /// Version, parameters, time.
+    pub provenance: P,
+}
+
+/// The sections of `report.json` that [`invert`] fills.
+#[derive(Serialize)]
+pub struct InverseBody<'a> {
     inputs: InverseInputs<'a>,
     chamber: Chamber,
     /// Points of NORMALIZED.
@@ -353,8 +375,48 @@ struct InverseReport<'a, M, P> {
     landmark_snap_mm: [f64; 3],
     apex_mm: [f64; 3],
     seconds: InverseSeconds,
-    memory: M,
-    provenance: P,
+}
+
+/// What [`invert`] is given.
+pub struct InverseInput<'a> {
+    /// The mesh in cylinder coordinates.
+    pub normalized: &'a CellMesh,
+    /// What messages and the report call it.
+    pub normalized_label: &'a str,
+    /// Where its coordinates come from.
+    pub coordinates: CoordinatesArg,
+    /// The target heart's S.
+    pub surface: &'a TriMesh,
+    /// What messages and the report call S.
+    pub surface_label: &'a str,
+    /// S's landmarks.
+    pub landmarks: LandmarkPoints,
+    /// The RV insertion points they came from, if so.
+    pub from_rv: Option<&'a FromRv>,
+    /// The chart's settings ([`settings`]).
+    pub config: Config,
+    /// `--layers`.
+    pub layers: Option<u32>,
+    /// When the run started (for `seconds.total`).
+    pub started: Instant,
+}
+
+/// What [`invert`] computes before anything is written.
+pub struct Inverted<'a> {
+    /// The input with its points at `psi^-1` and the point arrays of the
+    /// module doc (`mapped.vtu`).
+    pub mapped: CellMesh,
+    /// `report.json` without memory and provenance.
+    pub body: InverseBody<'a>,
+    /// The field's predicted memory, bytes.
+    pub estimated_bytes: f64,
+}
+
+impl InverseBody<'_> {
+    /// The points that could not be carried onto the heart.
+    pub fn failed(&self) -> usize {
+        self.failed
+    }
 }
 
 /// Runs `unfold ventricle-inverse`.
@@ -393,32 +455,104 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
     let staging = staged.dir(out)?;
 
     let normalized = read_mesh(&a.normalized)?;
-    if normalized.positions.is_empty() {
-        return Err(at(
-            &a.normalized,
-            "has no points; give a mesh in normalized coordinates (xi, zeta, depth)",
-        ));
-    }
-    let chamber: Chamber = a.chamber.into();
-    let (coords, source) = cylinder_coordinates(
-        &normalized,
-        &a.normalized,
-        a.coordinates,
-        chamber,
-        config.display_exponent,
-    )?;
+    let normalized_label = a.normalized.display().to_string();
     let surface = read_surface(&a.surface, a.mesh_frame)?;
     let surface_label = a.surface.display().to_string();
     let (landmarks, from_rv) = heart_landmarks(&surface, &surface_label, a.chamber, &a.heart)?;
+    let Inverted {
+        mapped,
+        body,
+        estimated_bytes: _,
+    } = invert(&InverseInput {
+        normalized: &normalized,
+        normalized_label: &normalized_label,
+        coordinates: a.coordinates,
+        surface: &surface,
+        surface_label: &surface_label,
+        landmarks,
+        from_rv: from_rv.as_ref(),
+        config,
+        layers: a.layers,
+        started: start,
+    })?;
+    let (n, failed, counts) = (body.points, body.failed, body.failures);
+
+    super::ensure_dir(&staging)?;
+    let mapped_path = staging.join(MAPPED);
+    write_mesh(
+        &mapped_path,
+        &with_vertex_cells(&mapped),
+        &WriteOptions::default(),
+    )
+    .map_err(|e| super::shown(&staged, e.into()))?;
+    let report_path = staging.join(REPORT);
+    let json = serde_json::to_string_pretty(&InverseReport {
+        body: &body,
+        memory: super::memory::report(),
+        provenance: super::provenance::this_run(),
+    })
+    .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
+    atomic_write(&report_path, format!("{json}\n").as_bytes())
+        .map_err(|e| super::shown(&staged, e.into()))?;
+    staged.commit()?;
+    println!(
+        "{}: {} of {} points mapped onto {}{} in {:.2} s (chart {:.2} s, inverse {:.2} s)",
+        normalized_label,
+        n - failed,
+        n,
+        surface_label,
+        if failed > 0 {
+            format!(
+                "; {failed} not (not a cylinder point: {}, off the disk: {}, streamline: {}; \
+                 see inverse_status)",
+                counts.not_on_cylinder, counts.off_disk, counts.streamline
+            )
+        } else {
+            String::new()
+        },
+        start.elapsed().as_secs_f64(),
+        body.seconds.disk + body.seconds.laplace,
+        body.seconds.inverse
+    );
+    for f in [MAPPED, REPORT] {
+        println!("wrote {}", out.join(f).display());
+    }
+    Ok(())
+}
+
+/// `psi^-1` of every point of a mesh in cylinder coordinates onto one
+/// heart (the module doc): the command line's and Python's one path.
+///
+/// # Errors
+/// A usage error for an input without points, coordinates that cannot be
+/// read, or no point mapped; the pipeline's error about S.
+pub fn invert<'a>(input: &InverseInput<'a>) -> Result<Inverted<'a>, CliError> {
+    let normalized = input.normalized;
+    let config = input.config;
+    if normalized.positions.is_empty() {
+        return Err(about(
+            input.normalized_label,
+            "has no points; give a mesh in normalized coordinates (xi, zeta, depth)",
+        ));
+    }
+    let chamber = config.chart.chamber;
+    let (coords, source) = cylinder_coordinates(
+        normalized,
+        input.normalized_label,
+        input.coordinates,
+        chamber,
+        config.display_exponent,
+    )?;
     // The field checks its estimate against the room left (issue 18).
     let mut chart_config = config;
     chart_config.chart.field.max_memory_bytes = super::memory::room();
     let resident = super::memory::resident_bytes().unwrap_or(0.0);
     let chart = Pipeline::new()
         .config(chart_config)
-        .chart(&surface, &landmarks)
-        .map_err(|e| organ(&surface_label, e))?;
-    super::memory::record(resident + chart.field().stats().estimated_bytes);
+        .chart(input.surface, &input.landmarks)
+        .map_err(|e| organ(input.surface_label, e))?;
+    let estimated_bytes = chart.field().stats().estimated_bytes;
+    super::memory::record(resident + estimated_bytes);
 
     let t0 = Instant::now();
     let results: Vec<Result<Point3<f64>, PointFailure>> =
@@ -459,8 +593,8 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
     let failed = n - status.iter().filter(|&&s| s == STATUS_MAPPED).count();
     if failed == n {
         let first = &first_failures[0];
-        return Err(at(
-            &a.normalized,
+        return Err(about(
+            input.normalized_label,
             format!(
                 "none of its {n} points maps onto the heart (not a cylinder point: {}, off the \
                  disk: {}, streamline: {}); point {}: {} (read from the {})",
@@ -495,7 +629,7 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
             coords.iter().map(|c| c.depth).collect(),
         ));
     }
-    if let Some(k) = a.layers {
+    if let Some(k) = input.layers {
         let layer: Vec<i32> = transmural_layers(&coords, k)
             .into_iter()
             .zip(&status)
@@ -503,25 +637,14 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
             .collect();
         mapped.point_data.insert(Field::labels("layer", layer));
     }
-
-    super::ensure_dir(&staging)?;
-    let mapped_path = staging.join(MAPPED);
-    write_mesh(
-        &mapped_path,
-        &with_vertex_cells(&mapped),
-        &WriteOptions::default(),
-    )
-    .map_err(|e| super::shown(&staged, e.into()))?;
     let timings = chart.timings();
     let apex = chart.surface().positions[chart.landmarks().apex as usize];
-    let normalized_label = a.normalized.display().to_string();
-    let report_path = staging.join(REPORT);
-    let json = serde_json::to_string_pretty(&InverseReport {
+    let body = InverseBody {
         inputs: InverseInputs {
-            normalized: &normalized_label,
-            surface: &surface_label,
+            normalized: input.normalized_label,
+            surface: input.surface_label,
             coordinates: source,
-            rv_landmarks: from_rv.as_ref(),
+            rv_landmarks: input.from_rv,
         },
         chamber,
         points: n,
@@ -539,38 +662,14 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
             disk: timings.disk,
             laplace: timings.laplace,
             inverse: inverse_seconds,
-            total: start.elapsed().as_secs_f64(),
+            total: input.started.elapsed().as_secs_f64(),
         },
-        memory: super::memory::report(),
-        provenance: super::provenance::this_run(),
+    };
+    Ok(Inverted {
+        mapped,
+        body,
+        estimated_bytes,
     })
-    .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
-    atomic_write(&report_path, format!("{json}\n").as_bytes())
-        .map_err(|e| super::shown(&staged, e.into()))?;
-    staged.commit()?;
-    println!(
-        "{}: {} of {} points mapped onto {}{} in {:.2} s (chart {:.2} s, inverse {:.2} s)",
-        normalized_label,
-        n - failed,
-        n,
-        surface_label,
-        if failed > 0 {
-            format!(
-                "; {failed} not (not a cylinder point: {}, off the disk: {}, streamline: {}; \
-                 see inverse_status)",
-                counts.not_on_cylinder, counts.off_disk, counts.streamline
-            )
-        } else {
-            String::new()
-        },
-        start.elapsed().as_secs_f64(),
-        timings.disk + timings.laplace,
-        inverse_seconds
-    );
-    for f in [MAPPED, REPORT] {
-        println!("wrote {}", out.join(f).display());
-    }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -601,7 +700,7 @@ mod tests {
     #[test]
     fn partial_arrays_are_refused_and_points_are_read_as_displayed() {
         let mut m = CellMesh::from_points(vec![Point3::new(0.5, 0.0, 0.25)]);
-        let p = Path::new("n.vtu");
+        let p = "n.vtu";
         let (c, s) = cylinder_coordinates(&m, p, CoordinatesArg::Auto, Chamber::Lv, 0.5).unwrap();
         assert_eq!(s, Source::Points);
         assert!((c[0].xi - 0.25).abs() < 1e-15 && c[0].zeta == 0.0 && c[0].depth == 0.25);
