@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Tuple, Union
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
@@ -50,6 +50,27 @@ class VentricleResult(MapResult):
     def mesh(self) -> Mesh:
         """The normalized anatomy as a :class:`Mesh` (to pass to ``write_mesh``)."""
         return Mesh(self.points, self.cells, self.point_data, self.cell_data)
+
+
+def _opt_float(x) -> Optional[float]:
+    return None if x is None else float(x)
+
+
+def _landmarks(anterior, inferior, apex, rim_near, prefix: str = "") -> Dict[str, Any]:
+    """A heart's landmarks as the native functions take them."""
+    return {
+        f"{prefix}{name}": point3(p, f"{prefix}{name}")
+        for name, p in [("anterior", anterior), ("inferior", inferior), ("apex", apex),
+                        ("rim_near", rim_near)]
+    }
+
+
+def _chart_settings(chamber, grid_mm, hemisphere_mm, display_exponent,
+                    snap_mm) -> Dict[str, Any]:
+    """The chart's settings as the native functions take them."""
+    return dict(chamber=chamber, grid_mm=_opt_float(grid_mm),
+                hemisphere_mm=_opt_float(hemisphere_mm),
+                display_exponent=_opt_float(display_exponent), snap_mm=_opt_float(snap_mm))
 
 
 def _surface(s, what: str) -> Tuple[np.ndarray, np.ndarray]:
@@ -163,25 +184,15 @@ def ventricle(
         sp,
         st,
         mesh_args(anatomy),
-        anterior=point3(anterior, "anterior"),
-        inferior=point3(inferior, "inferior"),
-        apex=point3(apex, "apex"),
-        rim_near=point3(rim_near, "rim_near"),
-        surface_voxel_mm=None if surface_voxel_mm is None else float(surface_voxel_mm),
-        surface_margin_mm=None if surface_margin_mm is None else float(surface_margin_mm),
+        **_landmarks(anterior, inferior, apex, rim_near),
+        surface_voxel_mm=_opt_float(surface_voxel_mm),
+        surface_margin_mm=_opt_float(surface_margin_mm),
         surface_smoothing=None if surface_smoothing is None else int(surface_smoothing),
-        chamber=chamber,
-        grid_mm=None if grid_mm is None else float(grid_mm),
-        hemisphere_mm=None if hemisphere_mm is None else float(hemisphere_mm),
-        display_exponent=None if display_exponent is None else float(display_exponent),
-        snap_mm=None if snap_mm is None else float(snap_mm),
+        **_chart_settings(chamber, grid_mm, hemisphere_mm, display_exponent, snap_mm),
         to_points=to_points,
         to_triangles=to_triangles,
-        to_anterior=point3(to_anterior, "to_anterior"),
-        to_inferior=point3(to_inferior, "to_inferior"),
-        to_apex=point3(to_apex, "to_apex"),
-        to_rim_near=point3(to_rim_near, "to_rim_near"),
-        to_hemisphere=None if to_hemisphere is None else float(to_hemisphere),
+        **_landmarks(to_anterior, to_inferior, to_apex, to_rim_near, prefix="to_"),
+        to_hemisphere=_opt_float(to_hemisphere),
         anatomy_name=anatomy_name,
         surface_name=surface_name,
         to_name=to_name,

@@ -8,10 +8,10 @@ from typing import Optional, Union
 import numpy as np
 
 from . import _native
-from ._convert import mesh_args, point3, points as _points
+from ._convert import mesh_args, points as _points
 from ._mesh import Mesh
 from ._result import MapResult
-from ._ventricle import _surface
+from ._ventricle import _chart_settings, _landmarks, _surface
 
 __all__ = ["InverseResult", "ventricle_inverse"]
 
@@ -99,17 +99,10 @@ def ventricle_inverse(
         mesh_args(normalized),
         sp,
         st,
-        anterior=point3(anterior, "anterior"),
-        inferior=point3(inferior, "inferior"),
-        apex=point3(apex, "apex"),
-        rim_near=point3(rim_near, "rim_near"),
+        **_landmarks(anterior, inferior, apex, rim_near),
         coordinates=coordinates,
         layers=None if layers is None else int(layers),
-        chamber=chamber,
-        grid_mm=None if grid_mm is None else float(grid_mm),
-        hemisphere_mm=None if hemisphere_mm is None else float(hemisphere_mm),
-        display_exponent=None if display_exponent is None else float(display_exponent),
-        snap_mm=None if snap_mm is None else float(snap_mm),
+        **_chart_settings(chamber, grid_mm, hemisphere_mm, display_exponent, snap_mm),
         normalized_name=normalized_name,
         surface_name=surface_name,
     )
