@@ -17,8 +17,10 @@
 //! - `geo2 H [FILE]`: the pipeline on Cobiveco geo2 (as
 //!   `benches/ventricle.rs`) at grid `H`: seconds per step, unknowns, round
 //!   trip; with `FILE`, each anatomy point's `xi zeta depth` written there.
-//! - `compare A B`: the largest differences of two such files (the map's
-//!   change between two grids).
+//! - `compare A B`: the largest and mean differences of two such files
+//!   (the map's change between two grids; with B from a finer grid, A's
+//!   error), and how much of it the outer tenth of the points by disk
+//!   radius (the base) carries.
 //! - `transfer H`: geo2 -> ellipsoid -> geo2 at grid `H` (the test
 //!   `transfer_geo2_to_the_ellipsoid_and_back`): the largest distance.
 //!
@@ -219,6 +221,25 @@ fn compare(a: &str, b: &str) -> Res<()> {
         "compare: {} points, disk position max {disk:.3e} mean {:.3e} (unit disk), depth max {depth:.3e}",
         a.len(),
         sum / a.len() as f64
+    );
+    // the outer tenth of the points by B's disk radius (the base)
+    let mut by_radius: Vec<(f64, f64)> = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (q[0].hypot(q[1]), (p[0] - q[0]).hypot(p[1] - q[1])))
+        .collect();
+    by_radius.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let cut = by_radius.len() * 9 / 10;
+    let (inner, outer) = by_radius.split_at(cut);
+    let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.1).sum::<f64>() / v.len().max(1) as f64;
+    let outer_sum: f64 = outer.iter().map(|x| x.1).sum();
+    println!(
+        "compare: outer tenth (disk radius above {:.2}) mean {:.3e}, {:.0} % of the summed shift; \
+         the rest mean {:.3e}",
+        outer.first().map_or(f64::NAN, |x| x.0),
+        mean(outer),
+        100.0 * outer_sum / sum.max(f64::MIN_POSITIVE),
+        mean(inner)
     );
     Ok(())
 }
