@@ -11,7 +11,7 @@ use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::time::Instant;
-use unfold::cli::ventricle::{settings, with_vertex_cells};
+use unfold::cli::ventricle::{MAX_LAYERS, settings, with_vertex_cells};
 use unfold::cli::ventricle_inverse::{CoordinatesArg, InverseInput, InverseReport, invert};
 use unfold::organs::ventricle::LandmarkPoints;
 use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
@@ -25,9 +25,6 @@ type Normalized<'py> = (
     Option<Bound<'py, PyDict>>,
     Option<Bound<'py, PyDict>>,
 );
-
-/// Most transmural layers (`--layers`).
-const MAX_LAYERS: u32 = 100;
 
 /// Carries a mesh in cylinder coordinates onto the heart of S; returns
 /// `(mapped, report_json)`, the mesh as `(points, cells, point_data,

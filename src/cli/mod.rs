@@ -383,7 +383,13 @@ pub(crate) fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
 
 /// A usage error naming `path`.
 pub(crate) fn at(path: &std::path::Path, msg: impl std::fmt::Display) -> CliError {
-    CliError::Usage(format!("{}: {msg}", path.display()))
+    about(&path.display().to_string(), msg)
+}
+
+/// A usage error about the input called `label` (a path, or what Python
+/// calls an array).
+pub(crate) fn about(label: &str, msg: impl std::fmt::Display) -> CliError {
+    CliError::Usage(format!("{label}: {msg}"))
 }
 
 /// A pipeline error (an [`OrganError`] or one of the organs' own errors)

@@ -114,7 +114,7 @@ pub struct VentricleArgs {
     /// of normalized.vtu and anatomy.vtu, 1 at S (depth 0) to N at the
     /// hemisphere H (depth 1), `min(floor(depth N) + 1, N)` (3: the
     /// enclosing surface's, middle and inner thirds).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_LAYERS)))]
     layers: Option<u32>,
     /// Landmark sensitivity (the source paper's Fig. 14-17): rebuild the
     /// chart with the landmarks moved MM mm, ten ways (each rim landmark
@@ -371,6 +371,10 @@ fn progress(line: impl FnOnce() -> String) {
         eprintln!("ventricle: {}", line());
     }
 }
+
+/// Most transmural layers `--layers` takes (the command line's and
+/// Python's bound).
+pub const MAX_LAYERS: u32 = 100;
 
 /// `--layers n`: the transmural layer of each point, `1` at S to `n` at H:
 /// `min(floor(d n) + 1, n)` for the depth `d` in `[0, 1]`.

@@ -40,10 +40,11 @@
 //!   and landmarks, seconds, memory and provenance.
 
 use super::ventricle::{
-    ChamberArg, heart_landmarks, read_surface, settings, transmural_layers, with_vertex_cells,
+    ChamberArg, MAX_LAYERS, heart_landmarks, read_surface, settings, transmural_layers,
+    with_vertex_cells,
 };
 use super::ventricle_landmark_args::HeartLandmarkArgs;
-use super::{CliError, MeshFrameArg, at, organ};
+use super::{CliError, MeshFrameArg, about, at, organ};
 use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::{CellMesh, Field, TriMesh};
@@ -127,7 +128,7 @@ pub struct VentricleInverseArgs {
     /// Label N transmural layers of equal depth: the point array `layer`,
     /// 1 at S (depth 0) to N at H (depth 1), `min(floor(depth N) + 1, N)`;
     /// 0 for a point not mapped.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_LAYERS)))]
     layers: Option<u32>,
 }
 
@@ -270,11 +271,6 @@ fn cylinder_coordinates(
     Ok((coords, source))
 }
 
-/// A usage error about the input called `label`.
-fn about(label: &str, msg: impl std::fmt::Display) -> CliError {
-    CliError::Usage(format!("{label}: {msg}"))
-}
-
 /// The harmonic disk positions of displayed ones: the LV's display warp
 /// `r' = r^n` inverted, `r = r'^(1/n)` (the warp with exponent `1/n`); the
 /// RV's half disk is not warped. Non-finite positions stay non-finite.
@@ -410,13 +406,6 @@ pub struct Inverted<'a> {
     pub body: InverseBody<'a>,
     /// The field's predicted memory, bytes.
     pub estimated_bytes: f64,
-}
-
-impl InverseBody<'_> {
-    /// The points that could not be carried onto the heart.
-    pub fn failed(&self) -> usize {
-        self.failed
-    }
 }
 
 /// Runs `unfold ventricle-inverse`.
