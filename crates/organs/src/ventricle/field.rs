@@ -22,7 +22,8 @@
 //! the boundary value there (Gibou et al. 2002, symmetric and second order):
 //! `(u_n - u_b) / theta` in place of `u_n - u_m`. A link that leaves through
 //! the skirt carries no flux. The system is solved by conjugate gradients
-//! with a multigrid preconditioner ([`unfold_linalg::multigrid`]).
+//! preconditioned by a matrix-free geometric multigrid V-cycle
+//! (`field/geometric.rs`): no matrix is stored for the grid itself.
 //!
 //! **Gradient.** At each unknown node, `df/dx_a` is the second-order
 //! three-point derivative on the two (possibly shortened) arms of axis `a`,
@@ -34,12 +35,14 @@
 //! point is the trilinear interpolation of the nodal gradients: one
 //! continuous field, mirrored across the cap (`g_z(x, y, -z) = -g_z(x, y, z)`).
 
+mod geometric;
+
 use super::error::VentricleError;
 use super::landmarks::Landmarks;
 use crate::OrganError;
+use geometric::Hierarchy;
 use serde::{Deserialize, Serialize};
 use unfold_linalg::Csr;
-use unfold_linalg::multigrid::{COARSEST, Multigrid, pcg};
 use unfold_mesh::TriMesh;
 use unfold_mesh::memory::MemoryEstimate;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
@@ -54,6 +57,9 @@ pub const EXTENSION_LAYERS: usize = 3;
 /// grid is refused as too fine for memory.
 pub const MAX_GRID_NODES: usize = 250_000_000;
 
+/// Conjugate-gradient iterations before the solve is a failure (about 12
+/// are needed at any spacing).
+const MAX_ITERATIONS: usize = 500;
 /// Nodes of padding around S's bounding box.
 const PAD: usize = EXTENSION_LAYERS + 2;
 /// Boundary links shorter than this fraction of `h` are lengthened to it
@@ -372,7 +378,10 @@ impl LaplaceField {
             .map(|&v| [local[v as usize][0], local[v as usize][1]])
             .collect();
         let mut state = classify(&grid, &crossings[2], &rim2, radius);
-        let index = connected_unknowns(&grid, &mut state);
+        let mut index = connected_unknowns(&grid, &mut state);
+        // red unknowns first: the multigrid's red-black smoother works on
+        // the two halves of one vector
+        let n_red = geometric::colour_numbering(&grid, &mut index);
         let unknowns = index.iter().filter(|&&x| x != u32::MAX).count();
         if unknowns == 0 {
             return Err(VentricleError::NoUnknowns { grid_mm: h }.into());
@@ -384,22 +393,19 @@ impl LaplaceField {
             crossings: &crossings,
             radius,
         };
-        // A, b and the hierarchy live in this block only: they are freed
-        // before the gradients are allocated
-        let (f, levels, report) = {
-            let (a, b) = ctx.assemble()?;
-            // the hierarchy keeps A as its finest level: no second copy
-            let small = (a.n_rows() <= COARSEST).then(|| a.clone());
-            let mg = Multigrid::for_grid(a, dims, &index)?;
-            let a = small
-                .as_ref()
-                .or(mg.matrix())
-                .ok_or(VentricleError::NoFinestLevel)?;
-            let mut f = vec![0.0; unknowns];
-            let report = pcg(a, &b, &mut f, &mg, config.tolerance, 500)?;
-            (f, mg.levels(), report)
+        // the hierarchy and the solver's vectors live in this block only:
+        // they are freed before the gradients are allocated
+        let (f, levels, iterations, relative_residual) = {
+            let hierarchy = Hierarchy::new(&ctx, n_red, &local, &surface.triangles, &rim2)?;
+            let mut r = hierarchy.finest().rhs(&ctx);
+            let (x, iterations, relative_residual) =
+                geometric::pcg(&hierarchy, &mut r, config.tolerance, MAX_ITERATIONS)?;
+            drop(r);
+            let f = geometric::Level::into_vector(x, unknowns / 4);
+            (f, hierarchy.depth(), iterations, relative_residual)
         };
-        let (slot, grad, value) = ctx.gradients(&f);
+        let grad = ctx.unknown_gradients(&f);
+        let (slot, grad, value) = extend(&grid, &state, index, grad, f);
         Ok(LaplaceField {
             frame,
             grid,
@@ -411,8 +417,8 @@ impl LaplaceField {
                 grid_nodes: total,
                 unknowns,
                 levels,
-                iterations: report.iterations,
-                relative_residual: report.relative_residual,
+                iterations,
+                relative_residual,
                 estimated_bytes: estimate.total(),
             },
         })
@@ -420,17 +426,19 @@ impl LaplaceField {
 
     /// The memory [`LaplaceField::solve`] will allocate on `surface`, before
     /// it allocates: per grid node (`n` nodes of the box around the surface
-    /// in the basal frame, see `grid_box`) its state, index and axis
-    /// crossings (60 B), and per unknown (taken as `0.55 n`, a cup or an
-    /// ellipsoid fills about half its box) the 7-point matrix, the
-    /// multigrid hierarchy, the conjugate gradient's vectors and the
-    /// gradients (220 B, with the allocator's slack), and 48 MiB besides:
-    /// 181 B per box node in all. Measured peaks of whole runs
-    /// (`unfold ventricle`, `VmHWM`): 135 to 150 B per box node, Cobiveco
-    /// geo2 at 1 mm (2.06 M nodes, 343 MiB) and 0.5 mm (14.7 M nodes,
-    /// 1,925 MiB), the demo cup at 0.6 mm (186 MiB,
-    /// `tests/memory_cli.rs`); so the estimate is 1.15 to 1.35 times the
-    /// peak.
+    /// in the basal frame, see `grid_box`) its state, unknown number, axis
+    /// crossings and the coarse levels' (12 B), and per unknown (taken as
+    /// `0.55 n`, a cup or an ellipsoid fills about half its box) the
+    /// solver's box node, diagonal and five vectors, the coarse levels' and
+    /// the allocator's slack (64 B; the gradients, 40 B, come after the
+    /// solver's memory is freed), and 96 MiB besides (the pipeline's other
+    /// steps while the field is alive): 47 B per box node. Measured on
+    /// whole runs (`unfold ventricle`, `VmHWM`; predicted: the estimate
+    /// plus the resident size before the field): Cobiveco geo2 at 1 mm
+    /// (2.06 M nodes) 220.9 MiB against peaks of 183 to 199 MiB, at 0.5 mm
+    /// (14.7 M nodes) 791.9 against 561 to 577 MiB, the demo cup at 0.6 mm
+    /// (`tests/memory_cli.rs`) 159 against 125 MiB; so the estimate is 1.1
+    /// to 1.4 times the peak.
     ///
     /// # Errors
     /// The landmark and frame errors of [`LaplaceField::solve`].
@@ -856,20 +864,19 @@ impl Ctx<'_> {
         Ok((a, b))
     }
 
-    /// Nodal gradients on U and the extension layers; values `f`.
-    fn gradients(&self, f: &[f64]) -> (Vec<u32>, Vec<[f64; 3]>, Vec<f64>) {
+    /// Nodal gradients of the unknowns, in unknown order, with room for
+    /// the extension layers.
+    fn unknown_gradients(&self, f: &[f64]) -> Vec<[f64; 3]> {
         let g = self.grid;
-        let n = self.state.len();
-        let mut slot = vec![u32::MAX; n];
-        let mut grad: Vec<[f64; 3]> = Vec::with_capacity(f.len() * 5 / 4);
-        let mut value: Vec<f64> = Vec::with_capacity(f.len() * 5 / 4);
+        let mut grad = Vec::with_capacity(f.len() + f.len() / 4);
+        grad.resize(f.len(), [0.0; 3]);
         for (id, &row) in self.index.iter().enumerate() {
             if row == u32::MAX {
                 continue;
             }
             let u0 = f[row as usize];
             let cap = g.ijk(id)[2] == 0;
-            let mut gr = [0.0; 3];
+            let gr = &mut grad[row as usize];
             for (a, ga) in gr.iter_mut().enumerate() {
                 if a == 2 && cap {
                     continue;
@@ -891,54 +898,70 @@ impl Ctx<'_> {
                     (None, None) => 0.0,
                 };
             }
-            slot[id] = grad.len() as u32;
-            grad.push(gr);
-            value.push(u0);
         }
-        // extension, layer by layer (26-neighbourhood)
-        let mut frontier: Vec<usize> = Vec::new();
-        let mut defined: Vec<usize> = (0..n).filter(|&id| slot[id] != u32::MAX).collect();
-        for _ in 0..EXTENSION_LAYERS {
-            frontier.clear();
-            for &id in &defined {
-                for_each_neighbour26(g, id, |m| {
-                    if slot[m] == u32::MAX {
-                        frontier.push(m);
-                    }
-                });
-            }
-            frontier.sort_unstable();
-            frontier.dedup();
-            let mut new: Vec<(usize, [f64; 3])> = Vec::with_capacity(frontier.len());
-            for &id in &frontier {
-                let mut s = [0.0; 3];
-                let mut c = 0usize;
-                for_each_neighbour26(g, id, |m| {
-                    let k = slot[m];
-                    if k != u32::MAX {
-                        let q = grad[k as usize];
-                        s[0] += q[0];
-                        s[1] += q[1];
-                        s[2] += q[2];
-                        c += 1;
-                    }
-                });
-                let inv = 1.0 / c.max(1) as f64;
-                let mut q = [s[0] * inv, s[1] * inv, s[2] * inv];
-                if g.ijk(id)[2] == 0 {
-                    q[2] = 0.0;
-                }
-                new.push((id, q));
-            }
-            for (id, q) in new {
-                slot[id] = grad.len() as u32;
-                grad.push(q);
-                value.push(if self.state[id] == IN_H { 1.0 } else { -1.0 });
-            }
-            defined = std::mem::take(&mut frontier);
-        }
-        (slot, grad, value)
+        grad
     }
+}
+
+/// The extension layers (see the module docs) appended to the unknowns'
+/// gradients `grad` and values `f`: `index` (box node -> unknown) becomes
+/// box node -> slot in `grad`/`value` (`u32::MAX` where there is none), so
+/// no second box-sized array is allocated.
+fn extend(
+    g: &Grid,
+    state: &[u8],
+    mut slot: Vec<u32>,
+    mut grad: Vec<[f64; 3]>,
+    mut value: Vec<f64>,
+) -> (Vec<u32>, Vec<[f64; 3]>, Vec<f64>) {
+    let n = state.len();
+    let mut frontier: Vec<usize> = Vec::new();
+    // the layer before (all of U for the first layer, not stored)
+    let mut defined: Option<Vec<usize>> = None;
+    for _ in 0..EXTENSION_LAYERS {
+        frontier.clear();
+        let mut visit = |id: usize| {
+            for_each_neighbour26(g, id, |m| {
+                if slot[m] == u32::MAX {
+                    frontier.push(m);
+                }
+            })
+        };
+        match &defined {
+            Some(layer) => layer.iter().for_each(|&id| visit(id)),
+            None => (0..n).filter(|&id| slot[id] != u32::MAX).for_each(visit),
+        }
+        frontier.sort_unstable();
+        frontier.dedup();
+        let mut new: Vec<(usize, [f64; 3])> = Vec::with_capacity(frontier.len());
+        for &id in &frontier {
+            let mut s = [0.0; 3];
+            let mut c = 0usize;
+            for_each_neighbour26(g, id, |m| {
+                let k = slot[m];
+                if k != u32::MAX {
+                    let q = grad[k as usize];
+                    s[0] += q[0];
+                    s[1] += q[1];
+                    s[2] += q[2];
+                    c += 1;
+                }
+            });
+            let inv = 1.0 / c.max(1) as f64;
+            let mut q = [s[0] * inv, s[1] * inv, s[2] * inv];
+            if g.ijk(id)[2] == 0 {
+                q[2] = 0.0;
+            }
+            new.push((id, q));
+        }
+        for (id, q) in new {
+            slot[id] = grad.len() as u32;
+            grad.push(q);
+            value.push(if state[id] == IN_H { 1.0 } else { -1.0 });
+        }
+        defined = Some(std::mem::take(&mut frontier));
+    }
+    (slot, grad, value)
 }
 
 fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
@@ -970,9 +993,9 @@ fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
 fn field_estimate(dims: [f64; 3]) -> MemoryEstimate {
     let nodes: f64 = dims.iter().product();
     MemoryEstimate::new()
-        .with("base", 1.0, 48.0 * 1024.0 * 1024.0)
-        .with("field grid", nodes, 60.0)
-        .with("field unknowns", 0.55 * nodes, 220.0)
+        .with("base", 1.0, 96.0 * 1024.0 * 1024.0)
+        .with("field grid", nodes, 12.0)
+        .with("field unknowns", 0.55 * nodes, 64.0)
 }
 
 /// Which vertices of `surface` a triangle uses.
