@@ -41,6 +41,7 @@ use super::error::VentricleError;
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use geometric::Hierarchy;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use unfold_linalg::Csr;
 use unfold_mesh::TriMesh;
@@ -395,16 +396,28 @@ impl LaplaceField {
         };
         // the hierarchy and the solver's vectors live in this block only:
         // they are freed before the gradients are allocated
-        let (f, levels, iterations, relative_residual) = {
-            let hierarchy = Hierarchy::new(&ctx, n_red, &local, &surface.triangles, &rim2)?;
-            let mut r = hierarchy.finest().rhs(&ctx);
-            let (x, iterations, relative_residual) =
-                geometric::pcg(&hierarchy, &mut r, config.tolerance, MAX_ITERATIONS)?;
+        let (f, levels, iterations, relative_residual, ids) = {
+            let (hierarchy, mut r) =
+                Hierarchy::new(&ctx, n_red, &local, &surface.triangles, &rim2)?;
+            let (f, iterations, relative_residual) = geometric::pcg(
+                &hierarchy,
+                &mut r,
+                config.tolerance,
+                MAX_ITERATIONS,
+                unknowns / 4,
+            )?;
             drop(r);
-            let f = geometric::Level::into_vector(x, unknowns / 4);
-            (f, hierarchy.depth(), iterations, relative_residual)
+            let depth = hierarchy.depth();
+            (
+                f,
+                depth,
+                iterations,
+                relative_residual,
+                hierarchy.into_finest_ids(),
+            )
         };
-        let grad = ctx.unknown_gradients(&f);
+        let grad = ctx.unknown_gradients(&f, &ids);
+        drop(ids);
         let (slot, grad, value) = extend(&grid, &state, index, grad, f);
         Ok(LaplaceField {
             frame,
@@ -715,9 +728,28 @@ fn classify(grid: &Grid, zc: &AxisCrossings, rim2: &[[f64; 2]], radius: f64) -> 
 /// a node next to H; other unknown nodes become `OUT`.
 fn connected_unknowns(grid: &Grid, state: &mut [u8]) -> Vec<u32> {
     let n = state.len();
-    let mut seen = vec![false; n];
-    let mut stack = Vec::new();
+    let [nx, ny, nz] = grid.dims;
+    let plane = nx * ny;
+    // no unknown on a box face but the cap (the box is padded around S):
+    // then the six neighbours need no bounds checks but `k > 0`
+    let on_side = |id: usize| {
+        let [i, j, k] = grid.ijk(id);
+        i == 0 || j == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz
+    };
+    let padded = !(0..n)
+        .into_par_iter()
+        .any(|id| state[id] == UNKNOWN && on_side(id));
     let neighbours = |id: usize| -> [Option<usize>; 6] {
+        if padded {
+            return [
+                Some(id - 1),
+                Some(id + 1),
+                Some(id - nx),
+                Some(id + nx),
+                (id >= plane).then(|| id - plane),
+                Some(id + plane),
+            ];
+        }
         let ijk = grid.ijk(id);
         let mut out = [None; 6];
         for a in 0..3 {
@@ -731,17 +763,32 @@ fn connected_unknowns(grid: &Grid, state: &mut [u8]) -> Vec<u32> {
         }
         out
     };
+    let mut seen = vec![false; n];
+    // seeds: the unknowns next to H (found from H's nodes, a few thousand)
+    let mut stack: Vec<u32> = Vec::new();
     for id in 0..n {
-        if state[id] == UNKNOWN && neighbours(id).iter().flatten().any(|&m| state[m] == IN_H) {
-            seen[id] = true;
-            stack.push(id);
+        if state[id] != IN_H {
+            continue;
+        }
+        let ijk = grid.ijk(id);
+        for (a, (&i, &d)) in ijk.iter().zip(&grid.dims).enumerate() {
+            let s = grid.stride(a);
+            for m in [(i > 0).then(|| id - s), (i + 1 < d).then(|| id + s)]
+                .into_iter()
+                .flatten()
+            {
+                if state[m] == UNKNOWN && !seen[m] {
+                    seen[m] = true;
+                    stack.push(m as u32);
+                }
+            }
         }
     }
     while let Some(id) = stack.pop() {
-        for m in neighbours(id).into_iter().flatten() {
+        for m in neighbours(id as usize).into_iter().flatten() {
             if state[m] == UNKNOWN && !seen[m] {
                 seen[m] = true;
-                stack.push(m);
+                stack.push(m as u32);
             }
         }
     }
@@ -864,42 +911,49 @@ impl Ctx<'_> {
         Ok((a, b))
     }
 
-    /// Nodal gradients of the unknowns, in unknown order, with room for
-    /// the extension layers.
-    fn unknown_gradients(&self, f: &[f64]) -> Vec<[f64; 3]> {
-        let g = self.grid;
+    /// Nodal gradients of the unknowns, in unknown order (`ids`: each
+    /// colour's box nodes in that order, red first), with room for the
+    /// extension layers; in parallel.
+    fn unknown_gradients(&self, f: &[f64], ids: &[Vec<u32>; 2]) -> Vec<[f64; 3]> {
         let mut grad = Vec::with_capacity(f.len() + f.len() / 4);
-        grad.resize(f.len(), [0.0; 3]);
-        for (id, &row) in self.index.iter().enumerate() {
-            if row == u32::MAX {
-                continue;
-            }
-            let u0 = f[row as usize];
-            let cap = g.ijk(id)[2] == 0;
-            let gr = &mut grad[row as usize];
-            for (a, ga) in gr.iter_mut().enumerate() {
-                if a == 2 && cap {
-                    continue;
-                }
-                let arm = |dir: i32| -> Option<(f64, f64)> {
-                    match self.link(id, a, dir) {
-                        Link::Node(m) => Some((g.h, f[m as usize])),
-                        Link::Boundary { theta, value } => Some((theta * g.h, value)),
-                        Link::Wall | Link::Mirror => None,
-                    }
-                };
-                *ga = match (arm(-1), arm(1)) {
-                    (Some((da, ua)), Some((db, ub))) => {
-                        (da * da * ub - db * db * ua + (db * db - da * da) * u0)
-                            / (da * db * (da + db))
-                    }
-                    (Some((da, ua)), None) => (u0 - ua) / da,
-                    (None, Some((db, ub))) => (ub - u0) / db,
-                    (None, None) => 0.0,
-                };
-            }
+        for colour in ids {
+            grad.par_extend(
+                colour
+                    .par_iter()
+                    .map(|&id| self.node_gradient(id as usize, f)),
+            );
         }
         grad
+    }
+
+    /// `grad f` at unknown box node `id` (the module docs' three-point
+    /// derivatives).
+    fn node_gradient(&self, id: usize, f: &[f64]) -> [f64; 3] {
+        let g = self.grid;
+        let u0 = f[self.index[id] as usize];
+        let cap = g.ijk(id)[2] == 0;
+        let mut gr = [0.0; 3];
+        for (a, ga) in gr.iter_mut().enumerate() {
+            if a == 2 && cap {
+                continue;
+            }
+            let arm = |dir: i32| -> Option<(f64, f64)> {
+                match self.link(id, a, dir) {
+                    Link::Node(m) => Some((g.h, f[m as usize])),
+                    Link::Boundary { theta, value } => Some((theta * g.h, value)),
+                    Link::Wall | Link::Mirror => None,
+                }
+            };
+            *ga = match (arm(-1), arm(1)) {
+                (Some((da, ua)), Some((db, ub))) => {
+                    (da * da * ub - db * db * ua + (db * db - da * da) * u0) / (da * db * (da + db))
+                }
+                (Some((da, ua)), None) => (u0 - ua) / da,
+                (None, Some((db, ub))) => (ub - u0) / db,
+                (None, None) => 0.0,
+            };
+        }
+        gr
     }
 }
 
@@ -915,51 +969,70 @@ fn extend(
     mut value: Vec<f64>,
 ) -> (Vec<u32>, Vec<[f64; 3]>, Vec<f64>) {
     let n = state.len();
-    let mut frontier: Vec<usize> = Vec::new();
     // the layer before (all of U for the first layer, not stored)
     let mut defined: Option<Vec<usize>> = None;
     for _ in 0..EXTENSION_LAYERS {
-        frontier.clear();
-        let mut visit = |id: usize| {
-            for_each_neighbour26(g, id, |m| {
-                if slot[m] == u32::MAX {
-                    frontier.push(m);
-                }
-            })
-        };
-        match &defined {
-            Some(layer) => layer.iter().for_each(|&id| visit(id)),
-            None => (0..n).filter(|&id| slot[id] != u32::MAX).for_each(visit),
-        }
-        frontier.sort_unstable();
-        frontier.dedup();
-        let mut new: Vec<(usize, [f64; 3])> = Vec::with_capacity(frontier.len());
-        for &id in &frontier {
-            let mut s = [0.0; 3];
-            let mut c = 0usize;
-            for_each_neighbour26(g, id, |m| {
-                let k = slot[m];
-                if k != u32::MAX {
-                    let q = grad[k as usize];
-                    s[0] += q[0];
-                    s[1] += q[1];
-                    s[2] += q[2];
-                    c += 1;
-                }
-            });
-            let inv = 1.0 / c.max(1) as f64;
-            let mut q = [s[0] * inv, s[1] * inv, s[2] * inv];
-            if g.ijk(id)[2] == 0 {
-                q[2] = 0.0;
+        let slot_ref = &slot;
+        let around = |ids: &mut dyn Iterator<Item = usize>| -> Vec<usize> {
+            let mut out = Vec::new();
+            for id in ids {
+                for_each_neighbour26(g, id, |m| {
+                    if slot_ref[m] == u32::MAX {
+                        out.push(m);
+                    }
+                });
             }
-            new.push((id, q));
-        }
-        for (id, q) in new {
+            out
+        };
+        let mut frontier: Vec<usize> = match &defined {
+            Some(layer) => layer
+                .par_chunks(1 << 14)
+                .map(|c| around(&mut c.iter().copied()))
+                .flatten_iter()
+                .collect(),
+            None => (0..n)
+                .into_par_iter()
+                .step_by(1 << 16)
+                .map(|start| {
+                    around(
+                        &mut (start..(start + (1 << 16)).min(n))
+                            .filter(|&id| slot_ref[id] != u32::MAX),
+                    )
+                })
+                .flatten_iter()
+                .collect(),
+        };
+        frontier.par_sort_unstable();
+        frontier.dedup();
+        let new: Vec<[f64; 3]> = frontier
+            .par_iter()
+            .map(|&id| {
+                let mut s = [0.0; 3];
+                let mut c = 0usize;
+                for_each_neighbour26(g, id, |m| {
+                    let k = slot_ref[m];
+                    if k != u32::MAX {
+                        let q = grad[k as usize];
+                        s[0] += q[0];
+                        s[1] += q[1];
+                        s[2] += q[2];
+                        c += 1;
+                    }
+                });
+                let inv = 1.0 / c.max(1) as f64;
+                let mut q = [s[0] * inv, s[1] * inv, s[2] * inv];
+                if g.ijk(id)[2] == 0 {
+                    q[2] = 0.0;
+                }
+                q
+            })
+            .collect();
+        for (&id, q) in frontier.iter().zip(new) {
             slot[id] = grad.len() as u32;
             grad.push(q);
             value.push(if state[id] == IN_H { 1.0 } else { -1.0 });
         }
-        defined = Some(std::mem::take(&mut frontier));
+        defined = Some(frontier);
     }
     (slot, grad, value)
 }
@@ -1391,6 +1464,47 @@ mod tests {
         // the apex given to the field is the cup's
         let apex = h.cup.surface.positions[h.landmarks.apex as usize];
         assert!((frame.local(&apex)[2] - R).abs() < 1e-9);
+    }
+
+    /// Unknowns connected to H are numbered in box order; a pocket cut off
+    /// by a wall of outside nodes becomes outside; both neighbour paths
+    /// (a padded box, and unknowns on the box's faces).
+    #[test]
+    fn only_the_unknowns_connected_to_h_are_numbered() {
+        for (dims, lo, hi) in [([8, 8, 6], 1, 6), ([6, 6, 5], 0, 5)] {
+            let grid = Grid {
+                h: 1.0,
+                origin: [0.0; 3],
+                dims,
+            };
+            let n = dims.iter().product();
+            let mut state = vec![OUT; n];
+            for k in 0..dims[2] - 1 {
+                for j in lo..=hi.min(dims[1] - 1) {
+                    for i in lo..=hi.min(dims[0] - 1) {
+                        // the wall at i = 3 cuts off i > 3
+                        if i != 3 {
+                            state[grid.id(i, j, k)] = UNKNOWN;
+                        }
+                    }
+                }
+            }
+            state[grid.id(2, 2, 0)] = IN_H;
+            let index = connected_unknowns(&grid, &mut state);
+            let mut next = 0;
+            for (id, &q) in index.iter().enumerate() {
+                let [i, _, _] = grid.ijk(id);
+                if state[id] == UNKNOWN {
+                    assert!(i < 3, "{id} {:?}", grid.ijk(id));
+                    assert_eq!(q, next);
+                    next += 1;
+                } else {
+                    assert_eq!(q, u32::MAX);
+                }
+            }
+            let kept = (dims[2] - 1) * (hi.min(dims[1] - 1) - lo + 1) * (3 - lo) - 1;
+            assert_eq!(next as usize, kept, "{dims:?}");
+        }
     }
 
     #[test]
