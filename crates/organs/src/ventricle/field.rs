@@ -442,16 +442,16 @@ impl LaplaceField {
     /// in the basal frame, see `grid_box`) its state, unknown number, axis
     /// crossings and the coarse levels' (12 B), and per unknown (taken as
     /// `0.55 n`, a cup or an ellipsoid fills about half its box) the
-    /// solver's box node, diagonal and five vectors, the coarse levels' and
-    /// the allocator's slack (64 B; the gradients, 40 B, come after the
-    /// solver's memory is freed), and 96 MiB besides (the pipeline's other
-    /// steps while the field is alive): 47 B per box node. Measured on
+    /// solver's box node and four and a half vectors, the coarse levels'
+    /// and the allocator's slack (48 B; the gradients, 40 B, come after the
+    /// solver's memory is freed), and 128 MiB besides (the pipeline's other
+    /// steps while the field is alive): 38.4 B per box node. Measured on
     /// whole runs (`unfold ventricle`, `VmHWM`; predicted: the estimate
     /// plus the resident size before the field): Cobiveco geo2 at 1 mm
-    /// (2.06 M nodes) 220.9 MiB against peaks of 183 to 199 MiB, at 0.5 mm
-    /// (14.7 M nodes) 791.9 against 561 to 577 MiB, the demo cup at 0.6 mm
-    /// (`tests/memory_cli.rs`) 159 against 125 MiB; so the estimate is 1.1
-    /// to 1.4 times the peak.
+    /// (2.06 M nodes) 235.7 MiB against peaks of 201 to 206 MiB, at 0.5 mm
+    /// (14.7 M nodes) 700 against 471 to 527 MiB, the demo cup at 0.6 mm
+    /// (`tests/memory_cli.rs`) 183 against 129 to 133 MiB: 1.15 to 1.5
+    /// times the peak.
     ///
     /// # Errors
     /// The landmark and frame errors of [`LaplaceField::solve`].
@@ -1066,9 +1066,9 @@ fn for_each_neighbour26(g: &Grid, id: usize, mut f: impl FnMut(usize)) {
 fn field_estimate(dims: [f64; 3]) -> MemoryEstimate {
     let nodes: f64 = dims.iter().product();
     MemoryEstimate::new()
-        .with("base", 1.0, 96.0 * 1024.0 * 1024.0)
+        .with("base", 1.0, 128.0 * 1024.0 * 1024.0)
         .with("field grid", nodes, 12.0)
-        .with("field unknowns", 0.55 * nodes, 64.0)
+        .with("field unknowns", 0.55 * nodes, 48.0)
 }
 
 /// Which vertices of `surface` a triangle uses.

@@ -26,11 +26,14 @@
 //! scaled by `h^2` against `(2h)^2`), so `(P^T A_h P)^-1 P^T r` is
 //! approximated by `A_{2h}^-1 (P^T r / 2)`.
 //!
-//! **Memory.** Per unknown of the field's grid: the box-to-unknown numbers
-//! shared with the gradients, its box node (4 B), its diagonal (8 B) and
-//! five vectors during the iteration (`x`, `r`, `p`, `z`, the V-cycle's
-//! residual: 40 B), against about 330 B for the assembled matrix and
-//! Galerkin hierarchy it replaces (geo2 at 0.5 mm: 1,950 to 522 MiB peak).
+//! **Memory.** Per unknown of the field's grid: its box node (4 B), the
+//! diagonal only where it is not the regular 6 (3 on the cap), and five
+//! vectors during the iteration (`x`, `r`, `p`, `z`, half a residual: 36
+//! B); the box-to-unknown numbers are the field's own (shared with the
+//! gradients). The assembled matrix and Galerkin hierarchy this replaces
+//! took about 330 B per unknown (geo2 at 0.5 mm: the whole run's peak
+//! 1,950 MiB before, under 500 MiB now; docs/DESIGN-NOTES.md, "The field's
+//! solver is matrix-free").
 
 use super::{Ctx, Grid, Link, UNKNOWN, axis_crossings, classify, connected_unknowns};
 use crate::OrganError;
@@ -648,8 +651,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// (`r` holds `b` on entry, the last residual on return), preconditioned by
 /// one V-cycle; stops at `|r| <= tol |b|`. Returns `x` (one vector in the
 /// unknown numbering, red first, with room for `extra` more entries), the
-/// iterations and `|r| / |b|`. Five vectors of the finest level are alive at once: `x`,
-/// `r`, `p`, `z` (also holding `A p`) and the V-cycle's residual.
+/// iterations and `|r| / |b|`. Four vectors of the finest level are alive
+/// at once, `x`, `r`, `p` and `z` (which also holds `A p`), and the
+/// V-cycle's red residual.
 ///
 /// # Errors
 /// [`LinalgError::NoConvergence`] after `max_iter` iterations,
