@@ -36,7 +36,7 @@ mod pcg;
 mod points;
 mod prolongation;
 
-pub use pcg::{PcgReport, pcg};
+pub use pcg::{PcgReport, dot, pcg};
 pub use points::{block_prolongation, point_hierarchy, point_prolongation};
 pub use prolongation::grid_prolongation;
 

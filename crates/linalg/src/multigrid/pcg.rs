@@ -17,8 +17,9 @@ pub struct PcgReport {
 }
 
 /// `sum_i a_i b_i`, in parallel chunks for long vectors (chunk sums added
-/// in order, so the result does not depend on the thread count).
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// in order, so the result does not depend on the thread count: runs are
+/// reproducible to the bit).
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     if a.len() < PAR_MIN {
         a.iter().zip(b).map(|(x, y)| x * y).sum()
     } else {

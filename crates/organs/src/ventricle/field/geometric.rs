@@ -27,21 +27,22 @@
 //! approximated by `A_{2h}^-1 (P^T r / 2)`.
 //!
 //! **Memory.** Per unknown of the field's grid: its box node (4 B), the
-//! diagonal only where it is not the regular 6 (3 on the cap), and five
-//! vectors during the iteration (`x`, `r`, `p`, `z`, half a residual: 36
-//! B); the box-to-unknown numbers are the field's own (shared with the
-//! gradients). The assembled matrix and Galerkin hierarchy this replaces
-//! took about 330 B per unknown (geo2 at 0.5 mm: the whole run's peak
-//! 1,950 MiB before, under 500 MiB now; docs/DESIGN-NOTES.md, "The field's
-//! solver is matrix-free").
+//! diagonal only where it is not the regular 6 (3 on the cap), and four
+//! vectors and a half during the iteration (`x`, `r`, `p`, `z` and the
+//! red residual: 36 B); the box-to-unknown numbers are the field's own
+//! (shared with the gradients). The assembled matrix and Galerkin
+//! hierarchy this replaces took about 330 B per unknown (geo2 at 0.5 mm:
+//! `unfold ventricle` peaked at 1,950 MiB before, 471 to 527 MiB now;
+//! docs/DESIGN-NOTES.md, "The field's solver is matrix-free").
 
 use super::{Ctx, Grid, Link, UNKNOWN, axis_crossings, classify, connected_unknowns};
 use crate::OrganError;
 use rayon::prelude::*;
 use std::borrow::Cow;
 use unfold_linalg::LinalgError;
-use unfold_linalg::multigrid::Multigrid;
+use unfold_linalg::multigrid::{Multigrid, dot};
 
+/// Rows per parallel task.
 const CHUNK: usize = 8192;
 /// A level with at most this many unknowns is solved by the algebraic multigrid.
 const ALGEBRAIC_MAX: usize = 120_000;
@@ -633,18 +634,6 @@ fn prolong_add(fine: &Level<'_>, coarse: &Level<'_>, xc: &Split, x: &mut Split) 
             }
         });
     }
-}
-
-/// `sum_i a_i b_i` over fixed chunks added in order, so that the result
-/// does not depend on how the threads split the work (runs are
-/// reproducible to the bit).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let parts: Vec<f64> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
-        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum())
-        .collect();
-    parts.iter().sum()
 }
 
 /// Preconditioned conjugate gradients on the finest level from `x = 0`
