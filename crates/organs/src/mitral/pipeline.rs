@@ -411,8 +411,9 @@ pub(super) fn repair_leaflets(
             })
         })
     };
-    let (a, ra) = one(ANTERIOR, anterior)?;
-    let (p, rp) = one(POSTERIOR, posterior)?;
+    // the two leaflets are independent: repaired in parallel
+    let (a, p) = rayon::join(|| one(ANTERIOR, anterior), || one(POSTERIOR, posterior));
+    let ((a, ra), (p, rp)) = (a?, p?);
     Ok((
         [a, p],
         super::LeafletRepairs {

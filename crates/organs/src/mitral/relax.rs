@@ -440,14 +440,23 @@ impl LayoutCache {
         self.0.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn find(&self, mesh: &ParamMesh, fixed: &[bool]) -> Option<Arc<HessianLayout>> {
-        self.lock().iter().find(|l| l.fits(mesh, fixed)).cloned()
-    }
-
-    fn insert(&self, layout: Arc<HessianLayout>) {
+    /// `objective` with the cached layout that fits `mesh` and `fixed`, or
+    /// with its own layout, built and cached. The lock is held while the
+    /// layout is built, so that steps of a series run in parallel do not
+    /// each build (and cache) the same leaflet's layout.
+    fn attach<'a>(
+        &self,
+        mut objective: Objective<'a>,
+        mesh: &ParamMesh,
+        fixed: &[bool],
+    ) -> Result<Objective<'a>, OrganError> {
         let mut list = self.lock();
-        if !list.iter().any(|l| Arc::ptr_eq(l, &layout)) {
-            list.push(layout);
+        match list.iter().find(|l| l.fits(mesh, fixed)) {
+            Some(layout) => Ok(objective.with_layout(layout.clone())?),
+            None => {
+                list.push(objective.layout()?);
+                Ok(objective)
+            }
         }
     }
 }
@@ -506,13 +515,7 @@ pub fn minimize(
     let total_area: f64 = pm.measure.iter().sum();
     let mut objective = Objective::new(&pm, pieces.energy, 1.0, None, &pinned)?;
     if let Some(cache) = cache {
-        objective = match cache.find(&pm, &pinned) {
-            Some(layout) => objective.with_layout(layout)?,
-            None => {
-                cache.insert(objective.layout()?);
-                objective
-            }
-        };
+        objective = cache.attach(objective, &pm, &pinned)?;
     }
     let stopping = Stopping {
         grad_tol: config.grad_tol / total_area.sqrt(),
@@ -777,6 +780,38 @@ mod tests {
         for (a, b) in uv.iter().zip(&uvm) {
             assert!((a[0] + b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
         }
+    }
+
+    /// Steps of a series relaxed in parallel build the shared leaflet's
+    /// layout once (the cache is locked while a layout is built).
+    #[test]
+    fn parallel_steps_build_one_layout() {
+        use rayon::prelude::*;
+        let solver = default_solver();
+        let published = Minimizer {
+            energy: &SymmetricDirichlet,
+            solver: &solver,
+            line_search: None,
+        };
+        let cache = LayoutCache::default();
+        let c = leaflet(&coarse(), true);
+        (0..8).into_par_iter().for_each(|step| {
+            let mut moved = c.clone();
+            for p in &mut moved.mesh.positions {
+                p.z += 0.05 * step as f64 * p.x;
+            }
+            let mut uv = moved.uv.clone();
+            minimize(
+                &moved.mesh,
+                &mut uv,
+                &moved.fixed,
+                &SdConfig::default(),
+                &published,
+                Some(&cache),
+            )
+            .unwrap();
+        });
+        assert_eq!(cache.len(), 1);
     }
 
     #[test]
