@@ -782,17 +782,36 @@ mod tests {
         }
     }
 
-    /// Steps of a series relaxed in parallel build the shared leaflet's
-    /// layout once (the cache is locked while a layout is built).
-    #[test]
-    fn parallel_steps_build_one_layout() {
-        use rayon::prelude::*;
+    /// The published relaxation (default solver and settings) through
+    /// `cache`.
+    fn sd_cached(
+        mesh: &TriMesh,
+        uv: &mut [[f64; 2]],
+        fixed: &[bool],
+        cache: &LayoutCache,
+    ) -> RelaxReport {
         let solver = default_solver();
         let published = Minimizer {
             energy: &SymmetricDirichlet,
             solver: &solver,
             line_search: None,
         };
+        minimize(
+            mesh,
+            uv,
+            fixed,
+            &SdConfig::default(),
+            &published,
+            Some(cache),
+        )
+        .unwrap()
+    }
+
+    /// Steps of a series relaxed in parallel build the shared leaflet's
+    /// layout once (the cache is locked while a layout is built).
+    #[test]
+    fn parallel_steps_build_one_layout() {
+        use rayon::prelude::*;
         let cache = LayoutCache::default();
         let c = leaflet(&coarse(), true);
         (0..8).into_par_iter().for_each(|step| {
@@ -801,41 +820,19 @@ mod tests {
                 p.z += 0.05 * step as f64 * p.x;
             }
             let mut uv = moved.uv.clone();
-            minimize(
-                &moved.mesh,
-                &mut uv,
-                &moved.fixed,
-                &SdConfig::default(),
-                &published,
-                Some(&cache),
-            )
-            .unwrap();
+            sd_cached(&moved.mesh, &mut uv, &moved.fixed, &cache);
         });
         assert_eq!(cache.len(), 1);
     }
 
     #[test]
     fn sd_with_a_layout_cache_is_bitwise_the_same_and_shares_layouts() {
-        let solver = default_solver();
-        let published = Minimizer {
-            energy: &SymmetricDirichlet,
-            solver: &solver,
-            line_search: None,
-        };
         let cache = LayoutCache::default();
         assert!(cache.is_empty());
         let c = leaflet(&coarse(), true);
         let (plain, rp) = sd(&c);
         let mut first = c.uv.clone();
-        let r1 = minimize(
-            &c.mesh,
-            &mut first,
-            &c.fixed,
-            &SdConfig::default(),
-            &published,
-            Some(&cache),
-        )
-        .unwrap();
+        let r1 = sd_cached(&c.mesh, &mut first, &c.fixed, &cache);
         assert_eq!(cache.len(), 1);
         // Another time step: the same triangles and annulus, moved in 3D.
         let mut moved = c.clone();
@@ -844,15 +841,7 @@ mod tests {
         }
         let (plain_moved, _) = sd(&moved);
         let mut second = moved.uv.clone();
-        minimize(
-            &moved.mesh,
-            &mut second,
-            &moved.fixed,
-            &SdConfig::default(),
-            &published,
-            Some(&cache),
-        )
-        .unwrap();
+        sd_cached(&moved.mesh, &mut second, &moved.fixed, &cache);
         assert_eq!(cache.len(), 1, "the second step reuses the layout");
         assert_eq!(flat(&first), flat(&plain));
         assert_eq!(flat(&second), flat(&plain_moved));
@@ -862,15 +851,7 @@ mod tests {
         let v = fixed.iter().position(|&f| !f).unwrap();
         fixed[v] = true;
         let mut third = c.uv.clone();
-        minimize(
-            &c.mesh,
-            &mut third,
-            &fixed,
-            &SdConfig::default(),
-            &published,
-            Some(&cache),
-        )
-        .unwrap();
+        sd_cached(&c.mesh, &mut third, &fixed, &cache);
         assert_eq!(cache.len(), 2);
     }
 
