@@ -11,7 +11,9 @@
 //! strip has `n_L = ceil(max height / mean rim edge)` layers (at most 64);
 //! rim vertex `i` at height `z_i` above the plane gets the copies at heights
 //! `z_i (1 - l / n_L)`. `delta` is half the mean rim edge, so no strip
-//! triangle is flat. A planar rim (height range below `1e-9` of S's size)
+//! triangle is flat. Each quad of the strip is split along its shorter
+//! diagonal (ties by vertex index), so the strip does not depend on the
+//! direction S's triangles wind in. A planar rim (height range below `1e-9` of S's size)
 //! gets no strip.
 
 use super::field::BasalFrame;
@@ -68,10 +70,13 @@ pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSu
             original_vertices,
         });
     }
-    let mean_edge = (0..m)
+    // Summed shortest first: the same bits whichever way and from wherever
+    // the loop is walked.
+    let mut edges: Vec<f64> = (0..m)
         .map(|k| (pos[rim[k] as usize] - pos[rim[(k + 1) % m] as usize]).norm())
-        .sum::<f64>()
-        / m as f64;
+        .collect();
+    edges.sort_by(f64::total_cmp);
+    let mean_edge = edges.iter().sum::<f64>() / m as f64;
     let delta = 0.5 * mean_edge;
     let layers = ((top + delta) / mean_edge).ceil().clamp(1.0, 64.0) as usize;
     let mut positions = pos.clone();
@@ -99,8 +104,13 @@ pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSu
             let k1 = (k + 1) % m;
             // S has the half-edge rim[k] -> rim[k1]; the strip uses the reverse
             let (a0, b0, a1, b1) = (id(l, k), id(l, k1), id(l + 1, k), id(l + 1, k1));
-            triangles.push([b0, a0, a1]);
-            triangles.push([b0, a1, b1]);
+            if diagonal_b0_a1(&positions, [a0, b0, a1, b1], rim[k] > rim[k1]) {
+                triangles.push([b0, a0, a1]);
+                triangles.push([b0, a1, b1]);
+            } else {
+                triangles.push([b0, a0, b1]);
+                triangles.push([a0, a1, b1]);
+            }
         }
     }
     let bottom: Vec<u32> = (0..m).map(|k| id(layers, k)).collect();
@@ -119,6 +129,24 @@ pub fn close_base(surface: &TriMesh, landmarks: &Landmarks) -> Result<ExtendedSu
         strip_height_mm: top + delta,
         original_vertices,
     })
+}
+
+/// Whether the strip quad `a0 b0` (layer `l`) over `a1 b1` (layer `l + 1`)
+/// is split along `b0 a1` rather than `a0 b1`: along the shorter diagonal
+/// (the Delaunay split of a planar quad whose opposite angles are equal),
+/// and on a tie (within `1e-9` relative) along the one from the upper copy
+/// of the rim vertex with the smaller index (`b0` when `a0_larger`). The
+/// rule sees neither the loop's direction nor its start, so S and S with
+/// every triangle reversed get the same strip, and the same map.
+fn diagonal_b0_a1(positions: &[Point3<f64>], [a0, b0, a1, b1]: [u32; 4], a0_larger: bool) -> bool {
+    let at = |v: u32| positions[v as usize];
+    let main = (at(b0) - at(a1)).norm();
+    let other = (at(a0) - at(b1)).norm();
+    if (main - other).abs() > 1e-9 * (main + other) {
+        main < other
+    } else {
+        a0_larger
+    }
 }
 
 #[cfg(test)]
@@ -311,6 +339,95 @@ mod tests {
             let e = close_base(&s, &l).unwrap();
             check_strip(&s, &l, &e);
             prop_assert!(e.strip_height_mm > 1.9 * amplitude, "{} for {amplitude}", e.strip_height_mm);
+        }
+    }
+
+    /// The strip's triangles as sorted triples of `(vertex of S, layer)`:
+    /// what the strip is, whatever order its vertices were made in.
+    fn strip_cells(s: &TriMesh, e: &ExtendedSurface) -> Vec<[(u32, usize); 3]> {
+        let n = s.positions.len();
+        let m = e.landmarks.rim.len();
+        let rim = close_base_rim(s, e);
+        let key = |w: u32| -> (u32, usize) {
+            let w = w as usize;
+            if w < n {
+                (w as u32, 0)
+            } else {
+                (rim[(w - n) % m], (w - n) / m + 1)
+            }
+        };
+        let mut cells: Vec<[(u32, usize); 3]> = e.surface.triangles[s.triangles.len()..]
+            .iter()
+            .map(|t| {
+                let mut c = t.map(key);
+                c.sort();
+                c
+            })
+            .collect();
+        cells.sort();
+        cells
+    }
+
+    /// S's rim in the order the strip's columns were made (column `k`
+    /// stands under the `k`-th vertex).
+    fn close_base_rim(s: &TriMesh, e: &ExtendedSurface) -> Vec<u32> {
+        let n = s.positions.len();
+        let m = e.landmarks.rim.len();
+        (0..m)
+            .map(|k| {
+                let top = e.surface.positions[n + k];
+                (0..n as u32)
+                    .min_by(|&a, &b| {
+                        let da = (s.positions[a as usize] - top).norm();
+                        let db = (s.positions[b as usize] - top).norm();
+                        da.total_cmp(&db)
+                    })
+                    .unwrap()
+            })
+            .collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(8))]
+
+        /// S with every triangle reversed (its rim walked the other way,
+        /// from another start) is closed by the same strip: the same
+        /// triangles over the same columns at the same heights.
+        #[test]
+        fn the_strip_does_not_depend_on_the_winding(
+            amplitude in 0.5..5.0f64,
+            phase in 0.0..TAU,
+        ) {
+            let (s, l) = saddle(amplitude, phase);
+            let mut r = s.clone();
+            for t in &mut r.triangles {
+                t.swap(1, 2);
+            }
+            let lr = Landmarks::resolve(
+                &r,
+                &s.positions[l.rim[l.anterior] as usize],
+                &s.positions[l.rim[l.inferior] as usize],
+                None,
+                DEFAULT_SNAP_MM,
+            )
+            .unwrap();
+            prop_assert_ne!(&lr.rim, &l.rim);
+            let (e, er) = (close_base(&s, &l).unwrap(), close_base(&r, &lr).unwrap());
+            prop_assert_eq!(e.surface.positions.len(), er.surface.positions.len());
+            prop_assert!((e.strip_height_mm - er.strip_height_mm).abs() < 1e-12);
+            prop_assert_eq!(strip_cells(&s, &e), strip_cells(&r, &er));
+            // the columns' vertices at the same places
+            let (rim, rim_r) = (close_base_rim(&s, &e), close_base_rim(&r, &er));
+            let n = s.positions.len();
+            let m = rim.len();
+            for (k, v) in rim.iter().enumerate() {
+                let kr = rim_r.iter().position(|w| w == v).unwrap();
+                for layer in 0..e.surface.positions.len().saturating_sub(n) / m {
+                    let p = e.surface.positions[n + layer * m + k];
+                    let q = er.surface.positions[n + layer * m + kr];
+                    prop_assert!((p - q).norm() < 1e-12, "{} mm", (p - q).norm());
+                }
+            }
         }
     }
 
