@@ -1,5 +1,6 @@
 //! `unfold convert IN OUT`: between mesh formats, keeping point and cell
-//! data; between images (NIfTI `.nii` / `.nii.gz` and NRRD `.nrrd`, any
+//! data (`--scale F` multiplies the coordinates, e.g. metres to
+//! millimetres); between images (NIfTI `.nii` / `.nii.gz` and NRRD `.nrrd`, any
 //! direction), keeping the data type, the affine and the header fields both
 //! formats hold.
 
@@ -51,6 +52,11 @@ pub struct ConvertArgs {
     /// Big-endian binary PLY.
     #[arg(long)]
     big_endian: bool,
+    /// Multiply a mesh's point coordinates by this factor (> 0), e.g. 1000
+    /// for a mesh in metres, since unfold reads millimetres; point and cell
+    /// arrays are copied as they are. Meshes only.
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    scale: Option<f64>,
 }
 
 /// Runs `unfold convert`.
@@ -63,6 +69,13 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
     }
     let image_in = FileKind::from_path(&a.input)?.is_image();
     let image_out = FileKind::from_path(&a.output)?.is_image();
+    let scale = a.scale.map(|f| super::positive("--scale", f)).transpose()?;
+    if scale.is_some() && image_in {
+        return Err(CliError::Usage(format!(
+            "{}: --scale applies to meshes; an image's spacing is in its header",
+            a.input.display()
+        )));
+    }
     match (image_in, image_out) {
         (true, true) => {
             let mut staged = StagedOutputs::new([&a.input]);
@@ -83,7 +96,12 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
     // The output checked (and staged) before the input is read.
     let mut staged = StagedOutputs::new([&a.input]);
     let target = staged.file(&a.output)?;
-    let mesh = read_mesh(&a.input)?;
+    let mut mesh = read_mesh(&a.input)?;
+    if let Some(f) = scale {
+        for p in &mut mesh.positions {
+            p.coords *= f;
+        }
+    }
     let opts = WriteOptions {
         ascii: a.ascii,
         xml_encoding: match (a.ascii, a.encoding) {

@@ -696,6 +696,14 @@ struct SeriesJson<'a> {
     provenance: super::provenance::Provenance,
 }
 
+impl MitralArgs {
+    /// The mesh files read (leaflets and ring; none for a series), for the
+    /// units hint.
+    pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
+        super::units::mesh_inputs(&[&self.anterior, &self.posterior, &self.annulus])
+    }
+}
+
 /// Runs `unfold mitral`.
 pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     let pipeline = a.pipeline()?;

@@ -24,6 +24,7 @@ pub mod placenta;
 mod provenance;
 mod pushback;
 mod repair;
+mod units;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 pub mod ventricle_inverse;
@@ -99,6 +100,21 @@ pub enum CliError {
     /// A stage would take more memory than the run may use.
     #[error(transparent)]
     Memory(Box<memory::MemoryRefusal>),
+    /// An organ command failed on an input smaller than any organ
+    /// ([`units::SMALLEST_ORGAN_MM`] across), probably not in millimetres.
+    #[error(
+        "{source}; note: {path} is only {side_mm:.3} across (its bounding box's largest side), \
+         and unfold reads coordinates as millimetres: a mesh in metres is scaled by \
+         `unfold convert {path} OUT --scale 1000`"
+    )]
+    SmallerThanAnOrgan {
+        /// The failure.
+        source: Box<CliError>,
+        /// The small input.
+        path: String,
+        /// Its bounding box's largest side, in the file's units.
+        side_mm: f64,
+    },
 }
 
 /// unfold: map anatomical shapes (placenta, ventricle, mitral valve) onto
@@ -188,14 +204,20 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliEr
         Command::Deform(a) => deform::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Repair(a) => repair::run(&a),
-        Command::Placenta(a) => placenta::run(&a),
+        Command::Placenta(a) => placenta::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::Pushback(a) => pushback::run(&a),
-        Command::Ventricle(a) => ventricle::run(&a),
+        Command::Ventricle(a) => ventricle::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::VentricleInverse(a) => ventricle_inverse::run(&a),
-        Command::Mitral(a) => mitral::run(&a),
+        Command::Mitral(a) => mitral::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::Batch(a) => batch::run(&a),
         Command::Cohort(a) => cohort::run(&a),
     }
+}
+
+/// `e` with the organ command's small input named ([`units::with_units_hint`]).
+fn hint(e: CliError, inputs: &[PathBuf]) -> CliError {
+    let paths: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    units::with_units_hint(e, &paths)
 }
 
 /// A clap parse error as one line: the message lines before the usage

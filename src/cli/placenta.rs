@@ -988,6 +988,13 @@ fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganErro
     crate::placenta::pipeline_error(label, frame, &paths, e).into()
 }
 
+impl PlacentaArgs {
+    /// The mesh file read (none with `--seg`), for the units hint.
+    pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
+        super::units::mesh_inputs(&[&self.mesh])
+    }
+}
+
 /// Runs `unfold placenta`.
 pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     let m = &a.mask;

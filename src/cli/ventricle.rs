@@ -918,6 +918,18 @@ pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
     .map_err(|e| CliError::Usage(format!("--to-hemisphere {r}: {e}")))
 }
 
+impl VentricleArgs {
+    /// The mesh files read (anatomy, S, S2), for the units hint.
+    pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
+        let mut inputs = vec![self.anatomy.clone()];
+        inputs.extend(super::units::mesh_inputs(&[
+            &self.surface,
+            &self.to_surface,
+        ]));
+        inputs
+    }
+}
+
 /// Runs `unfold ventricle`.
 pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
     let start = Instant::now();

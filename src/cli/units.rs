@@ -1,0 +1,92 @@
+//! Inputs whose size says they are not in millimetres.
+//!
+//! Mesh files carry no unit; unfold reads every coordinate as millimetres.
+//! A placenta, a ventricle or a mitral valve exported in metres is a
+//! thousand times too small, and its run fails on a size (a margin that
+//! covers a whole side, a landmark far from the rim, a leaflet within the
+//! ring's tolerance) without saying why. When an organ command fails on its
+//! input and one of its mesh files is smaller than any organ it maps
+//! ([`SMALLEST_ORGAN_MM`] across), the error says so and how to scale the
+//! file (`unfold convert IN OUT --scale 1000`). Runs that succeed are not
+//! second-guessed.
+
+use super::CliError;
+use crate::io::read_mesh;
+use std::path::{Path, PathBuf};
+
+/// No organ unfold maps is smaller than this across (mm): a mitral annulus
+/// is about 30 mm wide, a ventricle 50-120 mm long, a placenta 150-250 mm.
+pub const SMALLEST_ORGAN_MM: f64 = 10.0;
+
+/// The largest side of the bounding box of `positions`; `None` without a
+/// finite point.
+pub(crate) fn largest_side<'a>(
+    positions: impl IntoIterator<Item = &'a crate::mesh::nalgebra::Point3<f64>>,
+) -> Option<f64> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut any = false;
+    for p in positions {
+        if p.iter().all(|x| x.is_finite()) {
+            any = true;
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+    }
+    any.then(|| (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max))
+}
+
+/// `error` with the first of `inputs` that is smaller than
+/// [`SMALLEST_ORGAN_MM`] named ([`CliError::SmallerThanAnOrgan`]), when
+/// `error` is about the input (an organ's or a mesh's error) and such a file
+/// exists; otherwise `error` as it is. Files that cannot be read as meshes
+/// (an image, a text file of points) are passed over.
+pub(crate) fn with_units_hint(error: CliError, inputs: &[&Path]) -> CliError {
+    if !matches!(error, CliError::Organ { .. } | CliError::Mesh(_)) {
+        return error;
+    }
+    let small = inputs.iter().find_map(|path| {
+        let mesh = read_mesh(path).ok()?;
+        let side = largest_side(&mesh.positions)?;
+        (side < SMALLEST_ORGAN_MM).then(|| (path.to_path_buf(), side))
+    });
+    match small {
+        Some((path, side_mm)) => CliError::SmallerThanAnOrgan {
+            source: Box::new(error),
+            path: path.display().to_string(),
+            side_mm,
+        },
+        None => error,
+    }
+}
+
+/// The mesh files of an organ command, for [`with_units_hint`].
+pub(crate) fn mesh_inputs(paths: &[&Option<PathBuf>]) -> Vec<PathBuf> {
+    paths.iter().filter_map(|p| p.as_ref().cloned()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::nalgebra::Point3;
+
+    #[test]
+    fn the_largest_side_skips_points_that_are_not_finite() {
+        let p = [
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(f64::NAN, 5.0, 1.0),
+            Point3::new(2.0, 3.0, -1.0),
+        ];
+        assert_eq!(largest_side(&p), Some(3.0));
+        assert_eq!(largest_side(&[Point3::new(f64::INFINITY, 0.0, 0.0)]), None);
+        assert_eq!(largest_side(&[]), None);
+    }
+
+    #[test]
+    fn errors_not_about_the_input_are_left_alone() {
+        let e = with_units_hint(CliError::Usage("x".into()), &[Path::new("nowhere.vtu")]);
+        assert!(matches!(e, CliError::Usage(_)));
+    }
+}
