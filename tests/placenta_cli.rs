@@ -754,6 +754,27 @@ fn two_components_are_rejected() {
     let o = unfold(&["placenta", &s(&p), "-o", &s(&dir.path().join("out"))]);
     assert_one_line_error(&o, &s(&p));
     assert_one_line_error(&o, "2 connected components");
+    // the fix the message names: the first twin kept, and it flattens
+    assert_one_line_error(&o, "--largest-component");
+    let one = dir.path().join("one.vtu");
+    let r = unfold(&["repair", &s(&p), "-o", &s(&one), "--largest-component"]);
+    assert_ok(&r);
+    assert!(
+        stdout(&r).contains("kept the largest of 2 components"),
+        "{}",
+        stdout(&r)
+    );
+    let kept = read_mesh(&one).unwrap().to_tet_mesh().unwrap();
+    assert_eq!(kept.tets, a.tets);
+    assert_eq!(kept.positions, a.positions);
+    let o = unfold(&[
+        "placenta",
+        &s(&one),
+        "-o",
+        &s(&dir.path().join("out")),
+        "--no-figures",
+    ]);
+    assert_ok(&o);
 }
 
 #[test]

@@ -172,6 +172,50 @@ fn a_tet_mesh_with_copied_vertices_and_tets_is_repaired() {
     }
 }
 
+/// A surface with a speck beside it (a triangle far off, as a
+/// segmentation's island exports): `--largest-component` keeps the surface
+/// as it was and says what it dropped; without the flag both are kept.
+#[test]
+fn the_largest_component_is_kept_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cup = ventricle_cup(&VentricleParams::default()).unwrap().surface;
+    let mut specked = cup.clone();
+    let n = specked.positions.len() as u32;
+    specked.positions.extend([
+        Point3::new(200.0, 0.0, 0.0),
+        Point3::new(201.0, 0.0, 0.0),
+        Point3::new(200.0, 1.0, 0.0),
+    ]);
+    specked.triangles.push([n, n + 1, n + 2]);
+    let input = d.join("specked.vtu");
+    write(&input, &specked);
+    let kept = d.join("kept.vtu");
+    let o = unfold(&[
+        "repair",
+        &s(&input),
+        "-o",
+        &s(&kept),
+        "--largest-component",
+        "--json",
+    ]);
+    assert_ok(&o);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["repair"]["components"], 2);
+    assert_eq!(j["largest_component"]["components"], 2);
+    assert_eq!(j["largest_component"]["elements"], 1);
+    assert_eq!(j["largest_component"]["vertices"], 3);
+    let got = read_mesh(&kept).unwrap().to_tri_mesh().unwrap();
+    assert_eq!(got.positions, cup.positions);
+    assert_eq!(got.triangles, cup.triangles);
+    let both = d.join("both.vtu");
+    let o = unfold(&["repair", &s(&input), "-o", &s(&both), "--json"]);
+    assert_ok(&o);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(j.get("largest_component").is_none(), "{j}");
+    assert_eq!(j["cells"], cup.triangles.len() + 1);
+}
+
 #[test]
 fn bad_repair_requests_are_one_line_errors() {
     let dir = tempfile::tempdir().unwrap();

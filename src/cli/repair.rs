@@ -1,8 +1,9 @@
 //! `unfold repair IN -o OUT`: the mesh repaired (coincident vertices
 //! welded, degenerate and duplicate elements dropped, slivers collapsed,
 //! fins dropped, non-manifold vertices split, orientation made consistent,
-//! small holes filled when asked, unused vertices dropped), with counts per
-//! kind; the steps are those of [`crate::mesh::repair`].
+//! small holes filled when asked, unused vertices dropped; with
+//! `--largest-component` only the largest connected component kept), with
+//! counts per kind; the steps are those of [`crate::mesh::repair`].
 
 use super::{CliError, at};
 use crate::io::{StagedOutputs, WriteOptions, read_mesh, write_mesh};
@@ -43,9 +44,25 @@ pub struct RepairArgs {
     /// (triangle meshes; ear clipping over the loop's own vertices).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     fill_holes_mm: Option<f64>,
+    /// After the repair, keep only the largest connected component (most
+    /// elements; the first on ties) and drop the others, e.g. specks of a
+    /// segmentation or a second organ in the same file.
+    #[arg(long)]
+    largest_component: bool,
     /// Print the counts as JSON instead of a sentence.
     #[arg(long)]
     json: bool,
+}
+
+/// What `--largest-component` dropped.
+#[derive(Debug, Clone, Copy, Serialize)]
+struct Dropped {
+    /// Components the repaired mesh had.
+    components: usize,
+    /// Elements of the components dropped.
+    elements: usize,
+    /// Vertices of the components dropped.
+    vertices: usize,
 }
 
 /// What `--json` prints.
@@ -58,6 +75,9 @@ struct Summary<'a> {
     vertices: usize,
     cells: usize,
     repair: &'a RepairReport,
+    /// With `--largest-component`: what was dropped.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    largest_component: Option<Dropped>,
 }
 
 /// Runs `unfold repair`.
@@ -95,13 +115,29 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
         ..Default::default()
     };
     let volume = cells.cells().any(|(t, _)| t.dimension() == 3);
+    let dropped = |r: &RepairReport, before: (usize, usize), after: (usize, usize)| Dropped {
+        components: r.components,
+        elements: before.0 - after.0,
+        vertices: before.1 - after.1,
+    };
+    let mut kept = None;
     let (out, report, elements): (CellMesh, RepairReport, &'static str) = if volume {
         let tets = cells.volume_tets().map_err(|e| at(&a.input, e))?;
-        let (m, r) = repair_tet_mesh_with(&tets, &options).map_err(|e| at(&a.input, e))?;
+        let (mut m, r) = repair_tet_mesh_with(&tets, &options).map_err(|e| at(&a.input, e))?;
+        if a.largest_component {
+            let before = (m.tets.len(), m.positions.len());
+            m = m.largest_component().map_err(|e| at(&a.input, e))?.0;
+            kept = Some(dropped(&r, before, (m.tets.len(), m.positions.len())));
+        }
         (CellMesh::from(&m), r, "tets")
     } else {
         let tris = cells.to_tri_mesh().map_err(|e| at(&a.input, e))?;
-        let (m, r) = repair_tri_mesh_with(&tris, &options).map_err(|e| at(&a.input, e))?;
+        let (mut m, r) = repair_tri_mesh_with(&tris, &options).map_err(|e| at(&a.input, e))?;
+        if a.largest_component {
+            let before = (m.triangles.len(), m.positions.len());
+            m = m.largest_component().map_err(|e| at(&a.input, e))?.0;
+            kept = Some(dropped(&r, before, (m.triangles.len(), m.positions.len())));
+        }
         (CellMesh::from(&m), r, "triangles")
     };
     write_mesh(&target, &out, &WriteOptions::default()).map_err(|e| staged.shown_error(e))?;
@@ -114,14 +150,22 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
             vertices: out.num_points(),
             cells: out.num_cells(),
             repair: &report,
+            largest_component: kept,
         };
         println!(
             "{}",
             serde_json::to_string_pretty(&s).map_err(|e| at(&a.output, e))?
         );
     } else {
+        let largest = match kept {
+            Some(d) if d.components > 1 => format!(
+                "; kept the largest of {} components ({} {elements} and {} vertices dropped)",
+                d.components, d.elements, d.vertices
+            ),
+            _ => String::new(),
+        };
         println!(
-            "{} -> {}: {report}; {} vertices, {} {elements}",
+            "{} -> {}: {report}{largest}; {} vertices, {} {elements}",
             a.input.display(),
             a.output.display(),
             out.num_points(),

@@ -34,7 +34,7 @@ pub fn organ(path: &str, source: impl Into<OrganError>) -> InputError {
     if let OrganError::Mesh(MeshError::MultipleComponents { count }) = source {
         return InputError::Usage(format!(
             "{path}: the mesh has {count} connected components; the placenta pipeline needs \
-             one (keep the largest, or split the file)"
+             one (`unfold repair {path} -o OUT --largest-component` keeps the largest)"
         ));
     }
     InputError::Organ {
@@ -121,7 +121,7 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "slab.vtu: the mesh has 2 connected components; the placenta pipeline needs one \
-             (keep the largest, or split the file)"
+             (`unfold repair slab.vtu -o OUT --largest-component` keeps the largest)"
         );
     }
 
