@@ -43,6 +43,29 @@ pub(crate) fn error(e: impl std::fmt::Display) -> PyErr {
     UnfoldError::new_err(e.to_string())
 }
 
+/// An organ pipeline's failure on `inputs` (each named, with its points)
+/// as an [`UnfoldError`]: `e`'s message, and when an input is smaller than
+/// any organ (`unfold::cli::units::SMALLEST_ORGAN_MM` across), the note the
+/// command line adds that unfold reads millimetres.
+pub(crate) fn input_error(
+    e: impl std::fmt::Display,
+    inputs: &[(&str, &[unfold::mesh::nalgebra::Point3<f64>])],
+) -> PyErr {
+    use unfold::cli::units::{note, smaller_than_an_organ};
+    let small = inputs.iter().find_map(|(name, points)| {
+        let side = smaller_than_an_organ(points.iter())?;
+        Some(note(
+            name,
+            side,
+            "multiply the points of a mesh in metres by 1000",
+        ))
+    });
+    match small {
+        Some(note) => UnfoldError::new_err(format!("{e}; {note}")),
+        None => error(e),
+    }
+}
+
 /// The native module.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -78,16 +78,31 @@ pub(crate) fn mitral<'py>(
         )
         .map(|found| found.ring)
         .map_err(|source| {
-            crate::error(unfold::cli::CliError::Organ {
-                path: name.to_string(),
-                source,
-            })
+            crate::input_error(
+                unfold::cli::CliError::Organ {
+                    path: name.to_string(),
+                    source,
+                },
+                &[
+                    ("the anterior leaflet", &anterior.positions),
+                    ("the posterior leaflet", &posterior.positions),
+                ],
+            )
         })?,
     };
     let parameters = format!("{settings:?}, annulus given: {}", annulus.is_some());
     let outcome = py
         .detach(|| map_valve(&pipeline, &anterior, &posterior, &ring, name))
-        .map_err(crate::error)?;
+        .map_err(|e| {
+            crate::input_error(
+                e,
+                &[
+                    ("the anterior leaflet", &anterior.positions),
+                    ("the posterior leaflet", &posterior.positions),
+                    ("the annulus", &ring),
+                ],
+            )
+        })?;
     let json = crate::report::json(&FullReport {
         inputs: name,
         report: &outcome.report,

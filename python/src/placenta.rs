@@ -156,7 +156,8 @@ pub(crate) fn placenta<'py>(
     if let Some(e) = callback.error.take() {
         return Err(e);
     }
-    let (mut outcome, predicted) = run.map_err(crate::error)?;
+    let (mut outcome, predicted) =
+        run.map_err(|e| crate::input_error(e, &[(name, &mesh.positions)]))?;
     for entry in &mut outcome.report.images {
         entry.input = Some(entry.name.clone());
     }

@@ -142,7 +142,7 @@ pub(crate) fn ventricle<'py>(
                         surface_smoothing.unwrap_or(DEFAULT_SMOOTHING_ITERATIONS),
                     )
                 })
-                .map_err(crate::error)?;
+                .map_err(|e| crate::input_error(e, &[(anatomy_name, &anatomy.positions)]))?;
             // the given rim landmarks lie on the anatomy's rim: carried to S's
             [landmarks.anterior, landmarks.inferior] = built.rim_landmarks;
             (built.surface.clone(), Some(built), built_label.as_str())
@@ -213,7 +213,15 @@ pub(crate) fn ventricle<'py>(
                 transfer.as_ref(),
             )
         })
-        .map_err(crate::error)?;
+        .map_err(|e| {
+            crate::input_error(
+                e,
+                &[
+                    (anatomy_name, &anatomy.positions),
+                    (surface_name, &surface.positions),
+                ],
+            )
+        })?;
     let json = crate::report::json(&FullReport {
         inputs: Inputs {
             anatomy: anatomy_name,

@@ -109,3 +109,15 @@ def test_leaflets_that_do_not_meet_need_an_annulus(valve):
                         valve.posterior.cells)
     with pytest.raises(unfold.UnfoldError, match="share no boundary"):
         unfold.mitral(valve.anterior, apart)
+
+
+def test_a_valve_in_metres_is_named(valve):
+    def metres(m):
+        return unfold.Mesh(m.points / 1000.0, m.cells)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.mitral(metres(valve.anterior), metres(valve.posterior), valve.annulus / 1000.0)
+    assert "; note: the anterior leaflet is only 0.0" in str(e.value)
+    assert "reads coordinates as millimetres" in str(e.value)
+    # found from the leaflets, the ring fails too, with the same note
+    with pytest.raises(unfold.UnfoldError, match="reads coordinates as millimetres"):
+        unfold.mitral(metres(valve.anterior), metres(valve.posterior))

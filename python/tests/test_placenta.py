@@ -148,3 +148,21 @@ def test_fix_h_holds_the_half_thickness(slab):
         result = unfold.placenta(slab.points, slab.cells["tetra"], template=template, fix_h=4.5)
         assert result.report["theta"] == {"h": 4.5}
         assert result.report["theta_initial"] == {"h": 4.5}
+
+
+def test_a_slab_in_metres_is_named(slab, unfold_bin, tmp_path):
+    # As the command line: the failure ends with a note that unfold reads
+    # millimetres; the Python fix is to multiply the points.
+    metres = slab.points / 1000.0
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.placenta(metres, slab.cells["tetra"], name="slab_m")
+    message = str(e.value)
+    assert "; note: slab_m is only 0." in message
+    assert "reads coordinates as millimetres: multiply the points" in message
+    path = tmp_path / "slab_m.vtu"
+    unfold.write_mesh(path, metres, {"tetra": slab.cells["tetra"]})
+    cli = subprocess.run([unfold_bin, "placenta", str(path), "-o", str(tmp_path / "o")],
+                         capture_output=True, text=True)
+    assert cli.returncode == 1
+    assert message.split("; note:")[0].replace("slab_m", str(path)) in cli.stderr
+    assert "--scale 1000" in cli.stderr

@@ -191,3 +191,15 @@ def test_bad_inputs_of_a_built_s(cup, unfold_bin, tmp_path):
         unfold.ventricle(anatomy=s, surface_voxel_mm=-1.0, **kw)
     assert str(e.value) == "--surface-voxel-mm must be a finite number > 0, got -1"
     assert f"unfold: error: {e.value}" in out.stderr
+
+
+def test_a_cup_in_metres_is_named(cup):
+    s = cup.surface
+    anatomy = unfold.Mesh(cup.anatomy.points / 1000.0, cup.anatomy.cells)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.ventricle(s.points / 1000.0, s.cells["triangle"],
+                         anterior=np.asarray(cup.anterior) / 1000.0,
+                         inferior=np.asarray(cup.inferior) / 1000.0,
+                         anatomy=anatomy, grid_mm=GRID, anatomy_name="cup_m")
+    assert "; note: cup_m is only 0.0" in str(e.value)
+    assert "reads coordinates as millimetres" in str(e.value)

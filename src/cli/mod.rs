@@ -24,7 +24,7 @@ pub mod placenta;
 mod provenance;
 mod pushback;
 mod repair;
-mod units;
+pub mod units;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 pub mod ventricle_inverse;
@@ -103,9 +103,10 @@ pub enum CliError {
     /// An organ command failed on an input smaller than any organ
     /// ([`units::SMALLEST_ORGAN_MM`] across), probably not in millimetres.
     #[error(
-        "{source}; note: {path} is only {side_mm:.3} across (its bounding box's largest side), \
-         and unfold reads coordinates as millimetres: a mesh in metres is scaled by \
-         `unfold convert {path} OUT --scale 1000`"
+        "{source}; {}",
+        units::note(path, *side_mm, &format!(
+            "a mesh in metres is scaled by `unfold convert {path} OUT --scale 1000`"
+        ))
     )]
     SmallerThanAnOrgan {
         /// The failure.

@@ -18,9 +18,28 @@ use std::path::{Path, PathBuf};
 /// is about 30 mm wide, a ventricle 50-120 mm long, a placenta 150-250 mm.
 pub const SMALLEST_ORGAN_MM: f64 = 10.0;
 
+/// The note a failure on an input smaller than an organ ends with: `name`
+/// spans `side` (the largest side of its bounding box, in the file's
+/// units), and `fix` says how to scale it.
+pub fn note(name: &str, side: f64, fix: &str) -> String {
+    format!(
+        "note: {name} is only {side:.3} across (its bounding box's largest side), and unfold \
+         reads coordinates as millimetres: {fix}"
+    )
+}
+
+/// The largest side of the bounding box of `positions` when it is under
+/// [`SMALLEST_ORGAN_MM`]; `None` for an organ-sized input or one without a
+/// finite point.
+pub fn smaller_than_an_organ<'a>(
+    positions: impl IntoIterator<Item = &'a crate::mesh::nalgebra::Point3<f64>>,
+) -> Option<f64> {
+    largest_side(positions).filter(|&side| side < SMALLEST_ORGAN_MM)
+}
+
 /// The largest side of the bounding box of `positions`; `None` without a
 /// finite point.
-pub(crate) fn largest_side<'a>(
+fn largest_side<'a>(
     positions: impl IntoIterator<Item = &'a crate::mesh::nalgebra::Point3<f64>>,
 ) -> Option<f64> {
     let mut lo = [f64::INFINITY; 3];
@@ -49,8 +68,7 @@ pub(crate) fn with_units_hint(error: CliError, inputs: &[&Path]) -> CliError {
     }
     let small = inputs.iter().find_map(|path| {
         let mesh = read_mesh(path).ok()?;
-        let side = largest_side(&mesh.positions)?;
-        (side < SMALLEST_ORGAN_MM).then(|| (path.to_path_buf(), side))
+        Some((path.to_path_buf(), smaller_than_an_organ(&mesh.positions)?))
     });
     match small {
         Some((path, side_mm)) => CliError::SmallerThanAnOrgan {
@@ -82,6 +100,9 @@ mod tests {
         assert_eq!(largest_side(&p), Some(3.0));
         assert_eq!(largest_side(&[Point3::new(f64::INFINITY, 0.0, 0.0)]), None);
         assert_eq!(largest_side(&[]), None);
+        assert_eq!(smaller_than_an_organ(&p), Some(3.0));
+        let organ = [Point3::new(0.0, 0.0, 0.0), Point3::new(0.0, 0.0, 10.0)];
+        assert_eq!(smaller_than_an_organ(&organ), None);
     }
 
     #[test]
