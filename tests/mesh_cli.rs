@@ -192,15 +192,58 @@ fn bad_masks_and_flags_are_one_line_errors() {
         "no voxel set",
     );
 
+    // A label map: a ball of label 2 in a shell of label 5. Without a label
+    // or threshold, refused naming its values; each label meshes alone.
     let labels = d.join("labels.nii.gz");
-    write_volume(&labels, 24, 1.0, 1, |p, _| {
-        if p.coords.norm() < 8.0 { 2.0 } else { 0.0 }
+    write_volume(&labels, 24, 1.0, 1, |p, _| match p.coords.norm() {
+        r if r < 5.0 => 2.0,
+        r if r < 9.0 => 5.0,
+        _ => 0.0,
     });
     let o = unfold(&["mesh", &s(&labels), "-o", &s(&out)]);
-    assert_one_line_error(&o, "not binary");
-    assert!(stderr(&o).contains("--threshold"), "{}", stderr(&o));
+    assert_one_line_error(&o, "the mask holds 2 values besides 0 (2, 5)");
+    assert!(
+        stderr(&o).contains("(--label N: the voxels equal to N; --threshold T: those above T)"),
+        "{}",
+        stderr(&o)
+    );
     assert!(stderr(&o).contains("labels.nii.gz"), "{}", stderr(&o));
-    let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), "--threshold", "1"]);
+    let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), "--label", "7"]);
+    assert_one_line_error(&o, "no voxel of the mask holds the label 7; it holds 2, 5");
+    let o = unfold(&[
+        "mesh",
+        &s(&labels),
+        "-o",
+        &s(&out),
+        "--label",
+        "1",
+        "--threshold",
+        "1",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("cannot be used with"),
+        "{}",
+        stderr(&o)
+    );
+    // the ball (4/3 pi 5^3 = 524 mm^3), the shell around it (2,530 mm^3)
+    // and both above the threshold 1 (3,054 mm^3), meshed at 1 mm voxels
+    let mut volumes = Vec::new();
+    for flags in [["--label", "2"], ["--label", "5"], ["--threshold", "1"]] {
+        let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), flags[0], flags[1]]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let mesh = read_mesh(&out).unwrap().to_tet_mesh().unwrap();
+        volumes.push(unfold::mesh::geometry::total_volume(&mesh));
+    }
+    for (got, want) in volumes.iter().zip([524.0, 2530.0, 3054.0]) {
+        assert!((got / want - 1.0).abs() < 0.15, "{volumes:?}");
+    }
+
+    // 0 and 255 (or any one value besides 0) is a mask as it is
+    let bytes = d.join("bytes.nii.gz");
+    write_volume(&bytes, 24, 1.0, 1, |p, _| {
+        if p.coords.norm() < 8.0 { 255.0 } else { 0.0 }
+    });
+    let o = unfold(&["mesh", &s(&bytes), "-o", &s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
 
     let series = d.join("series.nii");

@@ -34,8 +34,8 @@ struct Report<'a> {
 /// cells, point_data, cell_data)`.
 #[pyfunction]
 #[pyo3(signature = (
-    mask, affine, *, size_mm=None, smooth_voxels=1.5, dilate=0, threshold=None, level=None,
-    grade=false, keep_all_components=false, name="mask"
+    mask, affine, *, size_mm=None, smooth_voxels=1.5, dilate=0, threshold=None, label=None,
+    level=None, grade=false, keep_all_components=false, name="mask"
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn tet_mesh<'py>(
@@ -46,6 +46,7 @@ pub(crate) fn tet_mesh<'py>(
     smooth_voxels: f64,
     dilate: i64,
     threshold: Option<f64>,
+    label: Option<f64>,
     level: Option<f64>,
     grade: bool,
     keep_all_components: bool,
@@ -57,11 +58,17 @@ pub(crate) fn tet_mesh<'py>(
             "--dilate must be 0 or 1, got {dilate}"
         )));
     }
+    if threshold.is_some() && label.is_some() {
+        return Err(crate::error(
+            "the argument '--threshold <T>' cannot be used with '--label <N>'",
+        ));
+    }
     let how = MaskArgs {
         size_mm,
         smooth_voxels,
         dilate: dilate as u8,
         threshold,
+        label,
         level,
         grade,
     };

@@ -61,18 +61,35 @@ def test_options_change_the_mesh(mask):
     assert coarse.report["size_mm"] == 3.0 and coarse.report["level"] == 0.5
 
 
-def test_a_mask_that_is_not_binary_raises_the_cli_message(mask, unfold_bin, tmp_path):
+def test_a_label_map_raises_the_cli_message(mask, unfold_bin, tmp_path):
     data, affine = mask
-    grey = data.astype(np.float32) * 3.0
-    path = tmp_path / "grey.nii.gz"
-    nib.save(nib.Nifti1Image(grey, affine), path)
+    labels = data.astype(np.float32) * 2.0
+    labels[0, 0, 0] = 1.0
+    path = tmp_path / "labels.nii.gz"
+    nib.save(nib.Nifti1Image(labels, affine), path)
     out = cli(unfold_bin, "mesh", path, "-o", tmp_path / "m.vtu", ok=False)
     with pytest.raises(unfold.UnfoldError) as e:
-        unfold.tet_mesh(grey, affine, name=str(path))
-    assert "--threshold" in str(e.value)
+        unfold.tet_mesh(labels, affine, name=str(path))
+    assert "holds 2 values besides 0 (1, 2)" in str(e.value)
+    assert "(--label N: the voxels equal to N; --threshold T: those above T)" in str(e.value)
     assert f"unfold: error: {e.value}" in out.stderr
-    # With a threshold it meshes.
-    assert len(unfold.tet_mesh(grey, affine, threshold=1.0).cells["tetra"]) > 0
+    # With the label or a threshold it meshes, the same mesh.
+    label = unfold.tet_mesh(labels, affine, label=2)
+    above = unfold.tet_mesh(labels, affine, threshold=1.5)
+    assert len(label.cells["tetra"]) > 0
+    np.testing.assert_array_equal(label.cells["tetra"], above.cells["tetra"])
+    with pytest.raises(unfold.UnfoldError, match="no voxel of the mask holds the label 3"):
+        unfold.tet_mesh(labels, affine, label=3)
+    with pytest.raises(unfold.UnfoldError, match="cannot be used with"):
+        unfold.tet_mesh(labels, affine, label=2, threshold=1.0)
+
+
+def test_any_one_value_besides_0_is_the_mask(mask, both):
+    data, affine = mask
+    result, _, _, _ = both
+    for value in (255.0, 3.0):
+        other = unfold.tet_mesh(data.astype(np.float32) * value, affine)
+        np.testing.assert_array_equal(other.cells["tetra"], result.cells["tetra"])
 
 
 @pytest.mark.parametrize("kwargs, flags, message", [

@@ -118,6 +118,7 @@ def tet_mesh(
     smooth_voxels: float = ...,
     dilate: int = ...,
     threshold: Optional[float] = ...,
+    label: Optional[float] = ...,
     level: Optional[float] = ...,
     grade: bool = ...,
     keep_all_components: bool = ...,

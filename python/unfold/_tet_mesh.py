@@ -41,6 +41,7 @@ def tet_mesh(
     smooth_voxels: float = 1.5,
     dilate: int = 0,
     threshold: Optional[float] = None,
+    label: Optional[float] = None,
     level: Optional[float] = None,
     grade: bool = False,
     keep_all_components: bool = False,
@@ -55,16 +56,19 @@ def tet_mesh(
     is released while the Rust code runs.
 
     Args:
-        mask: a 3D array (i, j, k), 0 outside and 1 inside (any values with
-            ``threshold``), or a nibabel image (then ``affine`` is its own).
+        mask: a 3D array (i, j, k), 0 outside and one other value inside (a
+            label map with ``label``, any values with ``threshold``), or a
+            nibabel image (then ``affine`` is its own).
         affine: 4x4 voxel-to-RAS affine (mm).
         size_mm: lattice cube side, mm (``--size-mm``; None: the smallest
             voxel spacing).
         smooth_voxels: Gaussian smoothing, voxels (``--smooth-voxels``; 0:
             none).
         dilate: 3x3x3 box dilations before smoothing, 0 or 1 (``--dilate``).
-        threshold: voxels above it are inside (``--threshold``; None: the mask
-            must hold only 0 and 1).
+        threshold: voxels above it are inside (``--threshold``; None: the
+            mask's one value besides 0 is inside).
+        label: voxels equal to it are inside (``--label``: one structure of
+            a label map; not with ``threshold``).
         level: the level of the smoothed mask in (0, 1) (``--level``; None: the
             level that keeps the mask's volume).
         grade: coarser tets inside (``--grade``).
@@ -76,7 +80,7 @@ def tet_mesh(
 
     Raises:
         UnfoldError: a bad setting or mask, with the command line's message
-            (e.g. a mask that is not binary without ``threshold``).
+            (e.g. a label map without ``label`` or ``threshold``).
     """
     if affine is None and not hasattr(mask, "affine"):
         raise _native.UnfoldError(f"{name}: give the mask's 4x4 affine (or a nibabel image)")
@@ -88,6 +92,7 @@ def tet_mesh(
         smooth_voxels=float(smooth_voxels),
         dilate=int(dilate),
         threshold=None if threshold is None else float(threshold),
+        label=None if label is None else float(label),
         level=None if level is None else float(level),
         grade=bool(grade),
         keep_all_components=bool(keep_all_components),

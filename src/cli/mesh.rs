@@ -9,9 +9,10 @@
 use super::{CliError, at, positive};
 use crate::io::{StagedOutputs, WriteOptions, write_mesh};
 use crate::mesh::mesher::{
-    IsoLevel, MaskMesh, MaskMeshOptions, MeshQuality, estimate_memory, mask_from_image, mesh_mask,
+    IsoLevel, MaskMesh, MaskMeshOptions, MaskSelection, MeshQuality, estimate_memory,
+    mask_from_image, mesh_mask,
 };
-use crate::mesh::{CellMesh, Volume};
+use crate::mesh::{CellMesh, MeshError, Volume};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -36,10 +37,19 @@ pub struct MaskArgs {
     /// which thickens the object by a voxel).
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=1))]
     pub dilate: u8,
-    /// Voxels with a value above this are inside [default: the mask must
-    /// hold only 0 and 1].
-    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    /// Voxels with a value above this are inside [default: the mask's one
+    /// value besides 0 (1, 255, a label...) is inside].
+    #[arg(
+        long,
+        value_name = "T",
+        allow_negative_numbers = true,
+        conflicts_with = "label"
+    )]
     pub threshold: Option<f64>,
+    /// Voxels equal to this value are inside: one structure of a label map
+    /// (the placenta's label among others).
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub label: Option<f64>,
     /// Level of the smoothed mask to mesh, in (0, 1) (the reference: 0.5)
     /// [default: the level that keeps the mask's volume].
     #[arg(long, value_name = "C", allow_negative_numbers = true)]
@@ -66,12 +76,12 @@ impl MaskArgs {
                 self.smooth_voxels
             )));
         }
-        if let Some(t) = self.threshold
-            && !t.is_finite()
-        {
-            return Err(CliError::Usage(format!(
-                "--threshold must be finite, got {t}"
-            )));
+        for (flag, value) in [("--threshold", self.threshold), ("--label", self.label)] {
+            if let Some(v) = value
+                && !v.is_finite()
+            {
+                return Err(CliError::Usage(format!("{flag} must be finite, got {v}")));
+            }
         }
         let level = match self.level {
             None => IsoLevel::PreserveVolume,
@@ -99,17 +109,24 @@ impl MaskArgs {
     }
 
     /// The mask of the image `volume` (named `path` in messages): its
-    /// voxels above `--threshold`, or its 1s when it holds only 0 and 1.
+    /// voxels above `--threshold`, equal to `--label`, or its one value
+    /// besides 0.
     ///
     /// # Errors
-    /// [`mask_from_image`]'s (an image not binary without a threshold, or
-    /// with several frames), at `path`.
+    /// [`mask_from_image`]'s (a label map without `--label` or
+    /// `--threshold`, a label it does not hold, several frames), at `path`.
     pub fn mask_of(&self, path: &Path, volume: &Volume<f32>) -> Result<Volume<bool>, CliError> {
-        mask_from_image(volume, self.threshold).map_err(|e| {
-            let msg = e
-                .to_string()
-                .replace("give a threshold", "give --threshold");
-            at(path, msg)
+        let selection = match (self.label, self.threshold) {
+            (Some(l), _) => MaskSelection::Label(l),
+            (None, Some(t)) => MaskSelection::Above(t),
+            (None, None) => MaskSelection::Nonzero,
+        };
+        mask_from_image(volume, selection).map_err(|e| match e {
+            MeshError::MaskValues { .. } => at(
+                path,
+                format!("{e} (--label N: the voxels equal to N; --threshold T: those above T)"),
+            ),
+            e => at(path, e),
         })
     }
 
@@ -198,7 +215,8 @@ the mask's, dihedral angle range."
 )]
 pub struct MeshArgs {
     /// The segmentation: a 3D image (.nii .nii.gz .nrrd .seg.nrrd .nhdr), 0
-    /// outside and 1 inside (or any values with --threshold).
+    /// outside and one other value inside (a label map with --label, any
+    /// values with --threshold).
     mask: PathBuf,
     /// Output tet mesh (.vtu .vtk .mesh; formats unfold can write).
     #[arg(short, long, value_name = "MESH")]

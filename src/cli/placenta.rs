@@ -1001,6 +1001,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     if a.seg.is_none()
         && (m.size_mm.is_some()
             || m.threshold.is_some()
+            || m.label.is_some()
             || m.level.is_some()
             || m.dilate != 0
             || m.grade
@@ -1008,8 +1009,8 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             || m.smooth_voxels != 1.5)
     {
         return Err(CliError::Usage(
-            "--size-mm, --smooth-voxels, --dilate, --threshold, --level, --grade and --dense \
-             apply to --seg"
+            "--size-mm, --smooth-voxels, --dilate, --threshold, --label, --level, --grade and \
+             --dense apply to --seg"
                 .into(),
         ));
     }

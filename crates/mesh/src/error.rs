@@ -261,6 +261,35 @@ pub enum MeshError {
     /// A volume's data length or dimensions are inconsistent.
     #[error("image: {0}")]
     Image(String),
+    /// A mask image holds several values besides 0 (a label map), and no
+    /// label or threshold says which voxels are inside.
+    #[error(
+        "the mask holds {} values besides 0 ({}{}): a label or a threshold must say which \
+         voxels are inside",
+        values.len() + more,
+        list_values(values),
+        if *more > 0 { format!(" and {more} more") } else { String::new() }
+    )]
+    MaskValues {
+        /// The first few distinct nonzero values, ascending.
+        values: Vec<f64>,
+        /// How many more distinct nonzero values there are.
+        more: usize,
+    },
+    /// No voxel of a mask image holds the label asked for.
+    #[error(
+        "no voxel of the mask holds the label {label}; it holds {}{}",
+        if values.is_empty() { "only 0".to_string() } else { list_values(values) },
+        if *more > 0 { format!(" and {more} more values") } else { String::new() }
+    )]
+    MaskLabelAbsent {
+        /// The label asked for.
+        label: f64,
+        /// The first few distinct nonzero values the mask holds, ascending.
+        values: Vec<f64>,
+        /// How many more distinct nonzero values there are.
+        more: usize,
+    },
     /// Any other invalid argument, with a message.
     #[error("{0}")]
     InvalidArgument(String),
@@ -295,7 +324,18 @@ impl MeshError {
             MeshError::NonFiniteTotalMeasure { .. } => "non_finite_total_measure",
             MeshError::RasterGrid { .. } => "raster_grid",
             MeshError::Image(_) => "image",
+            MeshError::MaskValues { .. } => "mask_values",
+            MeshError::MaskLabelAbsent { .. } => "mask_label_absent",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }
     }
+}
+
+/// `values` as `1, 2, 3`.
+fn list_values(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(f64::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -29,6 +29,7 @@ pub mod geodesic;
 pub mod geometry;
 pub mod marching_tets;
 pub mod mask;
+pub mod mask_selection;
 pub mod memory;
 pub mod mesher;
 pub mod raster;

@@ -49,6 +49,8 @@ use crate::{MeshError, TetMesh, Volume, mask};
 use nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3, Vector4};
 use serde::Serialize;
 
+pub use crate::mask_selection::{MaskSelection, mask_from_image};
+
 /// The level `c` of the smoothed mask `s` whose superlevel set `s > c` is
 /// meshed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -172,53 +174,6 @@ pub struct MaskMesh {
     pub mask_voxels: usize,
     /// Their volume, mm^3 (voxel count times voxel volume).
     pub mask_volume_mm3: f64,
-}
-
-/// A binary mask from an image: with a `threshold`, `value > threshold`;
-/// without, the image must hold only 0 and 1 (a label image with other
-/// values needs a threshold, so that nothing is guessed).
-///
-/// # Errors
-/// `Image` for a 4D image, a NaN voxel, or a non-binary image without a
-/// threshold (naming a value found); `InvalidArgument` for a threshold that
-/// is not finite.
-pub fn mask_from_image<T: Copy + Into<f64>>(
-    image: &Volume<T>,
-    threshold: Option<f64>,
-) -> Result<Volume<bool>, MeshError> {
-    let d = image.dims();
-    if d[3] != 1 {
-        return Err(MeshError::Image(format!(
-            "a mask must be a 3D image, got {} frames (dims {}x{}x{}x{})",
-            d[3], d[0], d[1], d[2], d[3]
-        )));
-    }
-    if let Some(t) = threshold
-        && !t.is_finite()
-    {
-        return Err(MeshError::InvalidArgument(format!(
-            "the threshold must be finite, got {t}"
-        )));
-    }
-    let mut bits = Vec::with_capacity(image.data().len());
-    for (i, &x) in image.data().iter().enumerate() {
-        let x: f64 = x.into();
-        if x.is_nan() {
-            return Err(MeshError::Image(format!("the mask has a NaN at voxel {i}")));
-        }
-        bits.push(match threshold {
-            Some(t) => x > t,
-            None if x == 0.0 => false,
-            None if x == 1.0 => true,
-            None => {
-                return Err(MeshError::Image(format!(
-                    "the mask is not binary (voxel {i} is {x}); give a threshold to \
-                     segment it (voxels above it are inside)"
-                )));
-            }
-        });
-    }
-    Volume::new(d, *image.affine(), bits)
 }
 
 /// `mask` restricted to the voxels `lo .. lo + dims` (indices may lie

@@ -9,8 +9,8 @@ use proptest::prelude::*;
 use std::f64::consts::PI;
 use unfold_mesh::geometry::tet_dihedral_angles;
 use unfold_mesh::mesher::{
-    IsoLevel, MaskMeshOptions, MeshQuality, cube_side_for_cubes, mask_from_image, mesh_mask,
-    voxel_frame,
+    IsoLevel, MaskMeshOptions, MaskSelection, MeshQuality, cube_side_for_cubes, mask_from_image,
+    mesh_mask, voxel_frame,
 };
 use unfold_mesh::nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3};
 use unfold_mesh::spatial::ClosestPointQuery;
@@ -262,19 +262,28 @@ fn bad_masks_are_clear_errors() {
         vec![0.0f32, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     )
     .unwrap();
-    let e = mask_from_image(&labels, None).unwrap_err().to_string();
-    assert!(e.contains("not binary") && e.contains("threshold"), "{e}");
-    let m = mask_from_image(&labels, Some(1.5)).unwrap();
+    let e = mask_from_image(&labels, MaskSelection::Nonzero)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("2 values besides 0 (1, 2)") && e.contains("threshold"),
+        "{e}"
+    );
+    let m = mask_from_image(&labels, MaskSelection::Above(1.5)).unwrap();
     assert_eq!(m.data().iter().filter(|&&b| b).count(), 1);
-    let m = mask_from_image(&labels, Some(0.5)).unwrap();
+    let m = mask_from_image(&labels, MaskSelection::Above(0.5)).unwrap();
     assert_eq!(m.data().iter().filter(|&&b| b).count(), 2);
-    let e = mask_from_image(&labels, Some(f64::NAN))
+    let m = mask_from_image(&labels, MaskSelection::Label(1.0)).unwrap();
+    assert_eq!(m.data().iter().filter(|&&b| b).count(), 1);
+    let e = mask_from_image(&labels, MaskSelection::Above(f64::NAN))
         .unwrap_err()
         .to_string();
     assert!(e.contains("threshold"), "{e}");
 
     let series = Volume::new([2, 2, 2, 2], a, vec![1.0f32; 16]).unwrap();
-    let e = mask_from_image(&series, None).unwrap_err().to_string();
+    let e = mask_from_image(&series, MaskSelection::Nonzero)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("3D") && e.contains("2 frames"), "{e}");
 
     // one voxel set: smoothing leaves nothing above 0.5
