@@ -265,13 +265,32 @@ fn inputs_that_do_not_fit_are_one_line_errors() {
     let o = run_files(&files, &out, &[]);
     assert_one_line_error(&o, "commissures");
 
-    // A leaflet with a hole (not a disk).
+    // A leaflet with a small hole: closed by the repair, and counted.
     let mut holed = v.anterior.clone();
     let centre = v.anterior_longitudes[v.anterior_longitudes.len() / 2][4];
     holed.triangles.retain(|t| !t.contains(&centre));
     let holed = compact(&holed);
     let files = write_valve(dir.path(), "holed_", &holed, &v.posterior, &v.annulus);
-    let o = run_files(&files, &out, &[]);
+    let o = run_files(&files, &out, &["--no-figures"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(r["repair"]["anterior"]["holes_filled"], 1, "{}", r["repair"]);
+    assert_eq!(r["repair"]["posterior"]["holes_filled"], 0, "{}", r["repair"]);
+    assert_eq!(r["flipped_triangles"], 0);
+
+    // A leaflet with an opening too large to be a hole (not a disk).
+    let cols = v.anterior_longitudes.len();
+    let rows = v.anterior_longitudes[0].len();
+    let inside: Vec<u32> = (2..cols - 2)
+        .flat_map(|c| (2..rows - 2).map(move |r| (c, r)))
+        .map(|(c, r)| v.anterior_longitudes[c][r])
+        .collect();
+    let mut frame = v.anterior.clone();
+    frame.triangles.retain(|t| !t.iter().any(|x| inside.contains(x)));
+    let frame = compact(&frame);
+    let files = write_valve(dir.path(), "frame_", &frame, &v.posterior, &v.annulus);
+    let o = run_files(&files, &dir.path().join("out_frame"), &[]);
     assert_one_line_error(&o, "boundary loops");
 
     // Bad options.

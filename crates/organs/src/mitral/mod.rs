@@ -27,6 +27,7 @@ pub mod contract;
 pub mod error;
 pub mod initializer;
 pub mod layout;
+pub mod leaflet_repair;
 pub mod maps;
 mod pipeline;
 pub mod relax;

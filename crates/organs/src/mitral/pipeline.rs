@@ -10,9 +10,7 @@ use super::{
 };
 use crate::OrganError;
 use std::time::Instant;
-use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::Point3;
-use unfold_mesh::repair::{RepairOptions, Weld, repair_tri_mesh_with};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::{
     Constraints, DistortionEnergy, Initializer, LineSearch, ParamError, ParamMesh, Pin, Solver,
@@ -202,7 +200,8 @@ impl Pipeline {
         config.validate()?;
         let mut timings = Timings::default();
         let t = Instant::now();
-        let (repaired, repair) = repair_leaflets(input.anterior, input.posterior)?;
+        let (repaired, repair) =
+            super::leaflet_repair::repair_leaflets(input.anterior, input.posterior)?;
         let input = &ValveInput {
             anterior: &repaired[ANTERIOR],
             posterior: &repaired[POSTERIOR],
@@ -386,39 +385,4 @@ impl Pipeline {
             report,
         })
     }
-}
-
-/// Both leaflets repaired ([`repair_tri_mesh_with`], coincident vertices
-/// welded), with what changed.
-///
-/// # Errors
-/// [`super::ContractError::LeafletMesh`] naming the leaflet when it cannot
-/// be repaired (out-of-range indices, non-finite coordinates, a
-/// non-orientable surface).
-pub(super) fn repair_leaflets(
-    anterior: &TriMesh,
-    posterior: &TriMesh,
-) -> Result<([TriMesh; 2], super::LeafletRepairs), OrganError> {
-    let options = RepairOptions {
-        weld: Weld::Relative,
-        ..Default::default()
-    };
-    let one = |k: usize, mesh: &TriMesh| {
-        repair_tri_mesh_with(mesh, &options).map_err(|source| {
-            OrganError::from(super::ContractError::LeafletMesh {
-                leaflet: LeafletSide::of(k),
-                source,
-            })
-        })
-    };
-    // the two leaflets are independent: repaired in parallel
-    let (a, p) = rayon::join(|| one(ANTERIOR, anterior), || one(POSTERIOR, posterior));
-    let ((a, ra), (p, rp)) = (a?, p?);
-    Ok((
-        [a, p],
-        super::LeafletRepairs {
-            anterior: ra,
-            posterior: rp,
-        },
-    ))
 }

@@ -76,7 +76,7 @@ pub fn annulus_from_leaflets(
 ) -> Result<FoundAnnulus, OrganError> {
     let tol = tolerance_mm;
     OrganError::check_positive(&[("tolerance_mm", tol)])?;
-    let ([a, p], _) = super::pipeline::repair_leaflets(anterior, posterior)?;
+    let ([a, p], _) = super::leaflet_repair::repair_leaflets(anterior, posterior)?;
     let meshes = [&a, &p];
     let loops = [ANTERIOR, POSTERIOR].map(|k| {
         super::contract::disk_boundary(LeafletSide::of(k), meshes[k]).map(|l| {

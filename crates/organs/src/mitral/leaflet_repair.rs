@@ -1,0 +1,175 @@
+//! The leaflets as they come, repaired before the contract checks them:
+//! coincident vertices welded, duplicate and degenerate triangles dropped,
+//! one orientation, and holes closed. A leaflet exported from a
+//! segmentation often has a hole where it was thin; the rim is its longest
+//! boundary loop, and any other loop up to [`LEAFLET_HOLE_FRACTION`] of the
+//! rim's perimeter is closed by the repair's hole filling (ear clipping over
+//! the loop's own vertices). A longer second loop is not taken for a hole:
+//! the contract refuses the leaflet as not a disk. `report.json`'s
+//! `repair` counts what was done (`holes_filled`, `hole_triangles`).
+
+use super::{ANTERIOR, LeafletRepairs, LeafletSide, POSTERIOR};
+use crate::OrganError;
+use unfold_mesh::TriMesh;
+use unfold_mesh::repair::{RepairOptions, Weld, repair_tri_mesh_with};
+
+/// A leaflet's boundary loops other than its rim (the longest) are closed
+/// when each loop's perimeter is at most this fraction of the rim's.
+pub const LEAFLET_HOLE_FRACTION: f64 = 0.25;
+
+/// Both leaflets repaired ([`repair_tri_mesh_with`], coincident vertices
+/// welded, holes closed: [`LEAFLET_HOLE_FRACTION`]), with what changed.
+///
+/// # Errors
+/// [`super::ContractError::LeafletMesh`] naming the leaflet when it cannot
+/// be repaired (out-of-range indices, non-finite coordinates, a
+/// non-orientable surface).
+pub fn repair_leaflets(
+    anterior: &TriMesh,
+    posterior: &TriMesh,
+) -> Result<([TriMesh; 2], LeafletRepairs), OrganError> {
+    let options = RepairOptions {
+        weld: Weld::Relative,
+        ..Default::default()
+    };
+    let one = |k: usize, mesh: &TriMesh| {
+        let repaired = repair_tri_mesh_with(mesh, &options).and_then(|(m, r)| {
+            match holes_perimeter(&m) {
+                // again from the input, with the holes closed as well
+                Some(d) => repair_tri_mesh_with(
+                    mesh,
+                    &RepairOptions {
+                        fill_holes: Some(d),
+                        ..options
+                    },
+                ),
+                None => Ok((m, r)),
+            }
+        });
+        repaired.map_err(|source| {
+            OrganError::from(super::ContractError::LeafletMesh {
+                leaflet: LeafletSide::of(k),
+                source,
+            })
+        })
+    };
+    // the two leaflets are independent: repaired in parallel
+    let (a, p) = rayon::join(|| one(ANTERIOR, anterior), || one(POSTERIOR, posterior));
+    let ((a, ra), (p, rp)) = (a?, p?);
+    Ok((
+        [a, p],
+        LeafletRepairs {
+            anterior: ra,
+            posterior: rp,
+        },
+    ))
+}
+
+/// The perimeter of the longest boundary loop of `leaflet` after its rim
+/// (its longest), when that is at most [`LEAFLET_HOLE_FRACTION`] of the
+/// rim's: the hole-filling bound that closes every loop but the rim.
+/// `None` with fewer than two loops, loops that cannot be traced (the
+/// contract names the problem) or a second loop too long to be a hole.
+fn holes_perimeter(leaflet: &TriMesh) -> Option<f64> {
+    let loops = unfold_mesh::topology::boundary_loops(leaflet).ok()?;
+    let p = &leaflet.positions;
+    let mut perimeters: Vec<f64> = loops
+        .iter()
+        .map(|l| {
+            (0..l.len())
+                .map(|i| (p[l[(i + 1) % l.len()] as usize] - p[l[i] as usize]).norm())
+                .sum()
+        })
+        .collect();
+    perimeters.sort_by(|a, b| b.total_cmp(a));
+    match perimeters[..] {
+        [rim, hole, ..] if hole <= LEAFLET_HOLE_FRACTION * rim => Some(hole),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use unfold_mesh::shapes::{ValveParams, mitral_valve};
+
+    /// The default valve's anterior leaflet without the triangles around
+    /// each of `centres` (column, row; interior vertices whose neighbours
+    /// are interior too: columns from 2, rows 2 to 14), compacted: one hole
+    /// each.
+    fn holed(centres: &[(usize, usize)]) -> (TriMesh, TriMesh) {
+        let v = mitral_valve(&ValveParams::default()).unwrap();
+        let drop: Vec<u32> = centres
+            .iter()
+            .map(|&(c, r)| v.anterior_longitudes[c][r])
+            .collect();
+        let mut m = v.anterior.clone();
+        m.triangles.retain(|t| !t.iter().any(|x| drop.contains(x)));
+        let used: Vec<bool> = (0..m.positions.len() as u32)
+            .map(|i| m.triangles.iter().any(|t| t.contains(&i)))
+            .collect();
+        let mut new = vec![u32::MAX; used.len()];
+        let mut positions = Vec::new();
+        for (i, &u) in used.iter().enumerate() {
+            if u {
+                new[i] = positions.len() as u32;
+                positions.push(m.positions[i]);
+            }
+        }
+        let triangles = m
+            .triangles
+            .iter()
+            .map(|t| t.map(|x| new[x as usize]))
+            .collect();
+        (v.anterior, TriMesh::new(positions, triangles))
+    }
+
+    #[test]
+    fn a_clean_leaflet_is_left_as_it_is() {
+        let v = mitral_valve(&ValveParams::default()).unwrap();
+        let ([a, p], r) = repair_leaflets(&v.anterior, &v.posterior).unwrap();
+        assert_eq!(a.triangles, v.anterior.triangles);
+        assert_eq!(p.triangles, v.posterior.triangles);
+        assert!(r.anterior.is_clean() && r.posterior.is_clean());
+    }
+
+    #[test]
+    fn a_frame_around_a_large_opening_is_not_closed() {
+        // every interior vertex's star removed: a frame two rows wide, its
+        // inner loop far longer than a quarter of the rim
+        let v = mitral_valve(&ValveParams::default()).unwrap();
+        let (cols, rows) = (v.anterior_longitudes.len(), v.anterior_longitudes[0].len());
+        let centres: Vec<(usize, usize)> = (2..cols - 2)
+            .flat_map(|c| (2..rows - 2).map(move |r| (c, r)))
+            .collect();
+        let (clean, frame) = holed(&centres);
+        assert_eq!(unfold_mesh::topology::boundary_loops(&frame).unwrap().len(), 2);
+        assert_eq!(holes_perimeter(&frame), None);
+        let ([a, _], r) = repair_leaflets(&frame, &clean).unwrap();
+        assert_eq!(r.anterior.holes_filled, 0);
+        assert_eq!(a.triangles.len(), frame.triangles.len());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(12))]
+
+        /// One or two holes around interior vertices are closed: one loop
+        /// left, the vertices kept, the counts reported.
+        #[test]
+        fn holes_are_closed_and_counted(
+            c0 in 2usize..8, r0 in 2usize..5, c1 in 10usize..18, r1 in 2usize..5, two: bool,
+        ) {
+            let centres: Vec<(usize, usize)> =
+                if two { vec![(c0, r0), (c1, r1)] } else { vec![(c0, r0)] };
+            let (clean, leaflet) = holed(&centres);
+            let loops = unfold_mesh::topology::boundary_loops(&leaflet).unwrap();
+            prop_assert_eq!(loops.len(), 1 + centres.len());
+            let ([a, _], r) = repair_leaflets(&leaflet, &clean).unwrap();
+            prop_assert_eq!(r.anterior.holes_filled, centres.len());
+            prop_assert!(r.anterior.hole_triangles >= 4 * centres.len());
+            prop_assert_eq!(unfold_mesh::topology::boundary_loops(&a).unwrap().len(), 1);
+            prop_assert_eq!(a.positions.len(), leaflet.positions.len());
+        }
+    }
+}
