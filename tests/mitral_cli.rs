@@ -275,8 +275,16 @@ fn inputs_that_do_not_fit_are_one_line_errors() {
     assert!(o.status.success(), "{}", stderr(&o));
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(r["repair"]["anterior"]["holes_filled"], 1, "{}", r["repair"]);
-    assert_eq!(r["repair"]["posterior"]["holes_filled"], 0, "{}", r["repair"]);
+    assert_eq!(
+        r["repair"]["anterior"]["holes_filled"], 1,
+        "{}",
+        r["repair"]
+    );
+    assert_eq!(
+        r["repair"]["posterior"]["holes_filled"], 0,
+        "{}",
+        r["repair"]
+    );
     assert_eq!(r["flipped_triangles"], 0);
 
     // A leaflet with an opening too large to be a hole (not a disk).
@@ -287,7 +295,9 @@ fn inputs_that_do_not_fit_are_one_line_errors() {
         .map(|(c, r)| v.anterior_longitudes[c][r])
         .collect();
     let mut frame = v.anterior.clone();
-    frame.triangles.retain(|t| !t.iter().any(|x| inside.contains(x)));
+    frame
+        .triangles
+        .retain(|t| !t.iter().any(|x| inside.contains(x)));
     let frame = compact(&frame);
     let files = write_valve(dir.path(), "frame_", &frame, &v.posterior, &v.annulus);
     let o = run_files(&files, &dir.path().join("out_frame"), &[]);

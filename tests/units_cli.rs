@@ -194,3 +194,28 @@ fn bad_scales_are_refused() {
     ]);
     assert_one_line_error(&o, "--scale applies to meshes");
 }
+
+#[test]
+fn info_notes_a_mesh_smaller_than_an_organ() {
+    let dir = tempfile::tempdir().unwrap();
+    let metres = write_in_metres(dir.path(), "slab_m.vtu", &slab());
+    let o = unfold(&["info", &s(&metres)]);
+    assert_ok(&o);
+    assert!(
+        stdout(&o).contains("reads coordinates as millimetres"),
+        "{}",
+        stdout(&o)
+    );
+    let o = unfold(&["info", &s(&metres), "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(
+        j["units_note"].as_str().unwrap().contains("--scale 1000"),
+        "{j}"
+    );
+    // in millimetres: no note
+    let mm = dir.path().join("slab.vtu");
+    write_mesh(&mm, &slab(), &WriteOptions::default()).unwrap();
+    let o = unfold(&["info", &s(&mm), "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(j.get("units_note").is_none(), "{j}");
+}

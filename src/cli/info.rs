@@ -72,6 +72,10 @@ pub struct MeshInfo {
     cells: usize,
     cell_types: BTreeMap<String, usize>,
     bounding_box: Option<[[f64; 3]; 2]>,
+    /// When the mesh is smaller than any organ (coordinates read as mm):
+    /// [`super::units::note`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    units_note: Option<String>,
     point_arrays: Vec<ArrayInfo>,
     cell_arrays: Vec<ArrayInfo>,
     components: Option<usize>,
@@ -141,6 +145,14 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
         cell_types: counts.iter().map(|(t, n)| (format!("{t:?}"), *n)).collect(),
         bounding_box: bounding_box(&mesh.positions)
             .map(|b| [[b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z]]),
+        units_note: super::units::smaller_than_an_organ(&mesh.positions).map(|side| {
+            let file = path.display();
+            super::units::note(
+                &file.to_string(),
+                side,
+                &format!("if it is in metres, `unfold convert {file} OUT --scale 1000`"),
+            )
+        }),
         point_arrays: mesh.point_data.iter().map(array_info).collect(),
         cell_arrays: mesh.cell_data.iter().map(array_info).collect(),
         components: None,
@@ -248,6 +260,9 @@ fn print_mesh(i: &MeshInfo) {
             hi[1] - lo[1],
             hi[2] - lo[2]
         );
+    }
+    if let Some(n) = &i.units_note {
+        println!("  {}", printable(n));
     }
     for (what, arrays) in [("point", &i.point_arrays), ("cell", &i.cell_arrays)] {
         for a in arrays {

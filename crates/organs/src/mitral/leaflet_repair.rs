@@ -144,7 +144,10 @@ mod tests {
             .flat_map(|c| (2..rows - 2).map(move |r| (c, r)))
             .collect();
         let (clean, frame) = holed(&centres);
-        assert_eq!(unfold_mesh::topology::boundary_loops(&frame).unwrap().len(), 2);
+        assert_eq!(
+            unfold_mesh::topology::boundary_loops(&frame).unwrap().len(),
+            2
+        );
         assert_eq!(holes_perimeter(&frame), None);
         let ([a, _], r) = repair_leaflets(&frame, &clean).unwrap();
         assert_eq!(r.anterior.holes_filled, 0);
