@@ -258,6 +258,8 @@ fn bad_masks_and_flags_are_one_line_errors() {
         ("--dilate", "2", "--dilate"),
         ("--level", "1.5", "--level"),
         ("--threshold", "nan", "--threshold"),
+        ("--label", "nan", "--label must be finite"),
+        ("--label", "inf", "--label must be finite"),
     ] {
         let o = unfold(&["mesh", &s(&labels), "-o", &s(&out), flag, value]);
         assert_one_line_error(&o, needle);
@@ -449,6 +451,7 @@ fn placenta_segmentation_flags_need_seg_and_exclude_a_mesh() {
         &["--grade"],
         &["--dense"],
         &["--dilate", "1"],
+        &["--label", "2"],
     ] {
         let mut args = vec!["placenta", "x.vtu", "-o"];
         let o = s(&out);
