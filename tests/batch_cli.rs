@@ -179,6 +179,22 @@ fn bad_manifests_are_refused_before_anything_runs() {
             "'no-figures' is a switch",
         ),
         ("empty.csv", "id,organ\n", "no subject rows"),
+        // as spreadsheets export them
+        (
+            "semicolons.csv",
+            "id;organ;input\ns1;placenta;a.vtu\n",
+            "separated by semicolons, and a manifest's by commas",
+        ),
+        (
+            "tabs.csv",
+            "id\torgan\tinput\ns1\tplacenta\ta.vtu\n",
+            "separated by tabs",
+        ),
+        (
+            "capitals.csv",
+            "ID,Organ,Input\ns1,placenta,a.vtu\n",
+            "column names are lower case ('id', not 'ID')",
+        ),
     ] {
         let m = d.join(name);
         std::fs::write(&m, text).unwrap();
@@ -190,4 +206,31 @@ fn bad_manifests_are_refused_before_anything_runs() {
     assert_one_line_error(&o, "none.csv");
     let o = unfold(&["cohort", &s(&out)]);
     assert_one_line_error(&o, "subjects.csv");
+}
+
+/// A manifest as a spreadsheet saves it: a byte-order mark, CRLF line
+/// ends, blank trailing lines, spaces around cells and in a path. It runs.
+#[test]
+fn a_spreadsheet_export_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("sub one")).unwrap();
+    slab(&d.join("sub one"), "mesh.vtu", 5);
+    let manifest = d.join("cohort.csv");
+    std::fs::write(
+        &manifest,
+        "\u{feff}id,organ,input,no-figures, ga_weeks \r\n\
+         s1 , placenta , sub one/mesh.vtu , true , 31\r\n\r\n",
+    )
+    .unwrap();
+    let out = d.join("out");
+    let o = unfold(&["batch", &s(&manifest), "-o", &s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("s1/report.json").is_file());
+    let rows = csv_rows(&out.join("cohort.csv"));
+    let col = rows[0]
+        .iter()
+        .position(|c| c == "ga_weeks")
+        .expect("ga_weeks");
+    assert_eq!(rows[1][col], "31");
 }

@@ -192,6 +192,26 @@ pub(crate) fn valid_id(id: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
 }
 
+/// Why a header lacks the column `needed`, when a spreadsheet's export
+/// explains it: columns separated by semicolons or tabs (the manifest's are
+/// commas; `;` separates an option's repeated values inside a cell), or
+/// the name in other letter cases. Empty otherwise.
+fn header_hint(header: &[String], needed: &str) -> String {
+    if let [only] = header {
+        for (sep, name) in [(';', "semicolons"), ('\t', "tabs")] {
+            if only.contains(sep) {
+                return format!(
+                    ": its columns are separated by {name}, and a manifest's by commas"
+                );
+            }
+        }
+    }
+    match header.iter().find(|h| h.eq_ignore_ascii_case(needed)) {
+        Some(h) => format!(": column names are lower case ('{needed}', not '{h}')"),
+        None => String::new(),
+    }
+}
+
 /// Reads the manifest into subjects, every row checked before anything
 /// runs (the module documentation says what a row holds).
 ///
@@ -218,8 +238,9 @@ pub fn plan(manifest: &Path) -> Result<Plan, CliError> {
             return Err(at(
                 manifest,
                 format!(
-                    "the header has no '{needed}' column (it has: {})",
-                    header.join(", ")
+                    "the header has no '{needed}' column (it has: {}){}",
+                    header.join(", "),
+                    header_hint(&header, needed)
                 ),
             ));
         }
