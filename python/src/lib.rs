@@ -53,7 +53,7 @@ pub(crate) fn input_error(
 ) -> PyErr {
     use unfold::cli::units::{note, smaller_than_an_organ};
     let small = inputs.iter().find_map(|(name, points)| {
-        let side = smaller_than_an_organ(points.iter())?;
+        let side = smaller_than_an_organ(points)?;
         Some(note(
             name,
             side,

@@ -12,6 +12,8 @@
 
 use super::CliError;
 use crate::io::read_mesh;
+use crate::mesh::geometry::bounding_box;
+use crate::mesh::nalgebra::Point3;
 use std::path::{Path, PathBuf};
 
 /// No organ unfold maps is smaller than this across (mm): a mitral annulus
@@ -30,31 +32,12 @@ pub fn note(name: &str, side: f64, fix: &str) -> String {
 
 /// The largest side of the bounding box of `positions` when it is under
 /// [`SMALLEST_ORGAN_MM`]; `None` for an organ-sized input or one without a
-/// finite point.
-pub fn smaller_than_an_organ<'a>(
-    positions: impl IntoIterator<Item = &'a crate::mesh::nalgebra::Point3<f64>>,
-) -> Option<f64> {
-    largest_side(positions).filter(|&side| side < SMALLEST_ORGAN_MM)
-}
-
-/// The largest side of the bounding box of `positions`; `None` without a
-/// finite point.
-fn largest_side<'a>(
-    positions: impl IntoIterator<Item = &'a crate::mesh::nalgebra::Point3<f64>>,
-) -> Option<f64> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    let mut any = false;
-    for p in positions {
-        if p.iter().all(|x| x.is_finite()) {
-            any = true;
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-    }
-    any.then(|| (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max))
+/// point or with an infinite coordinate ([`bounding_box`] ignores NaN
+/// coordinates).
+pub fn smaller_than_an_organ(positions: &[Point3<f64>]) -> Option<f64> {
+    let extent = bounding_box(positions)?.extent();
+    let side = extent.max();
+    (extent.iter().all(|x| x.is_finite()) && side < SMALLEST_ORGAN_MM).then_some(side)
 }
 
 /// `error` with the first of `inputs` that is smaller than
@@ -88,21 +71,22 @@ pub(crate) fn mesh_inputs(paths: &[&Option<PathBuf>]) -> Vec<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::nalgebra::Point3;
 
     #[test]
-    fn the_largest_side_skips_points_that_are_not_finite() {
+    fn only_inputs_under_an_organ_s_size_are_small() {
         let p = [
             Point3::new(0.0, 0.0, 0.0),
             Point3::new(f64::NAN, 5.0, 1.0),
             Point3::new(2.0, 3.0, -1.0),
         ];
-        assert_eq!(largest_side(&p), Some(3.0));
-        assert_eq!(largest_side(&[Point3::new(f64::INFINITY, 0.0, 0.0)]), None);
-        assert_eq!(largest_side(&[]), None);
-        assert_eq!(smaller_than_an_organ(&p), Some(3.0));
+        assert_eq!(smaller_than_an_organ(&p), Some(5.0));
         let organ = [Point3::new(0.0, 0.0, 0.0), Point3::new(0.0, 0.0, 10.0)];
         assert_eq!(smaller_than_an_organ(&organ), None);
+        assert_eq!(
+            smaller_than_an_organ(&[Point3::new(f64::INFINITY, 0.0, 0.0)]),
+            None
+        );
+        assert_eq!(smaller_than_an_organ(&[]), None);
     }
 
     #[test]
