@@ -264,31 +264,47 @@ pub enum MeshError {
     /// A mask image holds several values besides 0 (a label map), and no
     /// label or threshold says which voxels are inside.
     #[error(
-        "the mask holds {} values besides 0 ({}{}): a label or a threshold must say which \
+        "the mask holds {}{} values besides 0 ({}{}): a label or a threshold must say which \
          voxels are inside",
+        if *all_counted { "" } else { "at least " },
         values.len() + more,
         list_values(values),
-        if *more > 0 { format!(" and {more} more") } else { String::new() }
+        match (*more, *all_counted) {
+            (0, _) => String::new(),
+            (m, true) => format!(" and {m} more"),
+            (m, false) => format!(" and over {m} more"),
+        }
     )]
     MaskValues {
         /// The first few distinct nonzero values, ascending.
         values: Vec<f64>,
-        /// How many more distinct nonzero values there are.
+        /// How many more distinct nonzero values there are (counted up to
+        /// a bound, see `all_counted`).
         more: usize,
+        /// Whether every distinct value was counted (false: there are
+        /// more than `values.len() + more`, an intensity image).
+        all_counted: bool,
     },
     /// No voxel of a mask image holds the label asked for.
     #[error(
         "no voxel of the mask holds the label {label}; it holds {}{}",
         if values.is_empty() { "only 0".to_string() } else { list_values(values) },
-        if *more > 0 { format!(" and {more} more values") } else { String::new() }
+        match (*more, *all_counted) {
+            (0, _) => String::new(),
+            (m, true) => format!(" and {m} more values"),
+            (m, false) => format!(" and over {m} more values"),
+        }
     )]
     MaskLabelAbsent {
         /// The label asked for.
         label: f64,
         /// The first few distinct nonzero values the mask holds, ascending.
         values: Vec<f64>,
-        /// How many more distinct nonzero values there are.
+        /// How many more distinct nonzero values there are (counted up to
+        /// a bound, see `all_counted`).
         more: usize,
+        /// Whether every distinct value was counted.
+        all_counted: bool,
     },
     /// Any other invalid argument, with a message.
     #[error("{0}")]

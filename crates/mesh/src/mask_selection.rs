@@ -15,6 +15,10 @@ use crate::{MeshError, Volume};
 /// How many distinct nonzero values an error lists at most.
 pub const LISTED_VALUES: usize = 8;
 
+/// How many distinct nonzero values are counted at most (an intensity image
+/// has millions; their count is not worth the memory).
+pub const COUNTED_VALUES: usize = 1 << 16;
+
 /// Which voxels of an image are inside the mask.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum MaskSelection {
@@ -55,62 +59,87 @@ pub fn mask_from_image<T: Copy + Into<f64>>(
         }
         _ => {}
     }
-    // (values converted one at a time: an image may be large)
+    // One pass (an image may be large): the bits, NaNs refused, and for
+    // the default selection the distinct values besides 0.
     let values = || image.data().iter().map(|&x| -> f64 { x.into() });
-    if let Some(i) = values().position(|x| x.is_nan()) {
-        return Err(MeshError::Image(format!("the mask has a NaN at voxel {i}")));
+    let mut distinct = NonzeroValues::default();
+    let mut bits = Vec::with_capacity(image.data().len());
+    for (i, x) in values().enumerate() {
+        if x.is_nan() {
+            return Err(MeshError::Image(format!("the mask has a NaN at voxel {i}")));
+        }
+        bits.push(match selection {
+            MaskSelection::Above(t) => x > t,
+            MaskSelection::Label(label) => x == label,
+            MaskSelection::Nonzero => {
+                distinct.see(x);
+                x != 0.0
+            }
+        });
     }
-    let bits: Vec<bool> = match selection {
-        MaskSelection::Above(t) => values().map(|x| x > t).collect(),
-        MaskSelection::Label(label) => {
-            let bits: Vec<bool> = values().map(|x| x == label).collect();
-            if !bits.contains(&true) {
-                let (values, more) = nonzero_values(values());
-                return Err(MeshError::MaskLabelAbsent {
-                    label,
-                    values,
-                    more,
-                });
-            }
-            bits
+    match selection {
+        MaskSelection::Nonzero if distinct.count() > 1 => {
+            let (values, more, all_counted) = distinct.listed();
+            Err(MeshError::MaskValues {
+                values,
+                more,
+                all_counted,
+            })
         }
-        MaskSelection::Nonzero => {
-            let (found, more) = nonzero_values(values());
-            if found.len() > 1 {
-                return Err(MeshError::MaskValues {
-                    values: found,
-                    more,
-                });
-            }
-            values().map(|x| x != 0.0).collect()
+        MaskSelection::Label(label) if !bits.contains(&true) => {
+            // (a failure: a second pass to name what the image holds)
+            let mut held = NonzeroValues::default();
+            values().for_each(|x| held.see(x));
+            let (values, more, all_counted) = held.listed();
+            Err(MeshError::MaskLabelAbsent {
+                label,
+                values,
+                more,
+                all_counted,
+            })
         }
-    };
-    Volume::new(d, *image.affine(), bits)
+        _ => Volume::new(d, *image.affine(), bits),
+    }
 }
 
-/// The first [`LISTED_VALUES`] distinct nonzero values of `values`
-/// (ascending), and how many more there are.
-fn nonzero_values(values: impl Iterator<Item = f64>) -> (Vec<f64>, usize) {
-    let mut found: Vec<f64> = Vec::new();
-    let mut more: Vec<f64> = Vec::new();
-    let mut last = 0.0;
-    for x in values {
-        // runs of one value are the common case
-        if x == 0.0 || x == last {
-            continue;
+/// The distinct nonzero values of an image (up to [`COUNTED_VALUES`]),
+/// seen one voxel at a time.
+#[derive(Default)]
+struct NonzeroValues {
+    /// Their bit patterns (no NaN comes here; 0 and -0 are skipped).
+    seen: std::collections::HashSet<u64>,
+    /// The first [`LISTED_VALUES`] of them.
+    first: Vec<f64>,
+    /// The last value seen (runs of one value are the common case).
+    last: f64,
+    /// Whether a value was passed over because `seen` was full.
+    overflowed: bool,
+}
+
+impl NonzeroValues {
+    fn see(&mut self, x: f64) {
+        if x == 0.0 || x == self.last {
+            return;
         }
-        last = x;
-        if found.contains(&x) || more.contains(&x) {
-            continue;
-        }
-        if found.len() < LISTED_VALUES {
-            found.push(x);
-        } else {
-            more.push(x);
+        self.last = x;
+        if self.seen.len() == COUNTED_VALUES {
+            self.overflowed |= !self.seen.contains(&x.to_bits());
+        } else if self.seen.insert(x.to_bits()) && self.first.len() < LISTED_VALUES {
+            self.first.push(x);
         }
     }
-    found.sort_by(f64::total_cmp);
-    (found, more.len())
+
+    fn count(&self) -> usize {
+        self.seen.len()
+    }
+
+    /// The first [`LISTED_VALUES`] values, ascending, how many more were
+    /// counted, and whether that is all of them.
+    fn listed(mut self) -> (Vec<f64>, usize, bool) {
+        self.first.sort_by(f64::total_cmp);
+        let more = self.seen.len() - self.first.len();
+        (self.first, more, !self.overflowed)
+    }
 }
 
 #[cfg(test)]
@@ -147,7 +176,8 @@ mod tests {
             e,
             MeshError::MaskValues {
                 values: vec![1.0, 2.0, 3.0],
-                more: 0
+                more: 0,
+                all_counted: true
             }
         );
         assert!(e.to_string().contains("1, 2, 3"), "{e}");
@@ -161,7 +191,8 @@ mod tests {
             MeshError::MaskLabelAbsent {
                 label: 4.0,
                 values: vec![1.0, 2.0, 3.0],
-                more: 0
+                more: 0,
+                all_counted: true
             }
         );
     }
@@ -170,13 +201,41 @@ mod tests {
     fn many_values_are_listed_up_to_a_bound() {
         let values: Vec<f32> = (0..20).map(|i| (i % 12) as f32).collect();
         match mask_from_image(&image(values), MaskSelection::Nonzero) {
-            Err(MeshError::MaskValues { values, more }) => {
+            Err(MeshError::MaskValues {
+                values,
+                more,
+                all_counted,
+            }) => {
                 assert_eq!(values.len(), LISTED_VALUES);
                 assert_eq!(more, 11 - LISTED_VALUES);
+                assert!(all_counted);
                 assert!(values.windows(2).all(|w| w[0] < w[1]));
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn an_intensity_image_is_counted_up_to_a_bound() {
+        let n = COUNTED_VALUES + 10;
+        let values: Vec<f32> = (1..=n).map(|i| i as f32).collect();
+        let e = mask_from_image(&image(values), MaskSelection::Nonzero).unwrap_err();
+        match &e {
+            MeshError::MaskValues {
+                values,
+                more,
+                all_counted,
+            } => {
+                assert_eq!(values.len() + more, COUNTED_VALUES);
+                assert!(!all_counted);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(
+            e.to_string()
+                .starts_with("the mask holds at least 65536 values"),
+            "{e}"
+        );
     }
 
     #[test]
