@@ -58,11 +58,6 @@ pub(crate) fn tet_mesh<'py>(
             "--dilate must be 0 or 1, got {dilate}"
         )));
     }
-    if threshold.is_some() && label.is_some() {
-        return Err(crate::error(
-            "the argument '--threshold <T>' cannot be used with '--label <N>'",
-        ));
-    }
     let how = MaskArgs {
         size_mm,
         smooth_voxels,

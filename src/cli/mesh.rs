@@ -76,6 +76,14 @@ impl MaskArgs {
                 self.smooth_voxels
             )));
         }
+        if self.threshold.is_some() && self.label.is_some() {
+            // (the parser refuses it on the command line; Python gets here)
+            return Err(CliError::Usage(
+                "--threshold cannot be used with --label: the one takes the voxels above a \
+                 value, the other those equal to it"
+                    .into(),
+            ));
+        }
         for (flag, value) in [("--threshold", self.threshold), ("--label", self.label)] {
             if let Some(v) = value
                 && !v.is_finite()
