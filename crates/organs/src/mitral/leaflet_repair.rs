@@ -106,23 +106,9 @@ mod tests {
             .collect();
         let mut m = v.anterior.clone();
         m.triangles.retain(|t| !t.iter().any(|x| drop.contains(x)));
-        let used: Vec<bool> = (0..m.positions.len() as u32)
-            .map(|i| m.triangles.iter().any(|t| t.contains(&i)))
-            .collect();
-        let mut new = vec![u32::MAX; used.len()];
-        let mut positions = Vec::new();
-        for (i, &u) in used.iter().enumerate() {
-            if u {
-                new[i] = positions.len() as u32;
-                positions.push(m.positions[i]);
-            }
-        }
-        let triangles = m
-            .triangles
-            .iter()
-            .map(|t| t.map(|x| new[x as usize]))
-            .collect();
-        (v.anterior, TriMesh::new(positions, triangles))
+        let c = unfold_mesh::reindex::compact_vertices(&m.positions, &m.point_data, &m.triangles)
+            .unwrap();
+        (v.anterior, TriMesh::new(c.positions, c.elements))
     }
 
     #[test]
