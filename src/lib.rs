@@ -3,6 +3,7 @@
 //! This facade re-exports the workspace crates; the `unfold` binary is the
 //! command-line tool built on them.
 
+pub mod app;
 pub mod cli;
 pub mod figures;
 

@@ -8,7 +8,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use unfold::io::{MANIFEST, NiftiImage, WriteOptions, write_image, write_mesh};
+use unfold::app::run::MANIFEST;
+use unfold::io::{NiftiImage, WriteOptions, write_image, write_mesh};
 use unfold::mesh::nalgebra::{Matrix4, Vector3};
 use unfold::mesh::shapes::{PlacentaParams, ValveParams, mitral_valve, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};

@@ -203,7 +203,7 @@ fn planes_writes_meshes_and_a_full_report() {
     assert_eq!(
         names,
         [
-            unfold::io::MANIFEST,
+            unfold::app::run::MANIFEST,
             "figures",
             "flattened.vtu",
             "original.vtu",

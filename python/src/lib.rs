@@ -45,13 +45,13 @@ pub(crate) fn error(e: impl std::fmt::Display) -> PyErr {
 
 /// An organ pipeline's failure on `inputs` (each named, with its points)
 /// as an [`UnfoldError`]: `e`'s message, and when an input is smaller than
-/// any organ (`unfold::cli::units::SMALLEST_ORGAN_MM` across), the note the
+/// any organ (`unfold::app::run::units::SMALLEST_ORGAN_MM` across), the note the
 /// command line adds that unfold reads millimetres.
 pub(crate) fn input_error(
     e: impl std::fmt::Display,
     inputs: &[(&str, &[unfold::mesh::nalgebra::Point3<f64>])],
 ) -> PyErr {
-    use unfold::cli::units::{note, smaller_than_an_organ};
+    use unfold::app::run::units::{note, smaller_than_an_organ};
     let small = inputs.iter().find_map(|(name, points)| {
         let side = smaller_than_an_organ(points)?;
         Some(note(

@@ -79,7 +79,7 @@ pub(crate) fn mitral<'py>(
         .map(|found| found.ring)
         .map_err(|source| {
             crate::input_error(
-                unfold::cli::CliError::Organ {
+                unfold::cli::AppError::Organ {
                     path: name.to_string(),
                     source,
                 },

@@ -76,7 +76,7 @@ pub(crate) fn tet_mesh<'py>(
             let mask = how.mask_of(path, &image)?;
             let out = how.mesh(path, &mask, keep_all_components)?;
             let quality = MeshQuality::of(&out.mesh)?;
-            Ok::<_, unfold::cli::CliError>((out, quality))
+            Ok::<_, unfold::cli::AppError>((out, quality))
         })
         .map_err(crate::error)?;
     let (out, quality) = out;

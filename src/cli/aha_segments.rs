@@ -5,7 +5,7 @@
 //! carried in). The cohort statistics (`cohort_segments`) average the same
 //! per-heart means across hearts.
 
-use super::{CliError, at};
+use super::{AppError, at};
 use crate::mesh::CellMesh;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -64,7 +64,7 @@ pub(crate) fn heart_segments(mesh: &CellMesh) -> Option<HeartSegments> {
 ///
 /// # Errors
 /// Only the CSV writer's (named at `path`).
-pub(crate) fn segment_table(s: &HeartSegments, path: &Path) -> Result<Vec<u8>, CliError> {
+pub(crate) fn segment_table(s: &HeartSegments, path: &Path) -> Result<Vec<u8>, AppError> {
     let arrays: Vec<&String> = {
         let mut a: Vec<&String> = s.means.keys().map(|(n, _)| n).collect();
         a.dedup();

@@ -37,7 +37,7 @@
 //! [`finish`] (`failures.csv` and the cohort tables); `unfold batch` is a
 //! loop over them.
 
-use super::{CliError, at};
+use super::{AppError, at};
 use clap::{Args, CommandFactory};
 use serde::Serialize;
 use std::collections::{BTreeMap, HashSet};
@@ -83,7 +83,7 @@ impl Subject {
     /// The run hash of its command line and the contents of its inputs as
     /// they are now ([`super::provenance`]).
     pub fn run_hash(&self) -> String {
-        super::provenance::run_hash(&self.args).0
+        crate::app::run::provenance::run_hash(&self.args).0
     }
 
     /// Whether `dir` (its output directory) holds a run with this run hash:
@@ -104,7 +104,7 @@ pub struct Plan {
 }
 
 /// A manifest cell's problem, for one row.
-fn row_error(manifest: &Path, row: usize, msg: impl std::fmt::Display) -> CliError {
+fn row_error(manifest: &Path, row: usize, msg: impl std::fmt::Display) -> AppError {
     at(manifest, format!("row {row}: {msg}"))
 }
 
@@ -218,7 +218,7 @@ fn header_hint(header: &[String], needed: &str) -> String {
 /// # Errors
 /// The manifest cannot be read, or a row is unusable (the message names
 /// the row and the cell).
-pub fn plan(manifest: &Path) -> Result<Plan, CliError> {
+pub fn plan(manifest: &Path) -> Result<Plan, AppError> {
     let base = match manifest.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -438,9 +438,9 @@ impl Program {
     ///
     /// # Errors
     /// The system does not tell the executable.
-    pub fn this_exe() -> Result<Self, CliError> {
+    pub fn this_exe() -> Result<Self, AppError> {
         let exe = std::env::current_exe()
-            .map_err(|e| CliError::Usage(format!("cannot find the unfold binary: {e}")))?;
+            .map_err(|e| AppError::Usage(format!("cannot find the unfold binary: {e}")))?;
         Ok(Program {
             exe,
             prefix: Vec::new(),
@@ -516,7 +516,7 @@ pub fn run_subject(
 /// Puts a subject's outputs, run elsewhere, in place as `OUT/<id>/`:
 /// `files` (paths relative to the subject's output directory,
 /// `/`-separated, the hidden manifest of the set left out) replace the
-/// directory whole, as a run's outputs do ([`crate::io::StagedOutputs`]);
+/// directory whole, as a run's outputs do ([`crate::app::run::StagedOutputs`]);
 /// `log` (the run's stdout and stderr) goes to `OUT/logs/<id>.log`.
 ///
 /// # Errors
@@ -527,7 +527,7 @@ pub fn place_subject(
     id: &str,
     files: &[(String, Vec<u8>)],
     log: Option<&[u8]>,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     if !valid_id(id) {
         return Err(at(
             out,
@@ -536,11 +536,11 @@ pub fn place_subject(
     }
     let dir = out.join(id);
     if !files.is_empty() {
-        let mut staged = crate::io::StagedOutputs::new(std::iter::empty::<&Path>());
+        let mut staged = crate::app::run::StagedOutputs::new(std::iter::empty::<&Path>());
         let staging = staged.dir(&dir)?;
         for (rel, bytes) in files {
             let inside = !rel.is_empty()
-                && rel != crate::io::MANIFEST
+                && rel != crate::app::run::MANIFEST
                 && Path::new(rel)
                     .components()
                     .all(|c| matches!(c, std::path::Component::Normal(_)));
@@ -590,7 +590,7 @@ pub struct Counts {
 ///
 /// # Errors
 /// An id of `ended` not in the plan or twice; writing a file.
-pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, CliError> {
+pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, AppError> {
     let order: BTreeMap<&str, usize> = plan
         .subjects
         .iter()
@@ -600,7 +600,7 @@ pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, CliErr
     let mut seen = HashSet::new();
     for e in ended {
         if !order.contains_key(e.id.as_str()) || !seen.insert(e.id.as_str()) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "subject '{}' ended twice or is not in the manifest; pass each planned subject \
                  once",
                 super::printable(&e.id)
@@ -626,7 +626,7 @@ pub fn finish(out: &Path, plan: &Plan, ended: &[Ended]) -> Result<Counts, CliErr
 ///
 /// # Errors
 /// `out` is a file, or cannot be created.
-pub fn prepare_output(out: &Path) -> Result<(), CliError> {
+pub fn prepare_output(out: &Path) -> Result<(), AppError> {
     if out.is_file() {
         return Err(at(out, "is a file; -o names a directory"));
     }
@@ -635,7 +635,7 @@ pub fn prepare_output(out: &Path) -> Result<(), CliError> {
 
 /// Writes `OUT/failures.csv`: one row per failed subject (header only when
 /// none failed).
-fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), CliError> {
+fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), AppError> {
     let path = out.join("failures.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
     let err = |e: csv::Error| at(&path, e);
@@ -656,7 +656,7 @@ fn write_failures(out: &Path, ended: &[Ended]) -> Result<(), CliError> {
 }
 
 /// Runs `unfold batch`.
-pub fn run(a: &BatchArgs) -> Result<(), CliError> {
+pub fn run(a: &BatchArgs) -> Result<(), AppError> {
     run_manifest(&a.manifest, &a.output, a.jobs)
 }
 
@@ -670,18 +670,18 @@ pub(crate) fn run_manifest(
     manifest: &Path,
     out: &Path,
     jobs: Option<usize>,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let plan = plan(manifest)?;
     let subjects = &plan.subjects;
     let jobs = match jobs {
-        Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
+        Some(0) => return Err(AppError::Usage("--jobs must be at least 1".into())),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     }
     .min(subjects.len());
     prepare_output(out)?;
     let program = Program::this_exe()?;
-    let max_memory = super::memory::budget()
+    let max_memory = crate::app::run::memory::budget()
         .limit_bytes
         .map(|l| (l / jobs as f64) as u64);
     let total = subjects.len();
@@ -756,7 +756,7 @@ pub(crate) fn run_manifest(
             .iter()
             .find(|s| ended.iter().any(|e| e.id == s.id && e.status == "failed"))
             .map_or("", |s| s.id.as_str());
-        return Err(CliError::Usage(format!(
+        return Err(AppError::Usage(format!(
             "{failed} of {total} subjects failed (first: {first}); see {}",
             out.join("failures.csv").display()
         )));
@@ -806,7 +806,7 @@ mod tests {
         .unwrap();
         assert_eq!(std::fs::read(out.join("s1/a/b.txt")).unwrap(), b"x");
         assert_eq!(std::fs::read(out.join("logs/s1.log")).unwrap(), b"log");
-        assert!(out.join("s1").join(crate::io::MANIFEST).is_file());
+        assert!(out.join("s1").join(crate::app::run::MANIFEST).is_file());
         // a second set replaces the first: no file of the first is left
         place_subject(out, "s1", &[f("report.json", "{\"x\":1}")], None).unwrap();
         assert!(!out.join("s1/a/b.txt").exists());
@@ -817,7 +817,13 @@ mod tests {
         // no files: the directory is left as it is (a failed subject)
         place_subject(out, "s1", &[], Some(b"failed")).unwrap();
         assert!(out.join("s1/report.json").is_file());
-        for bad in ["../escape", "/abs", "", "a/../../b", crate::io::MANIFEST] {
+        for bad in [
+            "../escape",
+            "/abs",
+            "",
+            "a/../../b",
+            crate::app::run::MANIFEST,
+        ] {
             let e = place_subject(out, "s2", &[f(bad, "x")], None).unwrap_err();
             assert!(e.to_string().contains("not a relative path"), "{bad}: {e}");
         }

@@ -22,7 +22,7 @@
 //! ([`super::cohort_report`]).
 
 pub use super::cohort_figures::PlotSpec;
-use super::{CliError, at};
+use super::{AppError, at};
 use clap::Args;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -87,7 +87,7 @@ pub(crate) fn write_cohort(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     write_cohort_plots(out, subjects, covariates, &[])
 }
 
@@ -100,7 +100,7 @@ fn write_cohort_plots(
     subjects: &[SubjectRow],
     covariates: &[String],
     plots: &[super::cohort_figures::PlotSpec],
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let path = out.join("subjects.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["id".to_string(), "organ".to_string()];
@@ -197,7 +197,7 @@ fn write_cohort_plots(
 }
 
 /// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
-pub fn run(a: &CohortArgs) -> Result<(), CliError> {
+pub fn run(a: &CohortArgs) -> Result<(), AppError> {
     gather(&a.output, &a.plot)
 }
 
@@ -208,7 +208,7 @@ pub fn run(a: &CohortArgs) -> Result<(), CliError> {
 /// # Errors
 /// `OUT/subjects.csv` missing or malformed; writing a file; a `plots`
 /// entry naming an unknown column.
-pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), CliError> {
+pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), AppError> {
     let path = output.join("subjects.csv");
     let mut reader = csv::Reader::from_path(&path).map_err(|e| {
         at(

@@ -25,7 +25,7 @@
 //! is skipped, and a line says so. PNGs of an earlier run that this run did
 //! not draw are removed, so that the index lists exactly the PNGs present.
 
-use super::{CliError, at};
+use super::{AppError, at};
 use crate::figures::cohort::bullseyes::{
     SegmentStatistics, mean_bullseye, std_bullseye, z_bullseye,
 };
@@ -83,7 +83,7 @@ struct Table {
 }
 
 impl Table {
-    fn read(path: &Path) -> Result<Table, CliError> {
+    fn read(path: &Path) -> Result<Table, AppError> {
         let mut r = csv::Reader::from_path(path).map_err(|e| at(path, e))?;
         let header: Vec<String> = r
             .headers()
@@ -164,11 +164,11 @@ impl Drawn {
 }
 
 /// Checks `plots` against the columns of `cohort.csv`.
-fn check_plots(table: &Table, plots: &[PlotSpec], path: &Path) -> Result<(), CliError> {
+fn check_plots(table: &Table, plots: &[PlotSpec], path: &Path) -> Result<(), AppError> {
     for p in plots {
         for (what, col) in [("MEASURE", &p.measure), ("COVARIATE", &p.covariate)] {
             if !table.header.contains(col) {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "--plot {}:{}: {what} '{}' is not a column of {}; the columns are: {}",
                     p.measure,
                     p.covariate,
@@ -179,7 +179,7 @@ fn check_plots(table: &Table, plots: &[PlotSpec], path: &Path) -> Result<(), Cli
             }
         }
         if !table.numeric(&p.covariate) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--plot {}:{}: the column '{}' of {} is not numeric; plot against a numeric \
                  covariate",
                 p.measure,
@@ -199,7 +199,7 @@ fn scatters(
     plots: &[PlotSpec],
     opts: &FigureOptions,
     drawn: &mut Drawn,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let specs: Vec<PlotSpec> = if plots.is_empty() {
         covariates
             .iter()
@@ -322,7 +322,7 @@ fn distortion(
     table: &Table,
     opts: &FigureOptions,
     drawn: &mut Drawn,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let mut subjects = Vec::new();
     for r in table.rows.iter().filter(|r| {
         r.get("organ").map(String::as_str) == Some("placenta")
@@ -378,7 +378,7 @@ fn distortion(
 }
 
 /// Reads a CSV file into maps, one per row.
-fn read_rows(path: &Path) -> Result<Vec<BTreeMap<String, String>>, CliError> {
+fn read_rows(path: &Path) -> Result<Vec<BTreeMap<String, String>>, AppError> {
     Ok(Table::read(path)?.rows)
 }
 
@@ -390,7 +390,7 @@ fn segment(row: &BTreeMap<String, String>) -> Option<usize> {
 }
 
 /// The ventricle bull's-eyes.
-fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), CliError> {
+fn bullseyes(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), AppError> {
     let seg_path = out.join("cohort").join("ventricle_segments.csv");
     if !seg_path.is_file() {
         return Ok(());
@@ -489,7 +489,7 @@ fn slices(
     images: &[String],
     opts: &FigureOptions,
     drawn: &mut Drawn,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let dir = out.join("cohort");
     for image in images {
         let name = crate::figures::cohort::slices::slices_name(image);
@@ -545,7 +545,7 @@ fn energies(
     table: &Table,
     opts: &FigureOptions,
     drawn: &mut Drawn,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let name = crate::figures::cohort::energies::ENERGIES_PNG;
     let path = out.join("cohort").join("mitral_measurements.csv");
     if !path.is_file() {
@@ -627,7 +627,7 @@ pub(crate) fn cohort_figures(
     covariates: &[String],
     plots: &[PlotSpec],
     placenta_images: &[String],
-) -> Result<Vec<PathBuf>, CliError> {
+) -> Result<Vec<PathBuf>, AppError> {
     let csv_path = out.join("cohort.csv");
     let table = Table::read(&csv_path)?;
     check_plots(&table, plots, &csv_path)?;

@@ -25,7 +25,7 @@
 //! `OUT/cohort/z/<id>_<name>.nii.gz`. A subject whose image is on another
 //! grid (a run without the common `--grid`) is left out and named.
 
-use super::CliError;
+use super::AppError;
 use super::cohort::SubjectRow;
 use crate::io::{NiftiImage, read_tet_mesh, write_image};
 use crate::mesh::Volume;
@@ -62,7 +62,7 @@ fn same_grid(a: &Volume<f32>, b: &Volume<f32>) -> bool {
 
 /// Which voxels of `grid` have their centre in the subject's flattened
 /// mesh.
-fn inside(dir: &Path, grid: &Volume<f32>) -> Result<Vec<bool>, CliError> {
+fn inside(dir: &Path, grid: &Volume<f32>) -> Result<Vec<bool>, AppError> {
     let mesh = read_tet_mesh(dir.join("flattened.vtu"))?;
     let locator = TetLocator::new(&mesh);
     let [nx, ny, nz, _] = grid.dims();
@@ -79,7 +79,7 @@ fn inside(dir: &Path, grid: &Volume<f32>) -> Result<Vec<bool>, CliError> {
 }
 
 /// One subject's image and mask on the common grid.
-fn load(dir: &Path, name: &str) -> Result<(Volume<f32>, Vec<bool>), CliError> {
+fn load(dir: &Path, name: &str) -> Result<(Volume<f32>, Vec<bool>), AppError> {
     let img = super::read_image_checked(&dir.join(format!("{name}{FLAT}")), 1.0)?;
     let mask = inside(dir, &img.volume)?;
     Ok((img.volume, mask))
@@ -90,7 +90,7 @@ fn write(
     dims: [usize; 4],
     affine: Matrix4<f64>,
     data: Vec<f32>,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let vol = Volume::new(dims, affine, data).map_err(|e| super::at(path, e))?;
     Ok(write_image(path, &NiftiImage::new(vol))?)
 }
@@ -112,7 +112,7 @@ pub(crate) struct Statistics {
 pub(crate) fn placenta_statistics(
     out: &Path,
     subjects: &[SubjectRow],
-) -> Result<Statistics, CliError> {
+) -> Result<Statistics, AppError> {
     let dirs: Vec<(&SubjectRow, PathBuf)> = subjects
         .iter()
         .filter(|s| s.organ == "placenta")

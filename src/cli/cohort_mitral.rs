@@ -11,7 +11,7 @@
 
 use super::cohort::SubjectRow;
 use super::mitral::SERIES_COLUMNS;
-use super::{CliError, at};
+use super::{AppError, at};
 use std::path::{Path, PathBuf};
 
 /// The measurement columns: those of `series.csv` after `step` up to
@@ -51,7 +51,7 @@ fn report_row(report: &serde_json::Value) -> Vec<String> {
 pub(crate) fn mitral_measurements(
     out: &Path,
     subjects: &[SubjectRow],
-) -> Result<Option<PathBuf>, CliError> {
+) -> Result<Option<PathBuf>, AppError> {
     let mut rows: Vec<Vec<String>> = Vec::new();
     for s in subjects.iter().filter(|s| s.organ == "mitral") {
         let dir = out.join(&s.id);

@@ -42,7 +42,7 @@
 //! statistics: nibabel, ITK, 3D Slicer and ParaView read it, it holds
 //! NaN, and an image is the natural form of a regular grid.
 
-use super::CliError;
+use super::AppError;
 use super::cohort::SubjectRow;
 use crate::io::{NiftiImage, read_mesh, write_image};
 use crate::mesh::nalgebra::Matrix4;
@@ -229,7 +229,7 @@ impl MitralMaps {
 ///
 /// # Errors
 /// Writing an image.
-pub(crate) fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralMaps, CliError> {
+pub(crate) fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralMaps, AppError> {
     let g = grid();
     let mut stats: BTreeMap<String, Accumulator> = BTreeMap::new();
     let mut notes = Vec::new();

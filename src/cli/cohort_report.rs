@@ -13,7 +13,7 @@
 //! anywhere; every text read from a file is HTML-escaped. The page is the
 //! same for the same outputs apart from its timestamp.
 
-use super::CliError;
+use super::AppError;
 use super::cohort::SubjectRow;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -321,7 +321,7 @@ pub(crate) fn write_report(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
-) -> Result<PathBuf, CliError> {
+) -> Result<PathBuf, AppError> {
     let failures: BTreeMap<String, (String, String)> = read_csv(&out.join("failures.csv"))
         .map(|(_, rows)| {
             rows.into_iter()

@@ -15,7 +15,7 @@
 
 use super::aha_segments::heart_segments;
 use super::cohort::SubjectRow;
-use super::{CliError, at};
+use super::{AppError, at};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 type SegmentMeans = BTreeMap<(String, i32), Vec<(String, f64)>>;
 
 /// One heart's segment means of every scalar point array of `anatomy.vtu`.
-fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, CliError> {
+fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, AppError> {
     let path = dir.join("anatomy.vtu");
     let mesh = crate::io::read_mesh(&path)?;
     heart_segments(&mesh)
@@ -48,7 +48,7 @@ fn mean_std(values: impl Iterator<Item = f64> + Clone) -> (f64, Option<f64>) {
 pub(crate) fn ventricle_segments(
     out: &Path,
     subjects: &[SubjectRow],
-) -> Result<Vec<PathBuf>, CliError> {
+) -> Result<Vec<PathBuf>, AppError> {
     let mut by: SegmentMeans = BTreeMap::new();
     for s in subjects.iter().filter(|s| s.organ == "ventricle") {
         let dir = out.join(&s.id);

@@ -4,10 +4,11 @@
 //! direction), keeping the data type, the affine and the header fields both
 //! formats hold.
 
-use super::CliError;
+use super::AppError;
+use crate::app::run::StagedOutputs;
 use crate::io::{
-    Datatype, FileKind, LegacyVersion, NiftiImage, StagedOutputs, WriteOptions, XmlEncoding,
-    read_mesh, write_image, write_mesh,
+    Datatype, FileKind, LegacyVersion, NiftiImage, WriteOptions, XmlEncoding, read_mesh,
+    write_image, write_mesh,
 };
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -60,9 +61,9 @@ pub struct ConvertArgs {
 }
 
 /// Runs `unfold convert`.
-pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
+pub fn run(a: &ConvertArgs) -> Result<(), AppError> {
     if super::canonical(&a.input) == super::canonical(&a.output) {
-        return Err(CliError::Usage(format!(
+        return Err(AppError::Usage(format!(
             "{}: refusing to overwrite the input; choose another output path",
             a.output.display()
         )));
@@ -71,7 +72,7 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
     let image_out = FileKind::from_path(&a.output)?.is_image();
     let scale = a.scale.map(|f| super::positive("--scale", f)).transpose()?;
     if scale.is_some() && image_in {
-        return Err(CliError::Usage(format!(
+        return Err(AppError::Usage(format!(
             "{}: --scale applies to meshes; an image's spacing is in its header",
             a.input.display()
         )));
@@ -84,7 +85,7 @@ pub fn run(a: &ConvertArgs) -> Result<(), CliError> {
             return Ok(staged.commit()?);
         }
         (true, false) | (false, true) => {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "{} -> {}: convert goes between meshes or between images, not from one to \
                  the other",
                 a.input.display(),
@@ -166,7 +167,7 @@ fn kept_datatype(image: &NiftiImage) -> Datatype {
 /// affine kept, and the header fields the output format holds (NIfTI: codes,
 /// units, intent, description; NRRD: description as `content`).
 /// The image is written at `target` (staged, put in place by the caller).
-fn convert_image(a: &ConvertArgs, target: &std::path::Path) -> Result<(), CliError> {
+fn convert_image(a: &ConvertArgs, target: &std::path::Path) -> Result<(), AppError> {
     let image = super::read_image_checked(&a.input, 8.0)?;
     let datatype = kept_datatype(&image);
     let dims = image.volume.dims();

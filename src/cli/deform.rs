@@ -41,8 +41,9 @@
 //! numbers (welded copies move together; the first target of a welded
 //! vertex counts; a vertex no tet uses goes to its target, if it has one).
 
-use super::{CliError, at};
-use crate::io::{FileKind, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
+use super::{AppError, at};
+use crate::app::run::StagedOutputs;
+use crate::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use crate::mesh::{CellMesh, MeshError, TetMesh};
 use crate::param::energy::{Arap, SymmetricDirichlet};
@@ -155,17 +156,17 @@ impl DeformSettings {
     /// Checks every setting.
     ///
     /// # Errors
-    /// [`CliError::Usage`] naming the flag: a weight or tolerance not
+    /// [`AppError::Usage`] naming the flag: a weight or tolerance not
     /// finite and positive.
-    pub fn check(&self) -> Result<(), CliError> {
+    pub fn check(&self) -> Result<(), AppError> {
         if !(self.weight.is_finite() && self.weight > 0.0) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--weight must be a finite positive number, got {}",
                 self.weight
             )));
         }
         if !(self.tol.is_finite() && self.tol > 0.0) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--tol must be a finite positive number, got {}",
                 self.tol
             )));
@@ -200,7 +201,7 @@ fn parse_targets(
     text: &str,
     file: &Path,
     num_vertices: usize,
-) -> Result<Vec<(usize, [f64; 3])>, CliError> {
+) -> Result<Vec<(usize, [f64; 3])>, AppError> {
     let err = |line: usize, msg: String| at(file, format!("line {line}: {msg}"));
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // Line (1-based) of each vertex's target; 0 = none yet.
@@ -281,7 +282,7 @@ fn parse_targets(
 
 /// A pipeline error, worded for this command and attributed to the input
 /// it is about (`mesh` or `targets`).
-fn deform_problem(mesh: &Path, targets: &Path, solver: SolverKind, e: ParamError) -> CliError {
+fn deform_problem(mesh: &Path, targets: &Path, solver: SolverKind, e: ParamError) -> AppError {
     match e {
         ParamError::Mesh(MeshError::InvertedElement { element, volume }) => at(
             mesh,
@@ -313,7 +314,7 @@ fn solver_name(s: SolverKind) -> &'static str {
 /// # Errors
 /// A mesh with other cells than tets ("not a tetrahedral mesh"), or bad
 /// indices, at `mesh`.
-pub fn tet_mesh_of(cells: &CellMesh, mesh: &Path) -> Result<TetMesh, CliError> {
+pub fn tet_mesh_of(cells: &CellMesh, mesh: &Path) -> Result<TetMesh, AppError> {
     cells.to_tet_mesh().map_err(|e| match e {
         MeshError::WrongCellType { cell, found, .. } => at(
             mesh,
@@ -342,7 +343,7 @@ pub fn deform_mesh(
     settings: &DeformSettings,
     mesh: &Path,
     targets: &Path,
-) -> Result<Deformed, CliError> {
+) -> Result<Deformed, AppError> {
     settings.check()?;
     let n = tet_mesh.num_vertices();
     if let Some(&(v, _)) = pairs.iter().find(|(v, _)| *v >= n) {
@@ -390,7 +391,7 @@ pub fn deform_mesh(
         let pmesh = crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(mesh, e))?;
         let estimate = crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(mesh, e))?;
         drop(pmesh);
-        super::memory::check(
+        crate::app::run::memory::check(
             "deforming the mesh",
             &estimate,
             "coarsen the mesh, or use --solver gd (no factor)",
@@ -419,7 +420,7 @@ pub fn deform_mesh(
 }
 
 /// Runs `unfold deform`.
-pub fn run(a: &DeformArgs) -> Result<(), CliError> {
+pub fn run(a: &DeformArgs) -> Result<(), AppError> {
     let settings = DeformSettings {
         weight: a.weight,
         energy: a.energy,
@@ -456,7 +457,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
     let cells = read_mesh(&a.mesh)?;
     let tet_mesh = tet_mesh_of(&cells, &a.mesh)?;
     let n = tet_mesh.num_vertices();
-    let text = std::fs::read_to_string(&a.targets).map_err(|source| CliError::Fs {
+    let text = std::fs::read_to_string(&a.targets).map_err(|source| AppError::Fs {
         path: a.targets.display().to_string(),
         source,
     })?;
@@ -476,7 +477,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         output: a.output.display().to_string(),
         repair,
         report,
-        provenance: super::provenance::this_run(),
+        provenance: crate::app::run::provenance::this_run(),
     };
     let json = serde_json::to_string_pretty(&full)
         .map_err(|e| at(&report_file, format!("cannot serialize the report: {e}")))?;
@@ -505,7 +506,7 @@ pub fn run(a: &DeformArgs) -> Result<(), CliError> {
         report.inverted_tets
     );
     if !report.converged {
-        return Err(CliError::NotConverged {
+        return Err(AppError::NotConverged {
             what: "the deformation",
             reason: super::stop_name(report.stop_reason),
             iterations: report.iterations,

@@ -5,9 +5,10 @@
 //! built-in cup (its inner cup as the anatomy, outputs in
 //! `DIR/ventricle/`).
 
-use super::CliError;
+use super::AppError;
 use super::placenta::{ImageInput, PipelineInput, run_pipeline};
-use crate::io::{NiftiImage, StagedOutputs, WriteOptions, atomic_write, write_image, write_mesh};
+use crate::app::run::StagedOutputs;
+use crate::io::{NiftiImage, WriteOptions, atomic_write, write_image, write_mesh};
 use crate::mesh::geometry::bounding_box;
 use crate::mesh::nalgebra::{Matrix4, Point3, Rotation3, Vector3};
 use crate::mesh::shapes::{
@@ -58,7 +59,7 @@ fn ring_mesh(points: &[crate::mesh::nalgebra::Point3<f64>]) -> CellMesh {
 }
 
 /// Runs `unfold demo`.
-pub fn run(a: &DemoArgs) -> Result<(), CliError> {
+pub fn run(a: &DemoArgs) -> Result<(), AppError> {
     if a.cohort {
         let dir = a
             .output
@@ -80,10 +81,10 @@ pub fn run(a: &DemoArgs) -> Result<(), CliError> {
 
 /// Writes the demo's shapes and pipeline outputs into `dir`, the staging
 /// directory of `staged`.
-fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
+fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
     let opts = WriteOptions::default();
     let mut written: Vec<(PathBuf, String)> = Vec::new();
-    let mut put = |name: &str, mesh: CellMesh, what: &str| -> Result<(), CliError> {
+    let mut put = |name: &str, mesh: CellMesh, what: &str| -> Result<(), AppError> {
         let p = dir.join(name);
         write_mesh(&p, &mesh, &opts)?;
         written.push((p, what.to_string()));
@@ -193,7 +194,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), CliError> {
         name: "placenta_mri".into(),
         image: img,
     }];
-    let prepared = prepare_mesh(&small.mesh).map_err(|source| CliError::Organ {
+    let prepared = prepare_mesh(&small.mesh).map_err(|source| AppError::Organ {
         path: label.clone(),
         source,
     })?;
@@ -344,9 +345,9 @@ const BACKGROUND: f64 = 20.0;
 /// 10 degrees about z (an oblique scanner frame), holding
 /// [`synthetic_intensity`] inside the placenta (`inside`) and a dark
 /// background elsewhere.
-fn synthetic_mri(points: &[Point3<f64>], inside: &TetLocator) -> Result<NiftiImage, CliError> {
+fn synthetic_mri(points: &[Point3<f64>], inside: &TetLocator) -> Result<NiftiImage, AppError> {
     let spacing = 2.0;
-    let bb = bounding_box(points).ok_or_else(|| CliError::Usage("empty shape".into()))?;
+    let bb = bounding_box(points).ok_or_else(|| AppError::Usage("empty shape".into()))?;
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
     // Extent of the box in the rotated frame, from its 8 corners.
     let centre = bb.center();

@@ -16,7 +16,7 @@
 //! cohort table, every subject's figures and the report page
 //! `DIR/study/index.html`. Rerunning skips the subjects already done.
 
-use super::CliError;
+use super::AppError;
 use crate::io::{NiftiImage, WriteOptions, write_image, write_mesh};
 use crate::mesh::nalgebra::{Matrix4, Point3, Vector3};
 use crate::mesh::shapes::{
@@ -34,7 +34,7 @@ const GRID_SPACING_MM: &str = "3";
 /// An MRI around a slab in `pose`: 2 mm voxels, the body's value
 /// `400 + 2 x - 3 y + 5 z + offset` at its rest position `(x, y, z)` inside
 /// the mesh, 50 outside.
-fn mri(mesh: &crate::mesh::TetMesh, pose: &Pose, offset: f64) -> Result<NiftiImage, CliError> {
+fn mri(mesh: &crate::mesh::TetMesh, pose: &Pose, offset: f64) -> Result<NiftiImage, AppError> {
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -91,7 +91,7 @@ fn ring(points: &[Point3<f64>]) -> CellMesh {
 
 /// Writes the cohort's inputs and manifest into `dir`, returns the
 /// manifest's path.
-fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliError> {
+fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, AppError> {
     let opts = WriteOptions::default();
     let inputs = dir.join("inputs");
     super::ensure_dir(&inputs)?;
@@ -215,7 +215,7 @@ fn write_inputs(dir: &Path, placentas: usize) -> Result<std::path::PathBuf, CliE
 ///
 /// # Errors
 /// Writing the inputs; the batch's errors (a failed subject).
-pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), CliError> {
+pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), AppError> {
     let manifest = write_inputs(dir, placentas)?;
     println!(
         "wrote {} ({placentas} placentas, 6 ventricles, 6 valves and a valve series, covariates \

@@ -7,7 +7,7 @@
 //! the image's size, and a `.nii.gz` is never inflated past what its header
 //! declares.
 
-use super::{CliError, printable};
+use super::{AppError, printable};
 use crate::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
 use crate::mesh::geometry::{bounding_box, total_area, total_volume};
 use crate::mesh::topology::{
@@ -73,7 +73,7 @@ pub struct MeshInfo {
     cell_types: BTreeMap<String, usize>,
     bounding_box: Option<[[f64; 3]; 2]>,
     /// When the mesh is smaller than any organ (coordinates read as mm):
-    /// [`super::units::note`].
+    /// [`crate::app::run::units::note`].
     #[serde(skip_serializing_if = "Option::is_none")]
     units_note: Option<String>,
     point_arrays: Vec<ArrayInfo>,
@@ -145,9 +145,9 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
         cell_types: counts.iter().map(|(t, n)| (format!("{t:?}"), *n)).collect(),
         bounding_box: bounding_box(&mesh.positions)
             .map(|b| [[b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z]]),
-        units_note: super::units::smaller_than_an_organ(&mesh.positions).map(|side| {
+        units_note: crate::app::run::units::smaller_than_an_organ(&mesh.positions).map(|side| {
             let file = path.display();
-            super::units::note(
+            crate::app::run::units::note(
                 &file.to_string(),
                 side,
                 &format!("if it is in metres, `unfold convert {file} OUT --scale 1000`"),
@@ -233,7 +233,7 @@ pub fn image_info(path: &Path, header: &ImageHeader, values: &ValueSummary) -> I
 }
 
 /// Reads an image's header and streams its values once (bounded memory).
-fn read_image_info(path: &Path) -> Result<ImageInfo, CliError> {
+fn read_image_info(path: &Path) -> Result<ImageInfo, AppError> {
     let (header, values) = image_value_summary(path)?;
     Ok(image_info(path, &header, &values))
 }
@@ -353,7 +353,7 @@ fn to_json<T: Serialize>(v: &T) -> String {
 }
 
 /// The report of `path` as JSON (used by `demo` as well).
-pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
+pub fn info_json(path: &Path) -> Result<(String, bool), AppError> {
     match FileKind::from_path(path)? {
         FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
             Ok((to_json(&read_image_info(path)?), true))
@@ -366,7 +366,7 @@ pub fn info_json(path: &Path) -> Result<(String, bool), CliError> {
 }
 
 /// Runs `unfold info`.
-pub fn run(a: &InfoArgs) -> Result<(), CliError> {
+pub fn run(a: &InfoArgs) -> Result<(), AppError> {
     let path = a.file.as_path();
     match FileKind::from_path(path)? {
         FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
@@ -386,7 +386,7 @@ pub fn run(a: &InfoArgs) -> Result<(), CliError> {
                 print_mesh(&i);
             }
             match (a.strict, i.problems.first()) {
-                (true, Some(p)) => Err(CliError::Invalid {
+                (true, Some(p)) => Err(AppError::Invalid {
                     path: i.file.clone(),
                     count: i.problems.len(),
                     first: p.first.clone(),

@@ -6,8 +6,9 @@
 //! `.msh`); it holds the tets only. The largest connected component is kept
 //! (with a warning naming the others' sizes) unless `--keep-all-components`.
 
-use super::{CliError, at, positive};
-use crate::io::{StagedOutputs, WriteOptions, write_mesh};
+use super::{AppError, at, positive};
+use crate::app::run::StagedOutputs;
+use crate::io::{WriteOptions, write_mesh};
 use crate::mesh::mesher::{
     IsoLevel, MaskMesh, MaskMeshOptions, MaskSelection, MeshQuality, estimate_memory,
     mask_from_image, mesh_mask,
@@ -65,20 +66,20 @@ impl MaskArgs {
     /// The mesher's options, every flag checked.
     ///
     /// # Errors
-    /// [`CliError::Usage`] naming the flag out of range.
-    pub fn options(&self, keep_all_components: bool) -> Result<MaskMeshOptions, CliError> {
+    /// [`AppError::Usage`] naming the flag out of range.
+    pub fn options(&self, keep_all_components: bool) -> Result<MaskMeshOptions, AppError> {
         if let Some(s) = self.size_mm {
             positive("--size-mm", s)?;
         }
         if !(self.smooth_voxels.is_finite() && self.smooth_voxels >= 0.0) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--smooth-voxels must be a finite number >= 0, got {}",
                 self.smooth_voxels
             )));
         }
         if self.threshold.is_some() && self.label.is_some() {
             // (the parser refuses it on the command line; Python gets here)
-            return Err(CliError::Usage(
+            return Err(AppError::Usage(
                 "--threshold cannot be used with --label: the one takes the voxels above a \
                  value, the other those equal to it"
                     .into(),
@@ -88,14 +89,14 @@ impl MaskArgs {
             if let Some(v) = value
                 && !v.is_finite()
             {
-                return Err(CliError::Usage(format!("{flag} must be finite, got {v}")));
+                return Err(AppError::Usage(format!("{flag} must be finite, got {v}")));
             }
         }
         let level = match self.level {
             None => IsoLevel::PreserveVolume,
             Some(c) if c > 0.0 && c < 1.0 => IsoLevel::Fixed(c),
             Some(c) => {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "--level must be in (0, 1), got {c}"
                 )));
             }
@@ -111,7 +112,7 @@ impl MaskArgs {
     }
 
     /// Reads the mask image at `path` (3D, binary or thresholded).
-    pub(crate) fn read_mask(&self, path: &Path) -> Result<Volume<bool>, CliError> {
+    pub(crate) fn read_mask(&self, path: &Path) -> Result<Volume<bool>, AppError> {
         let image = super::read_image_checked(path, 1.0)?;
         self.mask_of(path, &image.volume)
     }
@@ -123,7 +124,7 @@ impl MaskArgs {
     /// # Errors
     /// [`mask_from_image`]'s (a label map without `--label` or
     /// `--threshold`, a label it does not hold, several frames), at `path`.
-    pub fn mask_of(&self, path: &Path, volume: &Volume<f32>) -> Result<Volume<bool>, CliError> {
+    pub fn mask_of(&self, path: &Path, volume: &Volume<f32>) -> Result<Volume<bool>, AppError> {
         let selection = match (self.label, self.threshold) {
             (Some(l), _) => MaskSelection::Label(l),
             (None, Some(t)) => MaskSelection::Above(t),
@@ -145,7 +146,7 @@ impl MaskArgs {
         path: &Path,
         mask: &Volume<bool>,
         keep_all_components: bool,
-    ) -> Result<(), CliError> {
+    ) -> Result<(), AppError> {
         self.check_memory_of(path, mask, &self.options(keep_all_components)?)
     }
 
@@ -155,9 +156,9 @@ impl MaskArgs {
         path: &Path,
         mask: &Volume<bool>,
         opts: &MaskMeshOptions,
-    ) -> Result<(), CliError> {
+    ) -> Result<(), AppError> {
         let estimate = estimate_memory(mask, opts).map_err(|e| at(path, e))?;
-        super::memory::check(
+        crate::app::run::memory::check(
             "meshing the mask",
             &estimate,
             "raise --size-mm (the lattice and the tets grow as 1/size^3), lower --smooth-voxels, \
@@ -169,14 +170,14 @@ impl MaskArgs {
     /// warns on stderr about dropped components.
     ///
     /// # Errors
-    /// The options' errors, [`CliError::Memory`], and the mesher's at
+    /// The options' errors, [`AppError::Memory`], and the mesher's at
     /// `path`.
     pub fn mesh(
         &self,
         path: &Path,
         mask: &Volume<bool>,
         keep_all_components: bool,
-    ) -> Result<MaskMesh, CliError> {
+    ) -> Result<MaskMesh, AppError> {
         self.check_memory(path, mask, keep_all_components)?;
         let opts = self.options(keep_all_components)?;
         let out = mesh_mask(mask, &opts).map_err(|e| at(path, e))?;
@@ -263,7 +264,7 @@ pub(crate) fn describe(out: &MaskMesh, q: &MeshQuality) -> String {
 }
 
 /// Runs `unfold mesh`.
-pub fn run(a: &MeshArgs) -> Result<(), CliError> {
+pub fn run(a: &MeshArgs) -> Result<(), AppError> {
     if super::canonical(&a.mask) == super::canonical(&a.output) {
         return Err(at(
             &a.output,

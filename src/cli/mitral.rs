@@ -24,10 +24,11 @@
 //! single valve's report has) and the plot over the cycle
 //! `OUT/figures/series.png`.
 
-use super::{CliError, at, organ};
+use super::{AppError, at, organ};
+use crate::app::run::StagedOutputs;
 use crate::figures::FigureOptions;
 use crate::figures::mitral::series::{SeriesPoint, series_plot};
-use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
+use crate::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::{CellMesh, CellType, TriMesh};
 use crate::organs::mitral::{
@@ -143,7 +144,7 @@ impl MitralArgs {
     }
 
     /// The pipeline of the flags ([`MitralSettings::pipeline`]).
-    fn pipeline(&self) -> Result<Pipeline, CliError> {
+    fn pipeline(&self) -> Result<Pipeline, AppError> {
         self.settings().pipeline()
     }
 }
@@ -192,8 +193,8 @@ impl MitralSettings {
     /// the published pieces otherwise, every setting checked.
     ///
     /// # Errors
-    /// [`CliError::Usage`] naming the flag out of range.
-    pub fn pipeline(&self) -> Result<Pipeline, CliError> {
+    /// [`AppError::Usage`] naming the flag out of range.
+    pub fn pipeline(&self) -> Result<Pipeline, AppError> {
         let init = LeafletLayout {
             mode: match self.init {
                 InitArg::Auto => InitMode::Auto,
@@ -204,7 +205,7 @@ impl MitralSettings {
         Ok(Pipeline::new().initializer(init).config(self.config()?))
     }
 
-    fn config(&self) -> Result<Config, CliError> {
+    fn config(&self) -> Result<Config, AppError> {
         let mut c = Config {
             annulus_mode: match self.annulus_mode {
                 AnnulusArg::Straight => AnnulusMode::Straight,
@@ -221,14 +222,14 @@ impl MitralSettings {
         c.spring.iterations = self.iterations;
         if let Some(s) = self.step_scale {
             if !(s.is_finite() && s > 0.0) {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "--step-scale must be a finite number > 0, got {s}"
                 )));
             }
             c.spring.step_scale = s;
         }
         if !(self.coaptation_mm.is_finite() && self.coaptation_mm > 0.0) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--coaptation-mm must be a finite number > 0, got {}",
                 self.coaptation_mm
             )));
@@ -236,20 +237,20 @@ impl MitralSettings {
         c.maps.coaptation_mm = self.coaptation_mm;
         if let Some(t) = self.tolerance_mm {
             if !(t.is_finite() && t > 0.0) {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "--tolerance-mm must be a finite number > 0, got {t}"
                 )));
             }
             c.tolerance_mm = t;
         }
-        c.validate().map_err(|e| CliError::Usage(e.to_string()))?;
+        c.validate().map_err(|e| AppError::Usage(e.to_string()))?;
         Ok(c)
     }
 }
 
 /// A leaflet file as a triangle mesh (surface cells only; lines and points
 /// are dropped, volume cells are an error).
-pub(crate) fn read_leaflet(path: &Path) -> Result<TriMesh, CliError> {
+pub(crate) fn read_leaflet(path: &Path) -> Result<TriMesh, AppError> {
     leaflet_of(&read_mesh(path)?, path)
 }
 
@@ -259,7 +260,7 @@ pub(crate) fn read_leaflet(path: &Path) -> Result<TriMesh, CliError> {
 /// # Errors
 /// Volume cells, no triangles, or cells that do not make a triangle mesh,
 /// at `path`.
-pub fn leaflet_of(cells: &CellMesh, path: &Path) -> Result<TriMesh, CliError> {
+pub fn leaflet_of(cells: &CellMesh, path: &Path) -> Result<TriMesh, AppError> {
     let mut surface = CellMesh::from_points(cells.positions.clone());
     let mut volume = 0;
     for (t, vs) in cells.cells() {
@@ -287,7 +288,7 @@ pub fn leaflet_of(cells: &CellMesh, path: &Path) -> Result<TriMesh, CliError> {
 
 /// Parses `x,y,z` (or whitespace-separated) lines; blank lines, `#`
 /// comments and one non-numeric header line are skipped.
-fn parse_points(text: &str, path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
+fn parse_points(text: &str, path: &Path) -> Result<Vec<Point3<f64>>, AppError> {
     let mut points = Vec::new();
     let mut header_allowed = true;
     for (i, raw) in text.lines().enumerate() {
@@ -330,14 +331,14 @@ fn parse_points(text: &str, path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
 }
 
 /// The annulus ring's points in ring order.
-pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, CliError> {
+pub(crate) fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, AppError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     if matches!(ext.as_str(), "csv" | "txt" | "xyz") {
-        let text = std::fs::read_to_string(path).map_err(|source| CliError::Fs {
+        let text = std::fs::read_to_string(path).map_err(|source| AppError::Fs {
             path: path.display().to_string(),
             source,
         })?;
@@ -428,7 +429,7 @@ fn ring_of(
     posterior: &TriMesh,
     pipeline: &Pipeline,
     label: &str,
-) -> Result<Vec<Point3<f64>>, CliError> {
+) -> Result<Vec<Point3<f64>>, AppError> {
     match &files.annulus {
         Some(path) => read_ring(path),
         None => annulus_from_leaflets(anterior, posterior, pipeline.settings().tolerance_mm)
@@ -447,7 +448,7 @@ pub(crate) fn run_valve(
     dir: &Path,
     figures: bool,
     out: &StagedOutputs,
-) -> Result<Outcome, CliError> {
+) -> Result<Outcome, AppError> {
     let anterior = read_leaflet(&files.anterior)?;
     let posterior = read_leaflet(&files.posterior)?;
     let label = files.shown(out).label();
@@ -467,7 +468,7 @@ pub fn map_valve(
     posterior: &TriMesh,
     annulus: &[Point3<f64>],
     label: &str,
-) -> Result<Outcome, CliError> {
+) -> Result<Outcome, AppError> {
     pipeline
         .run(&ValveInput {
             anterior,
@@ -498,7 +499,7 @@ pub(crate) fn write_outcome(
     dir: &Path,
     label: &str,
     figures: bool,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     super::ensure_dir(dir)?;
     let opts = WriteOptions::default();
     write_mesh(
@@ -515,7 +516,7 @@ pub(crate) fn write_outcome(
     let json = serde_json::to_string_pretty(&FullReport {
         inputs: label,
         report: &outcome.report,
-        provenance: super::provenance::this_run(),
+        provenance: crate::app::run::provenance::this_run(),
     })
     .map_err(|e| at(&path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&path, format!("{json}\n").as_bytes())?;
@@ -693,19 +694,19 @@ struct SeriesJson<'a> {
     /// One row per step, as `series.csv`.
     steps: &'a [SeriesRow],
     /// Version, command line, parameters, input hashes, start time.
-    provenance: super::provenance::Provenance,
+    provenance: crate::app::run::provenance::Provenance,
 }
 
 impl MitralArgs {
     /// The mesh files read (leaflets and ring; none for a series), for the
     /// units hint.
     pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
-        super::units::mesh_inputs(&[&self.anterior, &self.posterior, &self.annulus])
+        crate::app::run::units::mesh_inputs(&[&self.anterior, &self.posterior, &self.annulus])
     }
 }
 
 /// Runs `unfold mitral`.
-pub fn run(a: &MitralArgs) -> Result<(), CliError> {
+pub fn run(a: &MitralArgs) -> Result<(), AppError> {
     let pipeline = a.pipeline()?;
     let out = a.output.as_path();
     if out.exists() && !out.is_dir() {
@@ -716,7 +717,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     }
     let Some(series) = &a.series else {
         let (Some(anterior), Some(posterior)) = (&a.anterior, &a.posterior) else {
-            return Err(CliError::Usage(
+            return Err(AppError::Usage(
                 "give --anterior and --posterior (and --annulus, or it is found from the \
                  leaflets), or --series DIR"
                     .into(),
@@ -796,7 +797,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
     atomic_write(staging.join("series.csv"), csv.as_bytes()).map_err(|e| staged.shown_error(e))?;
     let json = serde_json::to_string_pretty(&SeriesJson {
         steps: &rows,
-        provenance: super::provenance::this_run(),
+        provenance: crate::app::run::provenance::this_run(),
     })
     .map_err(|e| at(out, format!("cannot serialize the series table: {e}")))?;
     atomic_write(staging.join("series.json"), format!("{json}\n").as_bytes())
@@ -817,7 +818,7 @@ pub fn run(a: &MitralArgs) -> Result<(), CliError> {
 }
 
 /// Refuses an output directory whose files would overwrite an input.
-fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
+fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), AppError> {
     let d = super::canonical(dir);
     for input in inputs {
         let c = super::canonical(input);

@@ -15,7 +15,7 @@
 //! given for every step or for none (then each step's annulus is found
 //! from its leaflets, [`unfold_organs::mitral::annulus_from_leaflets`]).
 
-use super::{CliError, at};
+use super::{AppError, at};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -155,8 +155,8 @@ fn natural(a: &str, b: &str) -> Ordering {
 /// directory; two files of one role and step; a leaflet without its
 /// partner; an annulus without leaflets; annulus files for some steps but
 /// not all; no leaflet file at all. Each one line naming the file(s).
-pub(crate) fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, CliError> {
-    let fs = |source| CliError::Fs {
+pub(crate) fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, AppError> {
+    let fs = |source| AppError::Fs {
         path: dir.display().to_string(),
         source,
     };
@@ -187,7 +187,7 @@ pub(crate) fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, CliError> {
         if let Some(n) = naming {
             let k = n as usize;
             if let Some(other) = &first_of[1 - k] {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "{} and {}: a series names its leaflets either AL* / PL* or *anterior* / \
                      *posterior*, not both",
                     other.display(),
@@ -197,7 +197,7 @@ pub(crate) fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, CliError> {
             first_of[k].get_or_insert_with(|| path.clone());
         }
         if let Some(other) = by_role[role as usize].insert(key.clone(), path.clone()) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "{} and {}: two {} files for step '{key}'",
                 other.display(),
                 path.display(),

@@ -16,15 +16,12 @@ pub mod deform;
 mod demo;
 mod demo_cohort;
 mod info;
-mod memory;
 pub mod mesh;
 pub mod mitral;
 mod mitral_series;
 pub mod placenta;
-mod provenance;
 mod pushback;
 mod repair;
-pub mod units;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 pub mod ventricle_inverse;
@@ -32,91 +29,17 @@ mod ventricle_landmark_args;
 mod ventricle_sensitivity;
 pub mod ventricle_surface;
 
-use crate::io::IoError;
-use crate::mesh::MeshError;
-use crate::organs::OrganError;
+mod choice;
+
+pub use crate::app::AppError;
+pub(crate) use crate::app::error::{about, at, organ, positive, shown};
+pub(crate) use crate::app::names::stop_name;
+pub use crate::app::run::files::{canonical, ensure_dir, read_image_checked, write_figures};
+pub(crate) use crate::app::run::frame::{MeshFrame, mesh_frame, to_ras};
+pub use crate::app::run::printable::printable;
+pub(crate) use crate::app::run::{memory, provenance, units};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
-use thiserror::Error;
-
-/// Errors of the command-line tool (one line each when printed).
-#[derive(Debug, Error)]
-pub enum CliError {
-    /// Reading or writing a file failed.
-    #[error(transparent)]
-    Io(#[from] IoError),
-    /// A mesh was unusable.
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-    /// An output path cannot be written, or the outputs not put in place.
-    #[error(transparent)]
-    Output(#[from] crate::io::OutputError),
-    /// `info --strict` found validity problems.
-    #[error("{path}: {count} validity problem(s), first: {first}")]
-    Invalid {
-        /// The file.
-        path: String,
-        /// Number of problem kinds.
-        count: usize,
-        /// The first problem.
-        first: String,
-    },
-    /// Output directory or file handling.
-    #[error("{path}: {source}")]
-    Fs {
-        /// The path.
-        path: String,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// An organ pipeline rejected its input or failed; `path` names the
-    /// input concerned (the mesh, or an image).
-    #[error("{path}: {source}")]
-    Organ {
-        /// The input file (or the name of a built-in shape).
-        path: String,
-        /// What went wrong.
-        source: OrganError,
-    },
-    /// A usage error not caught by the argument parser.
-    #[error("{0}")]
-    Usage(String),
-    /// The solver stopped before converging; the outputs are written (exit
-    /// code 3).
-    #[error(
-        "{what} did not converge ({reason} after {iterations} iterations); its outputs are \
-         written to {output} with converged: false in report.json"
-    )]
-    NotConverged {
-        /// What was solved.
-        what: &'static str,
-        /// Why the solver stopped.
-        reason: String,
-        /// Iterations taken.
-        iterations: usize,
-        /// Where the outputs are.
-        output: String,
-    },
-    /// A stage would take more memory than the run may use.
-    #[error(transparent)]
-    Memory(Box<memory::MemoryRefusal>),
-    /// An organ command failed on an input smaller than any organ
-    /// ([`units::SMALLEST_ORGAN_MM`] across), probably not in millimetres.
-    #[error(
-        "{source}; {}",
-        units::note(path, *side_mm, &format!(
-            "a mesh in metres is scaled by `unfold convert {path} OUT --scale 1000`"
-        ))
-    )]
-    SmallerThanAnOrgan {
-        /// The failure.
-        source: Box<CliError>,
-        /// The small input.
-        path: String,
-        /// Its bounding box's largest side, in the file's units.
-        side_mm: f64,
-    },
-}
 
 /// unfold: map anatomical shapes (placenta, ventricle, mitral valve) onto
 /// canonical templates.
@@ -174,7 +97,7 @@ enum Command {
 
 /// Runs a parsed command line (the process's arguments are its
 /// provenance's command line).
-pub fn run(cli: Cli) -> Result<(), CliError> {
+pub fn run(cli: Cli) -> Result<(), AppError> {
     let command_line = std::env::args_os()
         .map(|a| a.to_string_lossy().into_owned())
         .collect();
@@ -183,7 +106,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 
 /// Runs `cli`, parsed from `command_line` (program name first), which the
 /// reports record as their provenance.
-pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliError> {
+pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), AppError> {
     memory::init(cli.max_memory);
     // only the commands whose reports carry provenance hash their inputs
     // (a batch hashes each subject's in the subject's own process)
@@ -216,7 +139,7 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), CliEr
 }
 
 /// `e` with the organ command's small input named ([`units::with_units_hint`]).
-fn hint(e: CliError, inputs: &[PathBuf]) -> CliError {
+fn hint(e: AppError, inputs: &[PathBuf]) -> AppError {
     let paths: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     units::with_units_hint(e, &paths)
 }
@@ -273,7 +196,7 @@ pub fn main(argv: Vec<std::ffi::OsString>) -> u8 {
             let msg = e.to_string();
             eprintln!("unfold: error: {}", printable(&msg));
             // 3: outputs written, but the solver did not converge
-            if matches!(e, CliError::NotConverged { .. }) {
+            if matches!(e, AppError::NotConverged { .. }) {
                 3
             } else {
                 1
@@ -295,197 +218,5 @@ pub fn write_peak_file() {
     ) {
         // a diagnostic: failing to write it must not change the exit code
         let _ = std::fs::write(path, format!("{}\n", peak as u64));
-    }
-}
-
-/// The report's name of a solver's stop reason (`max_iterations`, ...).
-pub(crate) fn stop_name(r: crate::param::StopReason) -> String {
-    serde_json::to_value(r)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_else(|| format!("{r:?}"))
-}
-
-/// `text` safe to print on a terminal: control characters (C0, DEL, C1:
-/// ESC, BEL, OSC, ... as found in hostile files' names and tokens) shown as
-/// `\u{1b}` escapes, so a file cannot retitle, recolour or ring the
-/// terminal; newlines become spaces (messages are one line).
-pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(char::is_control) {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let mut out = String::with_capacity(text.len() + 8);
-    for c in text.chars() {
-        match c {
-            '\n' | '\r' => out.push(' '),
-            c if c.is_control() => out.push_str(&c.escape_unicode().to_string()),
-            c => out.push(c),
-        }
-    }
-    std::borrow::Cow::Owned(out)
-}
-
-/// Reads an image after checking that its values fit the run's memory:
-/// the header alone first ([`crate::io::read_image_header`]), then
-/// `voxels x 4` bytes (the values as `f32`, decoded as they are read) plus
-/// `voxels x extra_per_voxel` for what the caller derives from them (a
-/// mask: 1 byte per voxel) and a 1 MiB read buffer, checked before the
-/// values are read.
-///
-/// # Errors
-/// The readers' errors; [`CliError::Memory`] when the values do not fit.
-pub(crate) fn read_image_checked(
-    path: &std::path::Path,
-    extra_per_voxel: f64,
-) -> Result<crate::io::NiftiImage, CliError> {
-    let header = crate::io::read_image_header(path)?;
-    let voxels = header.value_count() as f64;
-    let estimate = crate::mesh::memory::MemoryEstimate::new()
-        .with("image values", voxels, 4.0 + extra_per_voxel)
-        .with("read buffer", 1.0, 1024.0 * 1024.0);
-    memory::check(
-        "reading the image",
-        &estimate,
-        "crop or resample the image (its header declares more voxels than fit), or raise \
-         --max-memory",
-    )
-    .map_err(|e| at(path, e))?;
-    Ok(crate::io::read_image(path)?)
-}
-
-/// Creates `dir` (and parents) if needed.
-pub(crate) fn ensure_dir(dir: &std::path::Path) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir).map_err(|source| CliError::Fs {
-        path: dir.display().to_string(),
-        source,
-    })
-}
-
-/// Canonical form of a path for comparisons (falls back to the path itself).
-pub(crate) fn canonical(p: &std::path::Path) -> PathBuf {
-    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
-}
-
-/// `e` naming the paths a staged output will have after the commit
-/// instead of its staging paths (errors of a run that failed while writing).
-pub(crate) fn shown(staged: &crate::io::StagedOutputs, e: CliError) -> CliError {
-    match e {
-        CliError::Io(e) => CliError::Io(staged.shown_error(e)),
-        CliError::Fs { path, source } => CliError::Fs {
-            path: staged.shown_text(&path),
-            source,
-        },
-        CliError::Organ { path, source } => CliError::Organ {
-            path: staged.shown_text(&path),
-            source,
-        },
-        CliError::Usage(m) => CliError::Usage(staged.shown_text(&m)),
-        e => e,
-    }
-}
-
-impl From<crate::placenta::InputError> for CliError {
-    fn from(e: crate::placenta::InputError) -> Self {
-        match e {
-            crate::placenta::InputError::Usage(m) => CliError::Usage(m),
-            crate::placenta::InputError::Organ { path, source } => CliError::Organ { path, source },
-        }
-    }
-}
-
-/// `value` if it is finite and positive, else a usage error naming `flag`.
-pub(crate) fn positive(flag: &str, value: f64) -> Result<f64, CliError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(CliError::Usage(format!(
-            "{flag} must be a finite number > 0, got {value}"
-        )))
-    }
-}
-
-/// A usage error naming `path`.
-pub(crate) fn at(path: &std::path::Path, msg: impl std::fmt::Display) -> CliError {
-    about(&path.display().to_string(), msg)
-}
-
-/// A usage error about the input called `label` (a path, or what Python
-/// calls an array).
-pub(crate) fn about(label: &str, msg: impl std::fmt::Display) -> CliError {
-    CliError::Usage(format!("{label}: {msg}"))
-}
-
-/// A pipeline error (an [`OrganError`] or one of the organs' own errors)
-/// about the inputs called `label`; configuration errors are usage errors.
-pub(crate) fn organ(label: &str, source: impl Into<OrganError>) -> CliError {
-    match source.into() {
-        source @ OrganError::Config(_) => CliError::Usage(source.to_string()),
-        source => CliError::Organ {
-            path: label.to_string(),
-            source,
-        },
-    }
-}
-
-/// Writes `figures` as PNG files into `dir/figures/` (created if missing),
-/// each atomically; returns the paths written.
-pub(crate) fn write_figures(
-    dir: &std::path::Path,
-    figures: &[crate::figures::Figure],
-) -> Result<Vec<PathBuf>, CliError> {
-    let out = dir.join("figures");
-    ensure_dir(&out)?;
-    let mut written = Vec::with_capacity(figures.len());
-    for f in figures {
-        let path = out.join(&f.name);
-        let png = f
-            .image
-            .to_png()
-            .map_err(|e| at(&path, format!("cannot encode the figure: {e}")))?;
-        crate::io::atomic_write(&path, &png)?;
-        written.push(path);
-    }
-    Ok(written)
-}
-
-/// The frame of the mesh file's coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum MeshFrameArg {
-    /// 3D Slicer's SPACE= marker in the file, else RAS.
-    Auto,
-    /// Right, anterior, superior (NIfTI's world frame).
-    Ras,
-    /// Left, posterior, superior (ITK, DICOM, 3D Slicer).
-    Lps,
-}
-
-/// The frame of a mesh file: the flag's, or for `auto` the file's Slicer
-/// marker (RAS without one).
-pub(crate) fn mesh_frame(
-    arg: MeshFrameArg,
-    path: &std::path::Path,
-) -> Result<crate::io::Frame, CliError> {
-    Ok(match arg {
-        MeshFrameArg::Ras => crate::io::Frame::Ras,
-        MeshFrameArg::Lps => crate::io::Frame::Lps,
-        MeshFrameArg::Auto => {
-            let bytes = std::fs::read(path).map_err(|e| at(path, e))?;
-            crate::io::mesh_frame_hint(&bytes).unwrap_or(crate::io::Frame::Ras)
-        }
-    })
-}
-
-/// Positions in `frame` turned into RAS: LPS `(x, y, z)` is RAS
-/// `(-x, -y, z)`, a half turn about z (a rotation: orientation and
-/// distances are kept).
-pub(crate) fn to_ras(
-    frame: crate::io::Frame,
-    positions: &mut [crate::mesh::nalgebra::Point3<f64>],
-) {
-    let [sx, sy, sz] = frame.to_ras_signs();
-    for p in positions {
-        p.x *= sx;
-        p.y *= sy;
-        p.z *= sz;
     }
 }

@@ -34,14 +34,14 @@
 //! orientation are reoriented (a repair that is reported, not an error).
 
 use super::mesh::{MaskArgs, describe, warn_dropped};
-use super::{CliError, at, positive};
+use super::{AppError, at, positive};
+use crate::app::run::StagedOutputs;
 use crate::figures::FigureOptions;
 use crate::figures::placenta::{FlatImage, figures as placenta_figures};
 use crate::io::Frame;
 use crate::io::nifti::INTENT_VECTOR;
 use crate::io::{
-    Datatype, NiftiImage, StagedOutputs, WriteOptions, atomic_write, read_mesh, write_image,
-    write_mesh,
+    Datatype, NiftiImage, WriteOptions, atomic_write, read_mesh, write_image, write_mesh,
 };
 use crate::mesh::mask::inside_distance_quantile;
 use crate::mesh::mesher::{MaskMeshOptions, MeshQuality, cube_side_for_cubes};
@@ -248,8 +248,8 @@ pub struct PlacentaArgs {
     /// DICOM, 3D Slicer's default) or auto (3D Slicer's SPACE= marker in
     /// the file, else ras). LPS meshes are converted to RAS on reading; every
     /// output is in RAS.
-    #[arg(long, value_enum, default_value = "auto", conflicts_with = "seg")]
-    mesh_frame: super::MeshFrameArg,
+    #[arg(long, value_parser = super::choice::named::<super::MeshFrame>(), default_value = "auto", conflicts_with = "seg")]
+    mesh_frame: super::MeshFrame,
     /// Skip the check that the mesh lies in each image's foreground (for
     /// images without a placenta foreground).
     #[arg(long)]
@@ -282,14 +282,14 @@ pub struct PlacentaArgs {
 
 /// A pipeline error about the input `path` (the mesh, or an image), as
 /// [`crate::placenta::organ`] words it.
-fn organ(path: &str, source: impl Into<OrganError>) -> CliError {
+fn organ(path: &str, source: impl Into<OrganError>) -> AppError {
     crate::placenta::organ(path, source).into()
 }
 
 impl PlacentaArgs {
     /// The pipeline settings, every flag checked; `voxel_mm` is the
     /// default of `--voxel-mm`, `half_thickness_mm` the segmentation's.
-    fn config(&self, voxel_mm: f64, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
+    fn config(&self, voxel_mm: f64, half_thickness_mm: Option<f64>) -> Result<Config, AppError> {
         PlacentaSettings {
             lambda: self.lambda,
             margin_mm: self.margin_mm,
@@ -359,12 +359,12 @@ impl Default for PlacentaSettings {
 impl PlacentaSettings {
     /// The pipeline's configuration, every value checked with its flag's
     /// message; `half_thickness_mm` is the segmentation's, if any.
-    pub fn config(&self, half_thickness_mm: Option<f64>) -> Result<Config, CliError> {
+    pub fn config(&self, half_thickness_mm: Option<f64>) -> Result<Config, AppError> {
         let lambda = positive("--lambda", self.lambda)?;
         let voxel_mm = positive("--voxel-mm", self.voxel_mm)?;
         let gamma = positive("--gamma", self.gamma)?;
         if !(1..=6).contains(&self.rings) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--rings must be 1 to 6, got {}",
                 self.rings
             )));
@@ -378,7 +378,7 @@ impl PlacentaSettings {
             positive("--spacing-mm", s)?;
         }
         if self.max_iterations == Some(0) {
-            return Err(CliError::Usage(
+            return Err(AppError::Usage(
                 "--max-iterations must be at least 1".into(),
             ));
         }
@@ -405,11 +405,11 @@ impl PlacentaSettings {
         };
         if let Some(g) = &config.grid {
             g.validate()
-                .map_err(|e| CliError::Usage(format!("--grid: {e}")))?;
+                .map_err(|e| AppError::Usage(format!("--grid: {e}")))?;
         }
         config
             .validate()
-            .map_err(|e| CliError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
+            .map_err(|e| AppError::Usage(format!("{e} (see --margin-mm and --voxel-mm)")))?;
         Ok(config)
     }
 }
@@ -417,7 +417,7 @@ impl PlacentaSettings {
 impl PlacentaArgs {
     /// The pipeline: the template and solver of the flags, the published
     /// pieces otherwise, and `config`.
-    fn pipeline(&self, config: Config) -> Result<Pipeline, CliError> {
+    fn pipeline(&self, config: Config) -> Result<Pipeline, AppError> {
         Ok(Pipeline::new()
             .template(hold_half_thickness(
                 TemplateKind::from(self.template).build(),
@@ -432,12 +432,12 @@ impl PlacentaArgs {
 /// ([`Held`]), or `template` itself without a value.
 ///
 /// # Errors
-/// [`CliError::Usage`] for an `h_mm` that is not finite and positive, or a
+/// [`AppError::Usage`] for an `h_mm` that is not finite and positive, or a
 /// template whose parameters are not exactly `h` (the ellipsoid's radii).
 pub fn hold_half_thickness(
     template: Box<dyn PlacentaTemplate>,
     h_mm: Option<f64>,
-) -> Result<Box<dyn PlacentaTemplate>, CliError> {
+) -> Result<Box<dyn PlacentaTemplate>, AppError> {
     let Some(h) = h_mm else {
         return Ok(template);
     };
@@ -448,7 +448,7 @@ pub fn hold_half_thickness(
         .filter(|_| names == ["h"])
         .map(|held| Box::new(held) as Box<dyn PlacentaTemplate>)
         .ok_or_else(|| {
-            CliError::Usage(format!(
+            AppError::Usage(format!(
                 "--fix-h holds a half thickness h, but the {name} template's parameters are \
                  [{}]; use it with --template planes or single-plane",
                 names.join(", ")
@@ -799,7 +799,7 @@ impl PipelineObserver for Progress {
 }
 
 /// Checks that no two images have the same name (so the same output).
-fn check_names<'a>(images: impl IntoIterator<Item = (&'a Path, &'a str)>) -> Result<(), CliError> {
+fn check_names<'a>(images: impl IntoIterator<Item = (&'a Path, &'a str)>) -> Result<(), AppError> {
     let mut seen: Vec<(&Path, &str)> = Vec::new();
     for (path, name) in images {
         if let Some((first, _)) = seen.iter().find(|(_, n)| *n == name) {
@@ -823,7 +823,7 @@ fn check_names<'a>(images: impl IntoIterator<Item = (&'a Path, &'a str)>) -> Res
 /// flattens and pulls every image back) and writes `original.vtu`,
 /// `flattened.vtu`, `<name>_flat.nii.gz` per image, the figures and
 /// `report.json` (last).
-pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliError> {
+pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, AppError> {
     let label = input.label;
     check_names(
         input
@@ -961,8 +961,8 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
         segmentation: input.segmentation,
         displacement,
         report: &outcome.report,
-        memory: super::memory::report(),
-        provenance: super::provenance::this_run(),
+        memory: crate::app::run::memory::report(),
+        provenance: crate::app::run::provenance::this_run(),
     };
     let json = full
         .to_json()
@@ -980,7 +980,7 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<Summary, CliErro
 
 /// A pipeline error, attributed to the file it is about
 /// ([`crate::placenta::pipeline_error`]).
-fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganError) -> CliError {
+fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganError) -> AppError {
     let paths: Vec<String> = images
         .iter()
         .map(|i| i.path.display().to_string())
@@ -991,12 +991,12 @@ fn pipeline_error(label: &str, frame: Frame, images: &[ImageInput], e: OrganErro
 impl PlacentaArgs {
     /// The mesh file read (none with `--seg`), for the units hint.
     pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
-        super::units::mesh_inputs(&[&self.mesh])
+        crate::app::run::units::mesh_inputs(&[&self.mesh])
     }
 }
 
 /// Runs `unfold placenta`.
-pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
+pub fn run(a: &PlacentaArgs) -> Result<(), AppError> {
     let m = &a.mask;
     if a.seg.is_none()
         && (m.size_mm.is_some()
@@ -1008,7 +1008,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
             || a.dense
             || m.smooth_voxels != 1.5)
     {
-        return Err(CliError::Usage(
+        return Err(AppError::Usage(
             "--size-mm, --smooth-voxels, --dilate, --threshold, --label, --level, --grade and \
              --dense apply to --seg"
                 .into(),
@@ -1049,7 +1049,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     let input = match (&a.mesh, &a.seg) {
         (Some(p), None) | (None, Some(p)) => p,
         _ => {
-            return Err(CliError::Usage(
+            return Err(AppError::Usage(
                 "give a placenta tet mesh or --seg MASK (a segmentation to mesh)".into(),
             ));
         }
@@ -1233,7 +1233,7 @@ pub fn run(a: &PlacentaArgs) -> Result<(), CliError> {
     staged.commit()?;
     println!("{summary}");
     if !summary.report.converged {
-        return Err(CliError::NotConverged {
+        return Err(AppError::NotConverged {
             what: "the placenta's flattening",
             reason: super::stop_name(summary.report.stop_reason),
             iterations: summary.report.iterations,
@@ -1257,7 +1257,7 @@ fn lambda_sweep(
     prepared: &PreparedMesh,
     label: &str,
     dir: &Path,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     use crate::figures::placenta::lambda_sweep::{SweepPoint, lambda_sweep_plot};
     let path = dir.join(LAMBDA_SWEEP_CSV);
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -1319,7 +1319,7 @@ fn check_memory(
     images: &[ImageInput],
     grid: Option<&[f64; 6]>,
     displacement: bool,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let voxel = images
         .iter()
         .map(|i| i.image.volume.spacing())
@@ -1339,7 +1339,7 @@ fn check_memory(
     };
     let tables = images.len() + usize::from(displacement);
     let estimate = crate::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
-        .map_err(|e| CliError::Usage(e.to_string()))?;
+        .map_err(|e| AppError::Usage(e.to_string()))?;
     let hint = match estimate.largest() {
         Some(p) if p.what == "pull-back tables" => {
             "shrink the --grid box or raise --spacing-mm (the tables grow as the template grid's \
@@ -1347,7 +1347,7 @@ fn check_memory(
         }
         _ => "coarsen the mesh (unfold mesh or --seg with a larger --size-mm, or --grade)",
     };
-    super::memory::check("flattening the placenta", &estimate, hint)
+    crate::app::run::memory::check("flattening the placenta", &estimate, hint)
 }
 
 #[cfg(test)]

@@ -13,8 +13,9 @@
 //! reference image's grid and affine, and IMAGE's frames.
 
 use super::placenta::{InterpArg, nearest_datatype};
-use super::{CliError, at};
-use crate::io::{FileKind, NiftiImage, StagedOutputs, read_tet_mesh, write_image};
+use super::{AppError, at};
+use crate::app::run::StagedOutputs;
+use crate::io::{FileKind, NiftiImage, read_tet_mesh, write_image};
 use crate::organs::placenta::pushback::push_back;
 use crate::organs::placenta::{Interpolation, PullbackError};
 use clap::Args;
@@ -47,7 +48,7 @@ pub struct PushbackArgs {
 }
 
 /// Runs `unfold pushback`.
-pub fn run(a: &PushbackArgs) -> Result<(), CliError> {
+pub fn run(a: &PushbackArgs) -> Result<(), AppError> {
     let out = &a.output;
     if !matches!(
         FileKind::from_path(out),

@@ -5,8 +5,9 @@
 //! `--largest-component` only the largest connected component kept), with
 //! counts per kind; the steps are those of [`crate::mesh::repair`].
 
-use super::{CliError, at};
-use crate::io::{StagedOutputs, WriteOptions, read_mesh, write_mesh};
+use super::{AppError, at};
+use crate::app::run::StagedOutputs;
+use crate::io::{WriteOptions, read_mesh, write_mesh};
 use crate::mesh::CellMesh;
 use crate::mesh::repair::{
     RepairOptions, RepairReport, Weld, repair_tet_mesh_with, repair_tri_mesh_with,
@@ -81,13 +82,13 @@ struct Summary<'a> {
 }
 
 /// Runs `unfold repair`.
-pub fn run(a: &RepairArgs) -> Result<(), CliError> {
+pub fn run(a: &RepairArgs) -> Result<(), AppError> {
     let weld = match (a.no_weld, a.weld_mm) {
         (true, _) => Weld::Off,
         (false, None) => Weld::Relative,
         (false, Some(t)) if t.is_finite() && t >= 0.0 => Weld::Within(t),
         (false, Some(t)) => {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--weld-mm must be a finite distance >= 0, got {t}"
             )));
         }
@@ -95,12 +96,12 @@ pub fn run(a: &RepairArgs) -> Result<(), CliError> {
     if let Some(d) = a.fill_holes_mm
         && !(d.is_finite() && d > 0.0)
     {
-        return Err(CliError::Usage(format!(
+        return Err(AppError::Usage(format!(
             "--fill-holes-mm must be a finite perimeter > 0 mm, got {d}"
         )));
     }
     if super::canonical(&a.input) == super::canonical(&a.output) {
-        return Err(CliError::Usage(format!(
+        return Err(AppError::Usage(format!(
             "{}: refusing to overwrite the input; choose another output path",
             a.output.display()
         )));

@@ -49,10 +49,11 @@
 //! when it is a terminal.
 
 use super::ventricle_landmark_args::HeartLandmarkArgs;
-use super::{CliError, at, organ, positive};
+use super::{AppError, at, organ, positive};
+use crate::app::run::StagedOutputs;
 use crate::io::{
-    FilePath, IoError, MarkupsError, StagedOutputs, WriteOptions, atomic_write, read_markups,
-    read_mesh, read_tri_mesh, write_mesh,
+    FilePath, IoError, MarkupsError, WriteOptions, atomic_write, read_markups, read_mesh,
+    read_tri_mesh, write_mesh,
 };
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::shapes::{VentricleParams, VentricleShape, ventricle_cup};
@@ -157,8 +158,8 @@ pub struct VentricleArgs {
     /// for models). Meshes are turned into RAS, the frame of the
     /// coordinates given on the command line and of every output;
     /// landmarks files carry their own frame.
-    #[arg(long, value_enum, default_value = "auto")]
-    mesh_frame: super::MeshFrameArg,
+    #[arg(long, value_parser = super::choice::named::<super::MeshFrame>(), default_value = "auto")]
+    mesh_frame: super::MeshFrame,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -236,10 +237,10 @@ fn landmark_points(
     apex: Option<Point3<f64>>,
     rim_near: Option<Point3<f64>>,
     flags: &str,
-) -> Result<LandmarkPoints, CliError> {
+) -> Result<LandmarkPoints, AppError> {
     let Some(path) = file else {
         let (Some(anterior), Some(inferior)) = (anterior, inferior) else {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "give {flags} (the rim landmarks) or a markups file with them"
             )));
         };
@@ -251,7 +252,7 @@ fn landmark_points(
         });
     };
     let m = read_markups(path)?;
-    let labelled = |e: MarkupsError| -> CliError {
+    let labelled = |e: MarkupsError| -> AppError {
         IoError::Markups {
             path: FilePath(path.into()),
             source: e,
@@ -285,7 +286,7 @@ pub(crate) fn parse_point(s: &str) -> Result<Point3<f64>, String> {
 }
 
 /// Reads an enclosing surface S and turns it into RAS (`--mesh-frame`).
-pub(crate) fn read_surface(path: &Path, frame: super::MeshFrameArg) -> Result<TriMesh, CliError> {
+pub(crate) fn read_surface(path: &Path, frame: super::MeshFrame) -> Result<TriMesh, AppError> {
     let mut m = read_tri_mesh(path)?;
     super::to_ras(super::mesh_frame(frame, path)?, &mut m.positions);
     Ok(m)
@@ -301,7 +302,7 @@ pub(crate) fn heart_landmarks(
     surface_label: &str,
     chamber: ChamberArg,
     flags: &HeartLandmarkArgs,
-) -> Result<(LandmarkPoints, Option<FromRv>), CliError> {
+) -> Result<(LandmarkPoints, Option<FromRv>), AppError> {
     let HeartLandmarkArgs {
         anterior,
         inferior,
@@ -316,7 +317,7 @@ pub(crate) fn heart_landmarks(
         [] => None,
         [p, q] => {
             if chamber == ChamberArg::Rv {
-                return Err(CliError::Usage(
+                return Err(AppError::Usage(
                     "--rv-landmarks derives the LV's rim landmarks; give the RV's septal \
                      corners as --anterior and --inferior"
                         .into(),
@@ -325,7 +326,7 @@ pub(crate) fn heart_landmarks(
             Some(rim_landmarks_from_rv(surface, [*p, *q]).map_err(|e| organ(surface_label, e))?)
         }
         more => {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--rv-landmarks takes two points, got {}",
                 more.len()
             )));
@@ -352,7 +353,7 @@ pub(crate) fn heart_landmarks(
 
 impl VentricleArgs {
     /// The pipeline settings, every flag checked ([`settings`]).
-    fn config(&self) -> Result<Config, CliError> {
+    fn config(&self) -> Result<Config, AppError> {
         settings(
             self.chamber.into(),
             self.grid_mm,
@@ -538,14 +539,14 @@ pub struct Mapped {
 /// `--snap-mm`.
 ///
 /// # Errors
-/// [`CliError::Usage`] naming the flag that is not a finite number > 0.
+/// [`AppError::Usage`] naming the flag that is not a finite number > 0.
 pub fn settings(
     chamber: Chamber,
     grid_mm: f64,
     hemisphere_mm: f64,
     display_exponent: Option<f64>,
     snap_mm: f64,
-) -> Result<Config, CliError> {
+) -> Result<Config, AppError> {
     let defaults = Config::default();
     let display_exponent = match display_exponent {
         Some(n) => positive("--display-exponent", n)?,
@@ -583,7 +584,7 @@ pub fn map_anatomy(
     landmarks: &LandmarkPoints,
     config: Config,
     transfer: Option<&TransferInput<'_>>,
-) -> Result<Mapped, CliError> {
+) -> Result<Mapped, AppError> {
     let input = MapInput {
         anatomy_label,
         anatomy,
@@ -607,13 +608,13 @@ pub fn map_anatomy(
     });
     // The field checks its estimate against the room left (issue 18).
     let mut config = input.config;
-    config.chart.field.max_memory_bytes = super::memory::room();
+    config.chart.field.max_memory_bytes = crate::app::run::memory::room();
     let pipeline = Pipeline::new().config(config);
-    let resident = super::memory::resident_bytes().unwrap_or(0.0);
+    let resident = crate::app::run::memory::resident_bytes().unwrap_or(0.0);
     let outcome = pipeline
         .run(input.anatomy, input.surface, input.landmarks)
         .map_err(|e| organ(&label, e))?;
-    super::memory::record(resident + outcome.report.field.estimated_bytes);
+    crate::app::run::memory::record(resident + outcome.report.field.estimated_bytes);
     let r = &outcome.report;
     progress(|| {
         format!(
@@ -695,7 +696,7 @@ struct MapInput<'a> {
 /// Runs the pipeline (and the transfer) and writes the outputs into
 /// `input.dir`: the meshes first, `report.json` last. Nothing is written
 /// when the pipeline or the transfer fails.
-pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliError> {
+pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, AppError> {
     let Mapped {
         outcome,
         transferred,
@@ -781,8 +782,8 @@ pub(crate) fn run_pipeline(input: &PipelineInput<'_>) -> Result<RunResult, CliEr
         transfer: transfer.as_ref(),
         sensitivity: sensitivity.as_ref().map(|s| &s.report),
         enclosing_surface: input.enclosing,
-        memory: super::memory::report(),
-        provenance: super::provenance::this_run(),
+        memory: crate::app::run::memory::report(),
+        provenance: crate::app::run::provenance::this_run(),
     })
     .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_path, format!("{json}\n").as_bytes())?;
@@ -881,7 +882,7 @@ pub(crate) fn summary(r: &Report) -> String {
 }
 
 /// Refuses an output directory whose files would overwrite an input.
-fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
+fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), AppError> {
     let d = super::canonical(dir);
     for input in inputs {
         let c = super::canonical(input);
@@ -905,7 +906,7 @@ fn check_not_inputs(dir: &Path, inputs: &[&PathBuf]) -> Result<(), CliError> {
 ///
 /// # Errors
 /// The shape's, as a usage error of `--to-hemisphere`.
-pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
+pub fn hemisphere(r: f64) -> Result<VentricleShape, AppError> {
     ventricle_cup(&VentricleParams {
         radius: r,
         length: r,
@@ -915,14 +916,14 @@ pub fn hemisphere(r: f64) -> Result<VentricleShape, CliError> {
         rings: 40,
         ..VentricleParams::default()
     })
-    .map_err(|e| CliError::Usage(format!("--to-hemisphere {r}: {e}")))
+    .map_err(|e| AppError::Usage(format!("--to-hemisphere {r}: {e}")))
 }
 
 impl VentricleArgs {
     /// The mesh files read (anatomy, S, S2), for the units hint.
     pub(crate) fn input_meshes(&self) -> Vec<PathBuf> {
         let mut inputs = vec![self.anatomy.clone()];
-        inputs.extend(super::units::mesh_inputs(&[
+        inputs.extend(crate::app::run::units::mesh_inputs(&[
             &self.surface,
             &self.to_surface,
         ]));
@@ -931,7 +932,7 @@ impl VentricleArgs {
 }
 
 /// Runs `unfold ventricle`.
-pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
+pub fn run(a: &VentricleArgs) -> Result<(), AppError> {
     let start = Instant::now();
     let config = a.config()?;
     if let Some(mm) = a.sensitivity {
@@ -949,7 +950,7 @@ pub fn run(a: &VentricleArgs) -> Result<(), CliError> {
         && a.to_landmarks.is_none()
         && (a.to_anterior.is_none() || a.to_inferior.is_none())
     {
-        return Err(CliError::Usage(
+        return Err(AppError::Usage(
             "--to-surface needs --to-anterior and --to-inferior (the second heart's rim \
              landmarks) or --to-landmarks FILE"
                 .into(),

@@ -25,7 +25,7 @@
 //! ([`crate::figures::ventricle::grid_sweep_plot`]). The main outputs are
 //! those of `--grid-mm`.
 
-use super::{CliError, at};
+use super::{AppError, at};
 use crate::figures::FigureOptions;
 use crate::figures::ventricle::{GridPoint, grid_sweep_plot};
 use crate::io::atomic_write;
@@ -60,11 +60,11 @@ const COLUMNS: [&str; 14] = [
 ///
 /// # Errors
 /// A usage error naming the spacing.
-pub(crate) fn check_grids(grids: &[f64]) -> Result<(), CliError> {
+pub(crate) fn check_grids(grids: &[f64]) -> Result<(), AppError> {
     for (k, &g) in grids.iter().enumerate() {
         super::positive("--grid-sweep", g)?;
         if grids[..k].contains(&g) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "--grid-sweep lists {g} twice; give each spacing once"
             )));
         }
@@ -105,14 +105,14 @@ pub(crate) fn grid_sweep(
     label: &str,
     dir: &Path,
     figures: bool,
-) -> Result<Vec<PathBuf>, CliError> {
+) -> Result<Vec<PathBuf>, AppError> {
     check_grids(grids)?;
     let mut rows = Vec::with_capacity(grids.len());
     for &g in grids {
         let mut c = config;
         c.chart.field.grid_mm = g;
-        c.chart.field.max_memory_bytes = super::memory::room();
-        let reset = super::memory::reset_peak();
+        c.chart.field.max_memory_bytes = crate::app::run::memory::room();
+        let reset = crate::app::run::memory::reset_peak();
         let t0 = Instant::now();
         let outcome = Pipeline::new()
             .config(c)
@@ -120,7 +120,7 @@ pub(crate) fn grid_sweep(
             .map_err(|e| super::organ(&format!("{label} (--grid-sweep {g})"), e))?;
         let seconds = t0.elapsed().as_secs_f64();
         let peak_bytes = if reset {
-            super::memory::peak_since_reset()
+            crate::app::run::memory::peak_since_reset()
         } else {
             None
         };

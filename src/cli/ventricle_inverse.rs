@@ -44,8 +44,9 @@ use super::ventricle::{
     with_vertex_cells,
 };
 use super::ventricle_landmark_args::HeartLandmarkArgs;
-use super::{CliError, MeshFrameArg, about, at, organ};
-use crate::io::{StagedOutputs, WriteOptions, atomic_write, read_mesh, write_mesh};
+use super::{AppError, MeshFrame, about, at, organ};
+use crate::app::run::StagedOutputs;
+use crate::io::{WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::nalgebra::Point3;
 use crate::mesh::{CellMesh, Field, TriMesh};
 use crate::organs::ventricle::disk::display_warp;
@@ -104,8 +105,8 @@ pub struct VentricleInverseArgs {
     heart: HeartLandmarkArgs,
     /// The frame of S's coordinates (auto, ras, lps); NORMALIZED is in
     /// cylinder coordinates and is not converted.
-    #[arg(long, value_enum, default_value = "auto")]
-    mesh_frame: MeshFrameArg,
+    #[arg(long, value_parser = super::choice::named::<MeshFrame>(), default_value = "auto")]
+    mesh_frame: MeshFrame,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -185,7 +186,7 @@ fn cylinder_coordinates(
     how: CoordinatesArg,
     chamber: Chamber,
     display_exponent: f64,
-) -> Result<(Vec<CylinderPoint>, Source), CliError> {
+) -> Result<(Vec<CylinderPoint>, Source), AppError> {
     let present: Vec<&str> = ARRAYS
         .iter()
         .copied()
@@ -281,10 +282,10 @@ pub(crate) fn harmonic_positions(
     chamber: Chamber,
     shown: &[[f64; 2]],
     exponent: f64,
-) -> Result<Vec<[f64; 2]>, CliError> {
+) -> Result<Vec<[f64; 2]>, AppError> {
     match chamber {
         Chamber::Lv => {
-            display_warp(shown, 1.0 / exponent).map_err(|e| CliError::Usage(e.to_string()))
+            display_warp(shown, 1.0 / exponent).map_err(|e| AppError::Usage(e.to_string()))
         }
         Chamber::Rv => Ok(shown.to_vec()),
     }
@@ -409,7 +410,7 @@ pub struct Inverted<'a> {
 }
 
 /// Runs `unfold ventricle-inverse`.
-pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
+pub fn run(a: &VentricleInverseArgs) -> Result<(), AppError> {
     let start = Instant::now();
     let config = settings(
         a.chamber.into(),
@@ -477,8 +478,8 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
     let report_path = staging.join(REPORT);
     let json = serde_json::to_string_pretty(&InverseReport {
         body: &body,
-        memory: super::memory::report(),
-        provenance: super::provenance::this_run(),
+        memory: crate::app::run::memory::report(),
+        provenance: crate::app::run::provenance::this_run(),
     })
     .map_err(|e| at(&report_path, format!("cannot serialize the report: {e}")))?;
     atomic_write(&report_path, format!("{json}\n").as_bytes())
@@ -515,7 +516,7 @@ pub fn run(a: &VentricleInverseArgs) -> Result<(), CliError> {
 /// # Errors
 /// A usage error for an input without points, coordinates that cannot be
 /// read, or no point mapped; the pipeline's error about S.
-pub fn invert<'a>(input: &InverseInput<'a>) -> Result<Inverted<'a>, CliError> {
+pub fn invert<'a>(input: &InverseInput<'a>) -> Result<Inverted<'a>, AppError> {
     let normalized = input.normalized;
     let config = input.config;
     if normalized.positions.is_empty() {
@@ -534,14 +535,14 @@ pub fn invert<'a>(input: &InverseInput<'a>) -> Result<Inverted<'a>, CliError> {
     )?;
     // The field checks its estimate against the room left (issue 18).
     let mut chart_config = config;
-    chart_config.chart.field.max_memory_bytes = super::memory::room();
-    let resident = super::memory::resident_bytes().unwrap_or(0.0);
+    chart_config.chart.field.max_memory_bytes = crate::app::run::memory::room();
+    let resident = crate::app::run::memory::resident_bytes().unwrap_or(0.0);
     let chart = Pipeline::new()
         .config(chart_config)
         .chart(input.surface, &input.landmarks)
         .map_err(|e| organ(input.surface_label, e))?;
     let estimated_bytes = chart.field().stats().estimated_bytes;
-    super::memory::record(resident + estimated_bytes);
+    crate::app::run::memory::record(resident + estimated_bytes);
 
     let t0 = Instant::now();
     let results: Vec<Result<Point3<f64>, PointFailure>> =

@@ -33,7 +33,7 @@
 //! (`D` the displayed disk position, `d` the depth); NaN for a point that
 //! some perturbation cannot map.
 
-use super::CliError;
+use super::AppError;
 use crate::figures::ventricle::sensitivity_figure;
 use crate::figures::{Figure, FigureOptions};
 use crate::mesh::nalgebra::{Point3, Vector3};
@@ -272,7 +272,7 @@ impl Sensitivity {
     ///
     /// # Errors
     /// The figure's, as a usage error naming `dir`.
-    pub(crate) fn figure(&self, outcome: &Outcome, dir: &Path) -> Result<Figure, CliError> {
+    pub(crate) fn figure(&self, outcome: &Outcome, dir: &Path) -> Result<Figure, AppError> {
         let shown: Vec<[f64; 2]> = outcome
             .normalized
             .positions
@@ -310,11 +310,11 @@ pub(crate) fn sensitivity(
     config: Config,
     mm: f64,
     label: &str,
-) -> Result<Sensitivity, CliError> {
+) -> Result<Sensitivity, AppError> {
     let mm = super::positive("--sensitivity", mm)?;
     let t0 = Instant::now();
     let chamber = config.chart.chamber;
-    let shown = |c: &[CylinderPoint]| -> Result<Vec<[f64; 2]>, CliError> {
+    let shown = |c: &[CylinderPoint]| -> Result<Vec<[f64; 2]>, AppError> {
         let uv: Vec<[f64; 2]> = c.iter().map(|c| [c.xi, c.zeta]).collect();
         displayed(chamber, &uv, config.display_exponent).map_err(|e| super::organ(label, e))
     };
@@ -329,7 +329,7 @@ pub(crate) fn sensitivity(
     let mut first_error = None;
     for p in perturbations(&outcome.chart, given, mm) {
         let mut c = config;
-        c.chart.field.max_memory_bytes = super::memory::room();
+        c.chart.field.max_memory_bytes = crate::app::run::memory::room();
         let chart = match Pipeline::new().config(c).chart(surface, &p.landmarks) {
             Ok(chart) => chart,
             Err(e) => {

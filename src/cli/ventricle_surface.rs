@@ -7,7 +7,7 @@
 //! `DIR/surface.vtu` and `report.json` says how it was built
 //! (`enclosing_surface`).
 
-use super::{CliError, organ, positive};
+use super::{AppError, organ, positive};
 use crate::mesh::TriMesh;
 use crate::mesh::nalgebra::Point3;
 use crate::organs::ventricle::LandmarkPoints;
@@ -68,7 +68,7 @@ pub fn build_from(
     voxel_mm: f64,
     margin_mm: f64,
     smoothing: usize,
-) -> Result<Enclosing, CliError> {
+) -> Result<Enclosing, AppError> {
     let config = EnclosingConfig {
         voxel_mm: positive("--surface-voxel-mm", voxel_mm)?,
         margin_mm: positive("--surface-margin-mm", margin_mm)?,
@@ -92,7 +92,7 @@ pub(crate) fn build(
     anatomy: &crate::mesh::CellMesh,
     anatomy_path: &Path,
     given: &LandmarkPoints,
-) -> Result<Built, CliError> {
+) -> Result<Built, AppError> {
     let label = anatomy_path.display().to_string();
     let e = build_from(
         anatomy,

@@ -297,7 +297,7 @@ pub fn atomic_write(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), IoError>
     };
     let mut builder = tempfile::Builder::new();
     // `.unfold-<pid>-<rand>.tmp`: the pid tells the next run whether the
-    // writer is gone (`clean_stale`).
+    // writer is gone (the application's `clean_stale`).
     let prefix = format!(".unfold-{}-", std::process::id());
     builder.prefix(&prefix).suffix(".tmp");
     // Created like any new file, 0666 less the process umask (so a umask of

@@ -12,10 +12,8 @@
 //! Every format module parses bytes and serializes to bytes; the functions
 //! here add the file path to errors and write atomically (temporary file in
 //! the same directory, then rename), so a crash never leaves half a file and
-//! an input is never modified in place. Commands stage their whole output
-//! set beside its target and put it in place at the end
-//! ([`StagedOutputs`]), so a target never holds a mix of two runs, and the
-//! leftovers of killed runs are removed by the next run ([`clean_stale`]).
+//! an input is never modified in place. (Whole-run output sets, staged beside
+//! their targets, are the application's: `unfold::app::run::staged`.)
 
 mod decode_limit;
 mod error;
@@ -32,14 +30,12 @@ pub mod obj;
 pub mod off;
 mod options;
 pub mod ply;
-mod staged;
-mod stale;
 pub mod stl;
 pub mod vtk_legacy;
 pub mod vtk_xml;
 
 pub use decode_limit::set_decode_limit;
-pub use error::{FilePath, IoError, Location, OutputError};
+pub use error::{FilePath, IoError, Location};
 pub use format::{
     FileKind, MeshFormat, atomic_write, read_image, read_mesh, read_tet_mesh, read_tri_mesh,
     write_image, write_mesh,
@@ -50,5 +46,3 @@ pub use image_values::{ValueSummary, image_value_summary, scan_image_values};
 pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};
-pub use staged::StagedOutputs;
-pub use stale::{MANIFEST, STALE_AGE, clean_stale};

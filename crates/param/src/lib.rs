@@ -28,6 +28,7 @@ pub mod initializer;
 pub mod linesearch;
 pub mod memory;
 pub mod metrics;
+pub mod named;
 pub mod objective;
 pub mod rest;
 pub mod solver;
@@ -38,6 +39,7 @@ pub use energy::DistortionEnergy;
 pub use error::{Elements, ParamError, PieceError};
 pub use initializer::{Constraints, InitialMap, Initializer, Pin};
 pub use linesearch::{Backtracking, LineSearch, LineSearchResult};
+pub use named::Named;
 pub use objective::{HessianLayout, Objective, TemplateTerm};
 pub use rest::{ParamMesh, RestElements};
 pub use solver::{

@@ -10,7 +10,7 @@
 //! file (`unfold convert IN OUT --scale 1000`). Runs that succeed are not
 //! second-guessed.
 
-use super::CliError;
+use crate::app::AppError;
 use crate::io::read_mesh;
 use crate::mesh::geometry::bounding_box;
 use crate::mesh::nalgebra::Point3;
@@ -41,12 +41,12 @@ pub fn smaller_than_an_organ(positions: &[Point3<f64>]) -> Option<f64> {
 }
 
 /// `error` with the first of `inputs` that is smaller than
-/// [`SMALLEST_ORGAN_MM`] named ([`CliError::SmallerThanAnOrgan`]), when
+/// [`SMALLEST_ORGAN_MM`] named ([`AppError::SmallerThanAnOrgan`]), when
 /// `error` is about the input (an organ's or a mesh's error) and such a file
 /// exists; otherwise `error` as it is. Files that cannot be read as meshes
 /// (an image, a text file of points) are passed over.
-pub(crate) fn with_units_hint(error: CliError, inputs: &[&Path]) -> CliError {
-    if !matches!(error, CliError::Organ { .. } | CliError::Mesh(_)) {
+pub(crate) fn with_units_hint(error: AppError, inputs: &[&Path]) -> AppError {
+    if !matches!(error, AppError::Organ { .. } | AppError::Mesh(_)) {
         return error;
     }
     let small = inputs.iter().find_map(|path| {
@@ -54,7 +54,7 @@ pub(crate) fn with_units_hint(error: CliError, inputs: &[&Path]) -> CliError {
         Some((path.to_path_buf(), smaller_than_an_organ(&mesh.positions)?))
     });
     match small {
-        Some((path, side_mm)) => CliError::SmallerThanAnOrgan {
+        Some((path, side_mm)) => AppError::SmallerThanAnOrgan {
             source: Box::new(error),
             path: path.display().to_string(),
             side_mm,
@@ -91,7 +91,7 @@ mod tests {
 
     #[test]
     fn errors_not_about_the_input_are_left_alone() {
-        let e = with_units_hint(CliError::Usage("x".into()), &[Path::new("nowhere.vtu")]);
-        assert!(matches!(e, CliError::Usage(_)));
+        let e = with_units_hint(AppError::Usage("x".into()), &[Path::new("nowhere.vtu")]);
+        assert!(matches!(e, AppError::Usage(_)));
     }
 }

@@ -31,38 +31,15 @@
 //! or `deform`'s mesh and report) a kill leaves the first target new and
 //! the second old; each target on its own is always whole.
 
-use crate::stale::{MANIFEST, clean_stale, remove_listed};
-use crate::{FilePath, IoError, OutputError};
-use serde::{Deserialize, Serialize};
+use super::OutputError;
+use super::manifest::{MANIFEST, Manifest, parse_manifest};
+use super::stale::{clean_stale, remove_listed};
+use crate::io::{FilePath, IoError};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 /// How many foreign entries an error names.
 const EXAMPLES: usize = 3;
-
-/// The manifest of a committed output directory.
-#[derive(Debug, Serialize, Deserialize)]
-struct Manifest {
-    /// The program and version that wrote it.
-    written_by: String,
-    /// Every file of the set, relative to the directory, `/`-separated,
-    /// sorted (the manifest itself not included).
-    files: Vec<String>,
-}
-
-/// The listed files of a manifest, or why it is not one.
-fn parse_manifest(bytes: &[u8]) -> Result<Vec<String>, String> {
-    let m: Manifest = serde_json::from_slice(bytes).map_err(|e| e.to_string())?;
-    if !m.written_by.starts_with("unfold") {
-        return Err(format!("written by {:?}", m.written_by));
-    }
-    Ok(m.files)
-}
-
-/// The listed files of a manifest (`None`: not a manifest).
-pub(crate) fn manifest_files(bytes: &[u8]) -> Option<Vec<String>> {
-    parse_manifest(bytes).ok()
-}
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     move |source| OutputError::Io {
@@ -260,7 +237,7 @@ fn exchange(_: &Path, _: &Path) -> std::io::Result<bool> {
 fn remove_previous(dir: &Path) {
     if let Some(files) = std::fs::read(dir.join(MANIFEST))
         .ok()
-        .and_then(|b| manifest_files(&b))
+        .and_then(|b| parse_manifest(&b).ok())
     {
         remove_listed(dir, &files);
     }
@@ -834,7 +811,7 @@ mod tests {
                 out.join("sub/d.nii.gz").display()
             )
         );
-        let e = s.shown_error(crate::IoError::unsupported("no").with_path(&staged));
+        let e = s.shown_error(crate::io::IoError::unsupported("no").with_path(&staged));
         assert_eq!(e.to_string(), format!("{}: no", lone.display()));
         assert_eq!(s.shown(&inner), out.join("sub/d.nii.gz"));
         std::fs::write(&inner, "inner").unwrap();

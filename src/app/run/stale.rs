@@ -1,9 +1,9 @@
 //! Leftovers of killed runs: recognising them by name and removing them.
 //!
 //! A run that is killed (SIGKILL, power loss) leaves what it was writing:
-//! `.unfold-<pid>-<rand>.tmp` files of [`atomic_write`](crate::atomic_write)
+//! `.unfold-<pid>-<rand>.tmp` files of [`atomic_write`](crate::io::atomic_write)
 //! and `.NAME.unfold-<pid>-<rand>.partial` (or `.old`) directories of
-//! [`StagedOutputs`](crate::StagedOutputs). The next run writing in the
+//! [`StagedOutputs`](super::StagedOutputs). The next run writing in the
 //! same directory removes those whose process is gone: on Linux when
 //! `/proc/<pid>` does not exist, elsewhere (or without `/proc`) when the
 //! entry is older than [`STALE_AGE`]. Only names of exactly these patterns
@@ -11,15 +11,12 @@
 //! only when they are regular files and staging areas only when they are
 //! directories (never through a symbolic link).
 
+use super::manifest::{MANIFEST, parse_manifest};
 use std::path::Path;
 use std::time::Duration;
 
 /// Where `/proc` is not available: a leftover older than this is stale.
 pub const STALE_AGE: Duration = Duration::from_secs(24 * 3600);
-
-/// The manifest a committed output directory carries: the files the run
-/// wrote, one relative path (`/`-separated) each.
-pub const MANIFEST: &str = ".unfold-run.json";
 
 /// What a name says it is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -130,10 +127,10 @@ pub fn clean_stale(dir: &Path) -> Vec<std::path::PathBuf> {
 /// the directory is gone.
 pub(crate) fn remove_staging(dir: &Path) -> bool {
     match std::fs::read(dir.join(MANIFEST)) {
-        Ok(bytes) => match crate::staged::manifest_files(&bytes) {
-            Some(files) => remove_listed(dir, &files),
+        Ok(bytes) => match parse_manifest(&bytes) {
+            Ok(files) => remove_listed(dir, &files),
             // An unreadable manifest: nothing is removed on its word.
-            None => false,
+            Err(_) => false,
         },
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => std::fs::remove_dir_all(dir).is_ok(),
         Err(_) => false,

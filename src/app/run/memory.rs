@@ -12,7 +12,7 @@
 //! estimate's parts and what to change, before anything is allocated. The
 //! highest prediction and the measured peak (`VmHWM`) go into the reports.
 
-use super::CliError;
+use crate::app::AppError;
 use crate::mesh::memory::{MemoryEstimate, format_bytes};
 use serde::Serialize;
 use std::sync::OnceLock;
@@ -78,12 +78,12 @@ pub(crate) fn budget() -> Budget {
 /// budget; `hint` says what to change. Records the prediction.
 ///
 /// # Errors
-/// [`CliError::Memory`] with the prediction, its parts and the limit.
+/// [`AppError::Memory`] with the prediction, its parts and the limit.
 pub(crate) fn check(
     stage: &'static str,
     estimate: &MemoryEstimate,
     hint: &'static str,
-) -> Result<(), CliError> {
+) -> Result<(), AppError> {
     let resident = resident_bytes().unwrap_or(0.0);
     let predicted = resident + estimate.total();
     let p = if predicted.is_finite() {
@@ -95,7 +95,7 @@ pub(crate) fn check(
     let b = budget();
     match b.limit_bytes {
         Some(limit) if predicted > limit || !predicted.is_finite() => {
-            Err(CliError::Memory(Box::new(MemoryRefusal {
+            Err(AppError::Memory(Box::new(MemoryRefusal {
                 stage,
                 predicted: format_bytes(predicted),
                 estimate: estimate.to_string(),
