@@ -12,4 +12,3 @@ pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;
 pub use unfold_organs as organs;
 pub use unfold_param as param;
-pub mod placenta;

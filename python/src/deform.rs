@@ -8,9 +8,7 @@ use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::Path;
-use unfold::cli::deform::{
-    DeformSettings, Deformed, Energy, Report, SolverKind, deform_mesh, tet_mesh_of,
-};
+use unfold::cli::deform::{DeformSettings, Deformed, Report, deform_mesh, tet_mesh_of};
 
 /// Deforms a tet mesh towards targets; returns `(deformed, report_json)`,
 /// the mesh as `(points, cells, point_data, cell_data)`.
@@ -40,8 +38,8 @@ pub(crate) fn deform<'py>(
     let started = crate::report::started();
     let settings = DeformSettings {
         weight,
-        energy: choice::<Energy>("--energy", energy)?,
-        solver: choice::<SolverKind>("--solver", solver)?,
+        energy: choice("--energy", energy)?,
+        solver: choice("--solver", solver)?,
         tol,
         max_iterations: crate::inputs::max_iterations(max_iterations, "--max-iterations")?,
     };

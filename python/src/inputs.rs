@@ -2,7 +2,6 @@
 //! checked: points, triangle meshes, landmark points, image volumes and
 //! their affines (and volumes back into numpy).
 
-use clap::ValueEnum;
 use numpy::ndarray::{Array, IxDyn};
 use numpy::{IntoPyArray, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -154,17 +153,8 @@ pub(crate) fn max_iterations(value: Option<i64>, what: &str) -> PyResult<Option<
         .transpose()
 }
 
-/// A value of a command-line enum by its flag value (e.g.
-/// "symmetric-dirichlet"), else the message listing the choices.
-pub(crate) fn choice<T: ValueEnum>(flag: &str, value: &str) -> PyResult<T> {
-    T::from_str(value, false).map_err(|_| {
-        let names: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
-            .collect();
-        crate::error(format!(
-            "{flag} must be one of {}, got '{value}'",
-            names.join(", ")
-        ))
-    })
+/// The value of `T` called `value` ([`unfold::app::names::parse`]: the
+/// command line's message listing the choices otherwise).
+pub(crate) fn choice<T: unfold::param::Named>(flag: &str, value: &str) -> PyResult<T> {
+    unfold::app::names::parse(flag, value).map_err(crate::error)
 }

@@ -8,9 +8,7 @@ use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::Path;
-use unfold::cli::mitral::{
-    AnnulusArg, FullReport, InitArg, MitralSettings, RelaxArg, leaflet_of, map_valve,
-};
+use unfold::cli::mitral::{FullReport, MitralSettings, leaflet_of, map_valve};
 use unfold::mesh::CellMesh;
 
 /// A leaflet given as `(points, cells, point_data)` (meshio's layout).
@@ -51,9 +49,9 @@ pub(crate) fn mitral<'py>(
         )));
     };
     let settings = MitralSettings {
-        annulus_mode: choice::<AnnulusArg>("--annulus-mode", annulus_mode)?,
-        init: choice::<InitArg>("--init", init)?,
-        relax: choice::<RelaxArg>("--relax", relax)?,
+        annulus_mode: choice("--annulus-mode", annulus_mode)?,
+        init: choice("--init", init)?,
+        relax: choice("--relax", relax)?,
         iterations,
         step_scale,
         coaptation_mm,

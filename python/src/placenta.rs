@@ -1,24 +1,23 @@
-//! `unfold.placenta`: the library pipeline `unfold placenta` runs
-//! ([`Pipeline`]), on numpy arrays, with the command line's defaults and
-//! messages ([`unfold::placenta::pipeline_error`]) and its `report.json`
-//! layout ([`unfold::placenta::FullReport`]).
+//! `unfold.placenta`: the placenta run of the application layer
+//! ([`unfold::app::placenta`]) on numpy arrays: the command line's settings,
+//! defaults, messages and `report.json` layout ([`PlacentaReport`]).
 
 use crate::arrays::mesh_tuple;
 use crate::inputs::{choice, volume, volume_arrays};
 use crate::progress::Callback;
-use crate::report::{Memory, Provenance};
 use crate::template::PyTemplate;
 use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use unfold::cli::placenta::{
-    InterpArg, PlacentaSettings, SolverArg, TemplateArg, hold_half_thickness,
-};
-use unfold::io::Frame;
+use std::path::PathBuf;
+use unfold::app::placenta::settings::DEFAULT_VOXEL_MM;
+use unfold::app::placenta::{ImageInput, Inputs, PlacentaReport, Settings, run_with};
+use unfold::app::run::memory::MemoryReport;
+use unfold::app::run::provenance::Provenance;
+use unfold::io::{Frame, NiftiImage};
 use unfold::mesh::{CellMesh, TetMesh};
-use unfold::organs::placenta::{
-    Image, Pipeline, PlacentaTemplate, SolverKind, TemplateKind, prepare_mesh,
-};
+use unfold::organs::placenta::{PlacentaTemplate, TemplateKind, prepare_mesh};
+use unfold::param::Named;
 
 /// The template argument: a shipped template's name (None: planes), or a
 /// Python object implementing the template protocol ([`PyTemplate`]).
@@ -32,8 +31,9 @@ impl TemplateChoice {
         match template {
             None => Ok(TemplateChoice::Shipped(TemplateKind::Planes)),
             Some(t) => match t.extract::<String>() {
-                Ok(name) => choice::<TemplateArg>("--template", &name)
-                    .map(|t| TemplateChoice::Shipped(t.into())),
+                Ok(name) => {
+                    choice::<TemplateKind>("--template", &name).map(TemplateChoice::Shipped)
+                }
                 Err(_) => PyTemplate::new(t).map(TemplateChoice::Python),
             },
         }
@@ -88,23 +88,27 @@ pub(crate) fn placenta<'py>(
     spacing_mm: Option<f64>,
     frame_check: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
-    let config = PlacentaSettings {
+    let started = unfold::app::run::provenance::now();
+    let settings = Settings {
+        solver: choice("--solver", solver)?,
         lambda: lam,
+        fix_h,
         margin_mm,
         gamma,
         rings: usize::try_from(rings)
             .map_err(|_| crate::error(format!("--rings must be 1 to 6, got {rings}")))?,
-        voxel_mm,
+        voxel_mm: Some(voxel_mm),
         tol,
-        spacing_mm,
         max_iterations: crate::inputs::max_iterations(max_iterations, "--max-iterations")?,
-        interp: choice::<InterpArg>("--interp", interp)?,
-        grid: None,
-        frame_check,
-    }
-    .config(None)
-    .map_err(crate::error)?;
+        spacing_mm,
+        interp: choice("--interp", interp)?,
+        no_frame_check: !frame_check,
+        no_figures: true,
+        ..Settings::default()
+    };
+    let config = settings
+        .config(DEFAULT_VOXEL_MM, None)
+        .map_err(crate::error)?;
     let template = TemplateChoice::new(template)?;
     let template_name = template.name();
     let template_error = match &template {
@@ -115,8 +119,9 @@ pub(crate) fn placenta<'py>(
         TemplateChoice::Shipped(kind) => kind.build(),
         TemplateChoice::Python(t) => Box::new(t),
     };
-    let template = hold_half_thickness(template, fix_h).map_err(crate::error)?;
-    let solver_kind = SolverKind::from(choice::<SolverArg>("--solver", solver)?);
+    let pipeline = settings
+        .pipeline_with(template, config)
+        .map_err(crate::error)?;
     let mesh = tet_mesh(&points, &tets)?;
     let parameters = format!(
         "template={template_name:?}, lam={lam}, margin_mm={margin_mm:?}, gamma={gamma}, rings={rings}, \
@@ -124,31 +129,33 @@ pub(crate) fn placenta<'py>(
          solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
          spacing_mm={spacing_mm:?}, frame_check={frame_check}"
     );
-    let volumes = images
+    let images = images
         .iter()
-        .map(|(n, data, affine)| Ok((n.clone(), volume(data, affine, n)?)))
+        .map(|(n, data, affine)| {
+            Ok(ImageInput {
+                path: PathBuf::from(n),
+                name: n.clone(),
+                image: NiftiImage::new(volume(data, affine, n)?),
+            })
+        })
         .collect::<PyResult<Vec<_>>>()?;
-    let names: Vec<String> = volumes.iter().map(|(n, _)| n.clone()).collect();
     let label = name.to_string();
     let mut callback = Callback::new(progress);
     let run = py.detach(|| {
-        let failed = |e| unfold::placenta::pipeline_error(&label, Frame::Ras, &names, e);
-        let images: Vec<Image<'_>> = volumes
-            .iter()
-            .map(|(name, volume)| Image { name, volume })
-            .collect();
-        let prepared = prepare_mesh(&mesh).map_err(|e| unfold::placenta::organ(&label, e))?;
+        let prepared = prepare_mesh(&mesh).map_err(|e| unfold::app::placenta::organ(&label, e))?;
         let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
             .map(|e| e.total())
             .unwrap_or(0.0);
-        let pipeline = Pipeline::new()
-            .template(template)
-            .solver(solver_kind.build())
-            .config(config);
-        let outcome = pipeline
-            .run_prepared(prepared, &images, &mut callback)
-            .map_err(failed)?;
-        Ok::<_, unfold::placenta::InputError>((outcome, predicted))
+        let inputs = Inputs {
+            label: label.clone(),
+            mesh: prepared,
+            images,
+            frame: Frame::Ras,
+            voxel_mm: DEFAULT_VOXEL_MM,
+            segmentation: None,
+        };
+        let run = run_with(&pipeline, &settings, &inputs, &mut callback)?;
+        Ok::<_, unfold::app::AppError>((run, predicted))
     });
     if let Some(e) = template_error.and_then(|slot| slot.lock().ok()?.take()) {
         return Err(e);
@@ -156,20 +163,15 @@ pub(crate) fn placenta<'py>(
     if let Some(e) = callback.error.take() {
         return Err(e);
     }
-    let (mut outcome, predicted) =
-        run.map_err(|e| crate::input_error(e, &[(name, &mesh.positions)]))?;
-    for entry in &mut outcome.report.images {
+    let (run, predicted) = run.map_err(|e| crate::input_error(e, &[(name, &mesh.positions)]))?;
+    let outcome = run.outcome;
+    let mut report: PlacentaReport = run.report;
+    for entry in &mut report.report.images {
         entry.input = Some(entry.name.clone());
     }
-    let full = unfold::placenta::FullReport::<(), (), _, _> {
-        mesh: name,
-        segmentation: None,
-        displacement: None,
-        report: &outcome.report,
-        memory: Memory::predicted(predicted),
-        provenance: Provenance::new(parameters, started),
-    };
-    let json = full.to_json().map_err(crate::error)?;
+    report.memory = MemoryReport::predicted(predicted);
+    report.provenance = Provenance::python(parameters, started);
+    let json = report.to_json().map_err(crate::error)?;
     let flattened = mesh_tuple(py, &CellMesh::from(&outcome.flattened))?;
     let original = mesh_tuple(py, &CellMesh::from(&outcome.original))?;
     let flat_images = PyDict::new(py);

@@ -56,3 +56,11 @@ impl PipelineObserver for Callback {
         }
     }
 }
+
+/// Warnings on stderr, as the command line prints them; the other messages
+/// are the command line's.
+impl unfold::app::observer::Observer for Callback {
+    fn warning(&mut self, text: &str) {
+        eprintln!("warning: {text}");
+    }
+}

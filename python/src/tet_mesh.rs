@@ -1,6 +1,6 @@
 //! `unfold.tet_mesh`: `unfold mesh` on a numpy mask
-//! ([`unfold::cli::mesh::MaskArgs`], the command line's own checks,
-//! messages and mesher).
+//! ([`unfold::app::mesh::mask::MaskSettings`], the command line's own
+//! checks, messages and mesher).
 
 use crate::arrays::mesh_tuple;
 use crate::inputs::volume;
@@ -9,7 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use serde::Serialize;
 use std::path::Path;
-use unfold::cli::mesh::MaskArgs;
+use unfold::app::mesh::mask::MaskSettings;
+use unfold::app::observer::WarnOnStderr;
 use unfold::mesh::CellMesh;
 use unfold::mesh::mesher::MeshQuality;
 
@@ -58,7 +59,7 @@ pub(crate) fn tet_mesh<'py>(
             "--dilate must be 0 or 1, got {dilate}"
         )));
     }
-    let how = MaskArgs {
+    let how = MaskSettings {
         size_mm,
         smooth_voxels,
         dilate: dilate as u8,
@@ -74,9 +75,9 @@ pub(crate) fn tet_mesh<'py>(
     let out = py
         .detach(|| {
             let mask = how.mask_of(path, &image)?;
-            let out = how.mesh(path, &mask, keep_all_components)?;
+            let out = how.mesh(path, &mask, keep_all_components, &mut WarnOnStderr)?;
             let quality = MeshQuality::of(&out.mesh)?;
-            Ok::<_, unfold::cli::AppError>((out, quality))
+            Ok::<_, unfold::app::AppError>((out, quality))
         })
         .map_err(crate::error)?;
     let (out, quality) = out;

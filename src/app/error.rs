@@ -91,15 +91,6 @@ pub enum AppError {
     },
 }
 
-impl From<crate::placenta::InputError> for AppError {
-    fn from(e: crate::placenta::InputError) -> Self {
-        match e {
-            crate::placenta::InputError::Usage(m) => AppError::Usage(m),
-            crate::placenta::InputError::Organ { path, source } => AppError::Organ { path, source },
-        }
-    }
-}
-
 /// `e` naming the paths a staged output will have after the commit
 /// instead of its staging paths (errors of a run that failed while writing).
 pub fn shown(staged: &StagedOutputs, e: AppError) -> AppError {

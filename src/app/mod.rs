@@ -12,7 +12,10 @@
 //! turns numpy arrays into settings and inputs.
 
 pub mod error;
+pub mod mesh;
 pub mod names;
+pub mod observer;
+pub mod placenta;
 pub mod run;
 
 pub use error::AppError;

@@ -41,34 +41,18 @@
 //! numbers (welded copies move together; the first target of a welded
 //! vertex counts; a vertex no tet uses goes to its target, if it has one).
 
+use super::choice::named;
 use super::{AppError, at};
 use crate::app::run::StagedOutputs;
 use crate::io::{FileKind, WriteOptions, atomic_write, read_mesh, write_mesh};
 use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use crate::mesh::{CellMesh, MeshError, TetMesh};
-use crate::param::energy::{Arap, SymmetricDirichlet};
-use crate::param::{Deform, DeformReport, GradientDescent, ParamError, ProjectedNewton, Solver};
-use clap::{Args, ValueEnum};
+use crate::param::energy::EnergyKind;
+use crate::param::solver::SolverKind;
+use crate::param::{Deform, DeformReport, Named, ParamError};
+use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-
-/// Distortion energies `D` of `unfold deform`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Energy {
-    /// `|J|_F^2 + |J^-1|_F^2` (a barrier: infinite at flips; minimum 6).
-    SymmetricDirichlet,
-    /// As-rigid-as-possible `|J - R|_F^2` (minimum 0).
-    Arap,
-}
-
-/// Solvers of `unfold deform`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum SolverKind {
-    /// Projected Newton (sparse Cholesky of the PSD-projected Hessian).
-    Newton,
-    /// Gradient descent (the placenta paper's baseline; slow).
-    Gd,
-}
 
 /// Arguments of `unfold deform`.
 #[derive(Debug, Args)]
@@ -89,10 +73,10 @@ pub struct DeformArgs {
     #[arg(long, value_name = "W", default_value_t = 1.0)]
     weight: f64,
     /// Distortion energy D.
-    #[arg(long, value_enum, default_value = "symmetric-dirichlet")]
-    energy: Energy,
+    #[arg(long, value_parser = named::<EnergyKind>(), default_value = "symmetric-dirichlet")]
+    energy: EnergyKind,
     /// Solver.
-    #[arg(long, value_enum, default_value = "newton")]
+    #[arg(long, value_parser = named::<SolverKind>(), default_value = "newton")]
     solver: SolverKind,
     /// Stop when the gradient norm |grad|_F falls below this.
     #[arg(long, value_name = "TOL", default_value_t = 1e-4)]
@@ -129,7 +113,7 @@ pub struct DeformSettings {
     /// `--weight`: W of the target term.
     pub weight: f64,
     /// `--energy`.
-    pub energy: Energy,
+    pub energy: EnergyKind,
     /// `--solver`.
     pub solver: SolverKind,
     /// `--tol`: the gradient norm to stop at.
@@ -144,7 +128,7 @@ impl Default for DeformSettings {
     fn default() -> Self {
         DeformSettings {
             weight: 1.0,
-            energy: Energy::SymmetricDirichlet,
+            energy: EnergyKind::SymmetricDirichlet,
             solver: SolverKind::Newton,
             tol: 1e-4,
             max_iterations: None,
@@ -295,17 +279,7 @@ fn deform_problem(mesh: &Path, targets: &Path, solver: SolverKind, e: ParamError
         | ParamError::TargetRepeated { .. }
         | ParamError::Length { .. }) => at(targets, e),
         e @ (ParamError::Mesh(_) | ParamError::Setting { .. }) => at(mesh, e),
-        e => at(
-            mesh,
-            format!("the {} solver failed: {e}", solver_name(solver)),
-        ),
-    }
-}
-
-fn solver_name(s: SolverKind) -> &'static str {
-    match s {
-        SolverKind::Newton => "newton",
-        SolverKind::Gd => "gd",
+        e => at(mesh, format!("the {} solver failed: {e}", solver.name())),
     }
 }
 
@@ -370,23 +344,17 @@ pub fn deform_mesh(
             (!std::mem::replace(&mut targeted[r], true)).then_some((r, t))
         })
         .collect();
-    let mut stopping = match settings.solver {
-        SolverKind::Newton => ProjectedNewton::default().default_stopping(),
-        SolverKind::Gd => GradientDescent.default_stopping(),
-    };
+    let solver = settings.solver.build();
+    let mut stopping = solver.default_stopping();
     stopping.grad_tol = settings.tol;
     if let Some(n) = settings.max_iterations {
         stopping.max_iterations = n;
     }
-    let pipeline = Deform::new().weight(settings.weight).stopping(stopping);
-    let pipeline = match settings.energy {
-        Energy::SymmetricDirichlet => pipeline.energy(SymmetricDirichlet),
-        Energy::Arap => pipeline.energy(Arap),
-    };
-    let pipeline = match settings.solver {
-        SolverKind::Newton => pipeline.solver(ProjectedNewton::default()),
-        SolverKind::Gd => pipeline.solver(GradientDescent),
-    };
+    let pipeline = Deform::new()
+        .weight(settings.weight)
+        .stopping(stopping)
+        .energy(settings.energy.build())
+        .solver(solver);
     if settings.solver == SolverKind::Newton {
         let pmesh = crate::param::ParamMesh::from_tets(&repaired.mesh).map_err(|e| at(mesh, e))?;
         let estimate = crate::param::memory::mesh_newton_memory(&pmesh).map_err(|e| at(mesh, e))?;
@@ -546,7 +514,7 @@ mod tests {
     fn settings_default_to_the_flags_defaults() {
         assert_eq!(settings_of(&[]), DeformSettings::default());
         let s = settings_of(&["--energy", "arap", "--weight", "2"]);
-        assert_eq!((s.energy, s.weight), (Energy::Arap, 2.0));
+        assert_eq!((s.energy, s.weight), (EnergyKind::Arap, 2.0));
         assert!(
             DeformSettings {
                 weight: 0.0,

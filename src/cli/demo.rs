@@ -6,7 +6,7 @@
 //! `DIR/ventricle/`).
 
 use super::AppError;
-use super::placenta::{ImageInput, PipelineInput, run_pipeline};
+use crate::app::placenta::ImageInput;
 use crate::app::run::StagedOutputs;
 use crate::io::{NiftiImage, WriteOptions, atomic_write, write_image, write_mesh};
 use crate::mesh::geometry::bounding_box;
@@ -17,7 +17,7 @@ use crate::mesh::shapes::{
 };
 use crate::mesh::spatial::TetLocator;
 use crate::mesh::{CellMesh, CellType, Volume};
-use crate::organs::placenta::{Pipeline, prepare_mesh};
+use crate::organs::placenta::prepare_mesh;
 use crate::organs::ventricle::rings_meridians::rings_and_meridians;
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -189,28 +189,41 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
         "built-in placenta slab ({PIPELINE_CELLS_RADIAL} radial cells, {} tets)",
         small.mesh.num_tets()
     );
-    let images = [ImageInput {
-        path: dir.join("placenta_mri.nii.gz"),
-        name: "placenta_mri".into(),
-        image: img,
-    }];
-    let prepared = prepare_mesh(&small.mesh).map_err(|source| AppError::Organ {
-        path: label.clone(),
-        source,
-    })?;
-    let summary = run_pipeline(&PipelineInput {
-        label: &label,
-        mesh: &prepared,
-        images: &images,
-        pipeline: &Pipeline::new(),
-        dir: &dir.join("placenta"),
-        out: staged,
-        progress: true,
-        segmentation: None,
-        figures: true,
-        displacement: None,
+    let inputs = crate::app::placenta::Inputs {
+        label: label.clone(),
+        mesh: prepare_mesh(&small.mesh).map_err(|source| AppError::Organ {
+            path: label.clone(),
+            source,
+        })?,
+        images: vec![ImageInput {
+            path: dir.join("placenta_mri.nii.gz"),
+            name: "placenta_mri".into(),
+            image: img,
+        }],
         frame: crate::io::Frame::Ras,
-    })?;
+        voxel_mm: crate::app::placenta::settings::DEFAULT_VOXEL_MM,
+        segmentation: None,
+    };
+    let settings = crate::app::placenta::Settings::default();
+    let mut progress = super::progress::Progress::new(true);
+    let run = crate::app::placenta::run(&settings, &inputs, &mut progress)?;
+    let written = crate::app::placenta::write(
+        &run,
+        &settings,
+        &inputs,
+        &crate::app::placenta::Outputs {
+            dir: &dir.join("placenta"),
+            displacement: None,
+            staged,
+        },
+        &mut progress,
+    )?;
+    drop(progress);
+    let summary = super::placenta::Summary {
+        label: label.clone(),
+        report: run.report.report,
+        written,
+    };
     println!("{summary}");
 
     // The mitral pipeline, from the valve files written above.

@@ -6,16 +6,15 @@
 //! `.msh`); it holds the tets only. The largest connected component is kept
 //! (with a warning naming the others' sizes) unless `--keep-all-components`.
 
-use super::{AppError, at, positive};
+use super::progress::Progress;
+use super::{AppError, at};
+use crate::app::mesh::mask::{MaskSettings, describe};
 use crate::app::run::StagedOutputs;
 use crate::io::{WriteOptions, write_mesh};
-use crate::mesh::mesher::{
-    IsoLevel, MaskMesh, MaskMeshOptions, MaskSelection, MeshQuality, estimate_memory,
-    mask_from_image, mesh_mask,
-};
-use crate::mesh::{CellMesh, MeshError, Volume};
+use crate::mesh::CellMesh;
+use crate::mesh::mesher::MeshQuality;
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// How a segmentation is meshed (shared by `unfold mesh`, `unfold placenta
 /// --seg` and the Python package's `unfold.tet_mesh`).
@@ -63,157 +62,18 @@ pub struct MaskArgs {
 }
 
 impl MaskArgs {
-    /// The mesher's options, every flag checked.
-    ///
-    /// # Errors
-    /// [`AppError::Usage`] naming the flag out of range.
-    pub fn options(&self, keep_all_components: bool) -> Result<MaskMeshOptions, AppError> {
-        if let Some(s) = self.size_mm {
-            positive("--size-mm", s)?;
-        }
-        if !(self.smooth_voxels.is_finite() && self.smooth_voxels >= 0.0) {
-            return Err(AppError::Usage(format!(
-                "--smooth-voxels must be a finite number >= 0, got {}",
-                self.smooth_voxels
-            )));
-        }
-        if self.threshold.is_some() && self.label.is_some() {
-            // (the parser refuses it on the command line; Python gets here)
-            return Err(AppError::Usage(
-                "--threshold cannot be used with --label: the one takes the voxels above a \
-                 value, the other those equal to it"
-                    .into(),
-            ));
-        }
-        for (flag, value) in [("--threshold", self.threshold), ("--label", self.label)] {
-            if let Some(v) = value
-                && !v.is_finite()
-            {
-                return Err(AppError::Usage(format!("{flag} must be finite, got {v}")));
-            }
-        }
-        let level = match self.level {
-            None => IsoLevel::PreserveVolume,
-            Some(c) if c > 0.0 && c < 1.0 => IsoLevel::Fixed(c),
-            Some(c) => {
-                return Err(AppError::Usage(format!(
-                    "--level must be in (0, 1), got {c}"
-                )));
-            }
-        };
-        Ok(MaskMeshOptions {
+    /// The settings of the flags.
+    pub(crate) fn settings(&self) -> MaskSettings {
+        MaskSettings {
             size_mm: self.size_mm,
             smooth_voxels: self.smooth_voxels,
-            dilate: usize::from(self.dilate),
-            level,
-            keep_all_components,
+            dilate: self.dilate,
+            threshold: self.threshold,
+            label: self.label,
+            level: self.level,
             grade: self.grade,
-        })
-    }
-
-    /// Reads the mask image at `path` (3D, binary or thresholded).
-    pub(crate) fn read_mask(&self, path: &Path) -> Result<Volume<bool>, AppError> {
-        let image = super::read_image_checked(path, 1.0)?;
-        self.mask_of(path, &image.volume)
-    }
-
-    /// The mask of the image `volume` (named `path` in messages): its
-    /// voxels above `--threshold`, equal to `--label`, or its one value
-    /// besides 0.
-    ///
-    /// # Errors
-    /// [`mask_from_image`]'s (a label map without `--label` or
-    /// `--threshold`, a label it does not hold, several frames), at `path`.
-    pub fn mask_of(&self, path: &Path, volume: &Volume<f32>) -> Result<Volume<bool>, AppError> {
-        let selection = match (self.label, self.threshold) {
-            (Some(l), _) => MaskSelection::Label(l),
-            (None, Some(t)) => MaskSelection::Above(t),
-            (None, None) => MaskSelection::Nonzero,
-        };
-        mask_from_image(volume, selection).map_err(|e| match e {
-            MeshError::MaskValues { .. } => at(
-                path,
-                format!("{e} (--label N: the voxels equal to N; --threshold T: those above T)"),
-            ),
-            e => at(path, e),
-        })
-    }
-
-    /// Refuses meshing `mask` when the predicted peak passes the budget
-    /// ([`estimate_memory`]).
-    pub(crate) fn check_memory(
-        &self,
-        path: &Path,
-        mask: &Volume<bool>,
-        keep_all_components: bool,
-    ) -> Result<(), AppError> {
-        self.check_memory_of(path, mask, &self.options(keep_all_components)?)
-    }
-
-    /// As [`MaskArgs::check_memory`], for meshing with `opts`.
-    pub(crate) fn check_memory_of(
-        &self,
-        path: &Path,
-        mask: &Volume<bool>,
-        opts: &MaskMeshOptions,
-    ) -> Result<(), AppError> {
-        let estimate = estimate_memory(mask, opts).map_err(|e| at(path, e))?;
-        crate::app::run::memory::check(
-            "meshing the mask",
-            &estimate,
-            "raise --size-mm (the lattice and the tets grow as 1/size^3), lower --smooth-voxels, \
-             drop --grade, or crop the mask",
-        )
-    }
-
-    /// Meshes the mask read from `path` (the memory budget checked first);
-    /// warns on stderr about dropped components.
-    ///
-    /// # Errors
-    /// The options' errors, [`AppError::Memory`], and the mesher's at
-    /// `path`.
-    pub fn mesh(
-        &self,
-        path: &Path,
-        mask: &Volume<bool>,
-        keep_all_components: bool,
-    ) -> Result<MaskMesh, AppError> {
-        self.check_memory(path, mask, keep_all_components)?;
-        let opts = self.options(keep_all_components)?;
-        let out = mesh_mask(mask, &opts).map_err(|e| at(path, e))?;
-        warn_dropped(path, &out, keep_all_components);
-        Ok(out)
-    }
-}
-
-/// Warns on stderr when the mesher left components out.
-pub(crate) fn warn_dropped(path: &Path, out: &MaskMesh, keep_all_components: bool) {
-    if out.dropped_components.is_empty() {
-        return;
-    }
-    let sizes: Vec<String> = out
-        .dropped_components
-        .iter()
-        .map(|n| n.to_string())
-        .collect();
-    eprintln!(
-        "warning: {}: the segmentation has {} connected components; kept the largest \
-         ({} tets), dropped {} of {} tets{}",
-        path.display(),
-        out.components,
-        out.mesh.num_tets(),
-        if sizes.len() == 1 {
-            "one"
-        } else {
-            "the others"
-        },
-        sizes.join(", "),
-        if keep_all_components {
-            ""
-        } else {
-            " (--keep-all-components keeps them)"
         }
-    );
+    }
 }
 
 /// Arguments of `unfold mesh`.
@@ -237,32 +97,6 @@ pub struct MeshArgs {
     keep_all_components: bool,
 }
 
-/// One line of figures about a mask's mesh.
-pub(crate) fn describe(out: &MaskMesh, q: &MeshQuality) -> String {
-    format!(
-        "{} tets, {} vertices, {} boundary triangles (cube side {:.3} mm, level {:.3}{}); \
-         volume {:.1} mm^3 ({:+.2} % of the mask's {:.1}); dihedral angles {:.1} .. {:.1} degrees",
-        q.tets,
-        q.vertices,
-        q.boundary_triangles,
-        out.size_mm,
-        out.level,
-        if out.graded_collapses > 0 {
-            format!(
-                ", graded: {} interior vertices removed",
-                out.graded_collapses
-            )
-        } else {
-            String::new()
-        },
-        q.volume_mm3,
-        100.0 * (q.volume_mm3 / out.mask_volume_mm3 - 1.0),
-        out.mask_volume_mm3,
-        q.min_dihedral_deg,
-        q.max_dihedral_deg
-    )
-}
-
 /// Runs `unfold mesh`.
 pub fn run(a: &MeshArgs) -> Result<(), AppError> {
     if super::canonical(&a.mask) == super::canonical(&a.output) {
@@ -271,12 +105,18 @@ pub fn run(a: &MeshArgs) -> Result<(), AppError> {
             "refusing to overwrite the input; choose another output path",
         ));
     }
-    a.how.options(a.keep_all_components)?;
+    let how = a.how.settings();
+    how.options(a.keep_all_components)?;
     // The output checked (and staged) before the mask is read.
     let mut staged = StagedOutputs::new([&a.mask]);
     let target = staged.file(&a.output)?;
-    let mask = a.how.read_mask(&a.mask)?;
-    let out = a.how.mesh(&a.mask, &mask, a.keep_all_components)?;
+    let mask = how.read_mask(&a.mask)?;
+    let out = how.mesh(
+        &a.mask,
+        &mask,
+        a.keep_all_components,
+        &mut Progress::new(false),
+    )?;
     let q = MeshQuality::of(&out.mesh)?;
     write_mesh(
         &target,

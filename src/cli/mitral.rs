@@ -24,6 +24,7 @@
 //! single valve's report has) and the plot over the cycle
 //! `OUT/figures/series.png`.
 
+use super::choice::named;
 use super::{AppError, at, organ};
 use crate::app::run::StagedOutputs;
 use crate::figures::FigureOptions;
@@ -35,41 +36,9 @@ use crate::organs::mitral::{
     AnnulusMode, Config, InitMode, LeafletLayout, Outcome, Pipeline, RelaxMode, Report, ValveInput,
     annulus_from_leaflets,
 };
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-
-/// `--annulus-mode`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum AnnulusArg {
-    /// `v = 0`, `u` = 3D arc length.
-    Straight,
-    /// Heights above the least-squares plane of the annulus.
-    LeastSquares,
-    /// Heights above the plane through both commissures and the posterior
-    /// annulus' barycentre.
-    Landmark,
-}
-
-/// `--init`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum InitArg {
-    /// Longitudes when the leaflet has them, else Tutte.
-    Auto,
-    /// The longitude layout (error if a leaflet has none).
-    Longitudes,
-    /// Tutte embedding below the fixed annulus.
-    Tutte,
-}
-
-/// `--relax`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum RelaxArg {
-    /// Mass-spring (the source's method; may flip triangles).
-    Spring,
-    /// Symmetric Dirichlet, projected Newton, flip-free.
-    Sd,
-}
 
 /// Arguments of `unfold mitral`.
 #[derive(Debug, Args)]
@@ -103,14 +72,14 @@ pub struct MitralArgs {
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
     /// How the annulus is laid out.
-    #[arg(long, value_enum, default_value = "landmark")]
-    annulus_mode: AnnulusArg,
+    #[arg(long, value_parser = named::<AnnulusMode>(), default_value = "landmark")]
+    annulus_mode: AnnulusMode,
     /// Initial leaflet layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    init: InitArg,
+    #[arg(long, value_parser = named::<InitMode>(), default_value = "auto")]
+    init: InitMode,
     /// Relaxation.
-    #[arg(long, value_enum, default_value = "sd")]
-    relax: RelaxArg,
+    #[arg(long, value_parser = named::<RelaxMode>(), default_value = "sd")]
+    relax: RelaxMode,
     /// Spring relaxation: number of explicit steps.
     #[arg(long, value_name = "N", default_value_t = 5)]
     iterations: usize,
@@ -154,11 +123,11 @@ impl MitralArgs {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MitralSettings {
     /// `--annulus-mode`.
-    pub annulus_mode: AnnulusArg,
+    pub annulus_mode: AnnulusMode,
     /// `--init`.
-    pub init: InitArg,
+    pub init: InitMode,
     /// `--relax`.
-    pub relax: RelaxArg,
+    pub relax: RelaxMode,
     /// `--iterations` (spring relaxation steps).
     pub iterations: usize,
     /// `--step-scale` (none: the library's).
@@ -176,9 +145,9 @@ impl Default for MitralSettings {
     /// relaxation, 5 spring steps, coaptation 2 mm.
     fn default() -> Self {
         MitralSettings {
-            annulus_mode: AnnulusArg::Landmark,
-            init: InitArg::Auto,
-            relax: RelaxArg::Sd,
+            annulus_mode: AnnulusMode::Landmark,
+            init: InitMode::Auto,
+            relax: RelaxMode::Sd,
             iterations: 5,
             step_scale: None,
             coaptation_mm: 2.0,
@@ -195,27 +164,14 @@ impl MitralSettings {
     /// # Errors
     /// [`AppError::Usage`] naming the flag out of range.
     pub fn pipeline(&self) -> Result<Pipeline, AppError> {
-        let init = LeafletLayout {
-            mode: match self.init {
-                InitArg::Auto => InitMode::Auto,
-                InitArg::Longitudes => InitMode::Longitudes,
-                InitArg::Tutte => InitMode::Tutte,
-            },
-        };
+        let init = LeafletLayout { mode: self.init };
         Ok(Pipeline::new().initializer(init).config(self.config()?))
     }
 
     fn config(&self) -> Result<Config, AppError> {
         let mut c = Config {
-            annulus_mode: match self.annulus_mode {
-                AnnulusArg::Straight => AnnulusMode::Straight,
-                AnnulusArg::LeastSquares => AnnulusMode::LeastSquares,
-                AnnulusArg::Landmark => AnnulusMode::Landmark,
-            },
-            relax: match self.relax {
-                RelaxArg::Spring => RelaxMode::Spring,
-                RelaxArg::Sd => RelaxMode::Sd,
-            },
+            annulus_mode: self.annulus_mode,
+            relax: self.relax,
             cut_posteromedial: self.cut_posteromedial,
             ..Config::default()
         };
@@ -862,7 +818,7 @@ mod tests {
             "3",
         ])
         .unwrap();
-        assert_eq!(m.args.settings().relax, RelaxArg::Spring);
+        assert_eq!(m.args.settings().relax, RelaxMode::Spring);
         assert_eq!(m.args.settings().coaptation_mm, 3.0);
     }
 

@@ -30,6 +30,7 @@ mod ventricle_sensitivity;
 pub mod ventricle_surface;
 
 mod choice;
+mod progress;
 
 pub use crate::app::AppError;
 pub(crate) use crate::app::error::{about, at, organ, positive, shown};

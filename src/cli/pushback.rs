@@ -12,8 +12,9 @@
 //! Voxels outside the mesh, or mapped outside IMAGE, are 0. OUT has the
 //! reference image's grid and affine, and IMAGE's frames.
 
-use super::placenta::{InterpArg, nearest_datatype};
+use super::choice::named;
 use super::{AppError, at};
+use crate::app::placenta::write::nearest_datatype;
 use crate::app::run::StagedOutputs;
 use crate::io::{FileKind, NiftiImage, read_tet_mesh, write_image};
 use crate::organs::placenta::pushback::push_back;
@@ -43,8 +44,8 @@ pub struct PushbackArgs {
     #[arg(short, long, value_name = "OUT")]
     output: PathBuf,
     /// How IMAGE is sampled: linear (intensities) or nearest (label maps).
-    #[arg(long, value_enum, default_value = "linear")]
-    interp: InterpArg,
+    #[arg(long, value_parser = named::<Interpolation>(), default_value = "linear")]
+    interp: Interpolation,
 }
 
 /// Runs `unfold pushback`.
@@ -102,7 +103,7 @@ pub fn run(a: &PushbackArgs) -> Result<(), AppError> {
     }
     let image = super::read_image_checked(&a.image, 0.0)?;
     let reference = super::read_image_checked(&a.reference, 48.0)?;
-    let interpolation = Interpolation::from(a.interp);
+    let interpolation = a.interp;
     let (volume, stats) = push_back(
         &original.positions,
         &original.tets,

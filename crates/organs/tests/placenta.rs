@@ -10,10 +10,11 @@ use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::shapes::{PlacentaParams, PlacentaShape, Pose, placenta_slab, side};
 use unfold_mesh::topology::tet_boundary;
 use unfold_organs::placenta::parcellation::{ParcellationConfig, parcellate};
-use unfold_organs::placenta::{Config, Outcome, Pipeline, SolverKind, TemplateKind};
+use unfold_organs::placenta::{Config, Outcome, Pipeline, TemplateKind};
 use unfold_organs::placenta::{PlacentaError, PullbackError};
 use unfold_organs::{OrganError, PipelineObserver, Quiet};
-use unfold_param::Iteration;
+use unfold_param::solver::SolverKind;
+use unfold_param::{Iteration, Named};
 
 /// Geodesic distance (along boundary edges) from every volume vertex on the
 /// boundary to the nearest ground-truth rim vertex; infinity for interior

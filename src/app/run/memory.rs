@@ -21,7 +21,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Where the limit comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub(crate) enum LimitSource {
+pub enum LimitSource {
     /// `--max-memory`.
     Flag,
     /// The system's available memory or the cgroup's room.
@@ -32,7 +32,7 @@ pub(crate) enum LimitSource {
 
 /// The memory a run may use.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub(crate) struct Budget {
+pub struct Budget {
     /// Bytes, `None` for no limit.
     pub limit_bytes: Option<f64>,
     /// Where it comes from.
@@ -45,7 +45,7 @@ static PREDICTED: AtomicU64 = AtomicU64::new(0);
 
 /// Sets the run's budget from `--max-memory` (or what is available); the
 /// first call wins.
-pub(crate) fn init(max_memory: Option<u64>) {
+pub fn init(max_memory: Option<u64>) {
     let budget = match max_memory {
         Some(b) => Budget {
             limit_bytes: Some(b as f64),
@@ -67,7 +67,7 @@ pub(crate) fn init(max_memory: Option<u64>) {
 }
 
 /// The run's budget (no limit before [`init`]).
-pub(crate) fn budget() -> Budget {
+pub fn budget() -> Budget {
     BUDGET.get().copied().unwrap_or(Budget {
         limit_bytes: None,
         source: LimitSource::Unknown,
@@ -79,7 +79,7 @@ pub(crate) fn budget() -> Budget {
 ///
 /// # Errors
 /// [`AppError::Memory`] with the prediction, its parts and the limit.
-pub(crate) fn check(
+pub fn check(
     stage: &'static str,
     estimate: &MemoryEstimate,
     hint: &'static str,
@@ -137,7 +137,7 @@ pub struct MemoryRefusal {
 
 /// The bytes the run may still allocate: the limit less the resident size
 /// now (`None`: no limit).
-pub(crate) fn room() -> Option<f64> {
+pub fn room() -> Option<f64> {
     budget()
         .limit_bytes
         .map(|l| (l - resident_bytes().unwrap_or(0.0)).max(0.0))
@@ -145,7 +145,7 @@ pub(crate) fn room() -> Option<f64> {
 
 /// Records a prediction made elsewhere (a library's own check), so the
 /// report's predicted peak covers it.
-pub(crate) fn record(predicted_bytes: f64) {
+pub fn record(predicted_bytes: f64) {
     if predicted_bytes.is_finite() && predicted_bytes >= 0.0 {
         PREDICTED.fetch_max(
             predicted_bytes.min(u64::MAX as f64) as u64,
@@ -156,7 +156,7 @@ pub(crate) fn record(predicted_bytes: f64) {
 
 /// What a report says of memory.
 #[derive(Debug, Clone, Copy, Serialize)]
-pub(crate) struct MemoryReport {
+pub struct MemoryReport {
     /// The highest predicted peak of the run (resident + a stage's
     /// estimate), bytes.
     pub predicted_peak_bytes: u64,
@@ -169,8 +169,26 @@ pub(crate) struct MemoryReport {
     pub limit_source: LimitSource,
 }
 
+impl MemoryReport {
+    /// A prediction of `bytes` alone (0 when not finite or negative),
+    /// without a budget or a measured peak: Python's runs, which have no
+    /// budget of their own.
+    pub fn predicted(bytes: f64) -> Self {
+        MemoryReport {
+            predicted_peak_bytes: if bytes.is_finite() && bytes > 0.0 {
+                bytes as u64
+            } else {
+                0
+            },
+            peak_bytes: None,
+            limit_bytes: None,
+            limit_source: LimitSource::Unknown,
+        }
+    }
+}
+
 /// The memory section of a report, now.
-pub(crate) fn report() -> MemoryReport {
+pub fn report() -> MemoryReport {
     let b = budget();
     MemoryReport {
         predicted_peak_bytes: PREDICTED.load(Ordering::Relaxed),
@@ -182,7 +200,7 @@ pub(crate) fn report() -> MemoryReport {
 
 /// Parses a size: bytes, or a number with a binary unit `K`, `M`, `G`,
 /// `T` (also `KB`, `KiB`, ...; case-insensitive; `1.5G` is 1.5 x 2^30).
-pub(crate) fn parse_size(text: &str) -> Result<u64, String> {
+pub fn parse_size(text: &str) -> Result<u64, String> {
     let t = text.trim();
     let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
     let (num, unit) = t.split_at(split);
@@ -225,7 +243,7 @@ fn kib_field(text: &str, name: &str) -> Option<f64> {
 }
 
 /// The process's resident size now, bytes.
-pub(crate) fn resident_bytes() -> Option<f64> {
+pub fn resident_bytes() -> Option<f64> {
     status_bytes("VmRSS")
 }
 
@@ -234,7 +252,7 @@ static PEAK_BEFORE_RESET: AtomicU64 = AtomicU64::new(0);
 
 /// The process's peak resident size so far, bytes (a [`reset_peak`] does
 /// not lower it).
-pub(crate) fn peak_resident_bytes() -> Option<f64> {
+pub fn peak_resident_bytes() -> Option<f64> {
     status_bytes("VmHWM").map(|p| p.max(PEAK_BEFORE_RESET.load(Ordering::Relaxed) as f64))
 }
 
@@ -242,7 +260,7 @@ pub(crate) fn peak_resident_bytes() -> Option<f64> {
 /// now (`5` written to `/proc/self/clear_refs`, Linux 4.0 and later), so
 /// that [`peak_since_reset`] measures one stage; [`peak_resident_bytes`]
 /// keeps the peak before. False where the system does not allow it.
-pub(crate) fn reset_peak() -> bool {
+pub fn reset_peak() -> bool {
     if let Some(p) = status_bytes("VmHWM") {
         PEAK_BEFORE_RESET.fetch_max(p as u64, Ordering::Relaxed);
     }
@@ -250,7 +268,7 @@ pub(crate) fn reset_peak() -> bool {
 }
 
 /// The peak resident size since the last [`reset_peak`] (`VmHWM`), bytes.
-pub(crate) fn peak_since_reset() -> Option<f64> {
+pub fn peak_since_reset() -> Option<f64> {
     status_bytes("VmHWM")
 }
 

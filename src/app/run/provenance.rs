@@ -19,7 +19,7 @@ use std::path::Path;
 
 /// One input file and its content hash.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub(crate) struct InputHash {
+pub struct InputHash {
     /// The path as given.
     pub path: String,
     /// SHA-256 of its bytes, hexadecimal.
@@ -30,9 +30,13 @@ pub(crate) struct InputHash {
 
 /// What `report.json` says of where the run comes from.
 #[derive(Debug, Clone, Serialize)]
-pub(crate) struct Provenance {
+pub struct Provenance {
     /// The unfold version.
     pub unfold_version: &'static str,
+    /// `python` for a run from the Python package (none: the command
+    /// line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interface: Option<&'static str>,
     /// The command line, as given.
     pub command_line: Vec<String>,
     /// Every option's value after parsing (defaults included).
@@ -51,12 +55,13 @@ static THIS_RUN: std::sync::OnceLock<Provenance> = std::sync::OnceLock::new();
 /// `command_line` (program name first), the parsed command's `Debug` text
 /// as `parameters`, the inputs' hashes now (before anything could change
 /// them), the start time. The first call wins.
-pub(crate) fn init(command_line: Vec<String>, parameters: &dyn std::fmt::Debug) {
+pub fn init(command_line: Vec<String>, parameters: &dyn std::fmt::Debug) {
     THIS_RUN.get_or_init(|| {
-        let started = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
+        let started = now();
         let (run_hash, inputs) = run_hash(command_line.get(1..).unwrap_or_default());
         Provenance {
             unfold_version: env!("CARGO_PKG_VERSION"),
+            interface: None,
             command_line,
             parameters: format!("{parameters:?}"),
             inputs,
@@ -66,10 +71,32 @@ pub(crate) fn init(command_line: Vec<String>, parameters: &dyn std::fmt::Debug) 
     });
 }
 
+impl Provenance {
+    /// A Python run's provenance: `parameters` (the call's settings) and
+    /// when it `started` ([`now`]); no command line, no input files.
+    pub fn python(parameters: String, started: String) -> Self {
+        Provenance {
+            unfold_version: env!("CARGO_PKG_VERSION"),
+            interface: Some("python"),
+            command_line: Vec::new(),
+            parameters,
+            inputs: Vec::new(),
+            run_hash: String::new(),
+            started,
+        }
+    }
+}
+
+/// Now, as `started` says it: RFC 3339 to the second, UTC.
+pub fn now() -> String {
+    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
+}
+
 /// This process's run (recorded by [`init`]; empty before).
-pub(crate) fn this_run() -> Provenance {
+pub fn this_run() -> Provenance {
     THIS_RUN.get().cloned().unwrap_or_else(|| Provenance {
         unfold_version: env!("CARGO_PKG_VERSION"),
+        interface: None,
         command_line: std::env::args().collect(),
         parameters: String::new(),
         inputs: Vec::new(),
@@ -134,7 +161,7 @@ fn dir_files(dir: &Path) -> Vec<std::path::PathBuf> {
 
 /// The run hash of `args` (the arguments after the program name) and the
 /// input files among them (module doc).
-pub(crate) fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
+pub fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
     let mut h = Sha256::new();
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update([0]);

@@ -218,6 +218,14 @@ pub enum RelaxMode {
     Sd,
 }
 
+unfold_param::named!(AnnulusMode {
+    Straight => "straight",
+    LeastSquares => "least-squares",
+    Landmark => "landmark",
+});
+unfold_param::named!(InitMode { Auto => "auto", Longitudes => "longitudes", Tutte => "tutte" });
+unfold_param::named!(RelaxMode { Spring => "spring", Sd => "sd" });
+
 use crate::OrganError;
 use unfold_mesh::Field;
 

@@ -6,7 +6,7 @@ use super::parcellation::ParcellationConfig;
 use super::pullback::Interpolation;
 use crate::{ConfigError, OrganError, Requirement};
 use serde::{Deserialize, Serialize};
-use unfold_param::{GradientDescent, ProjectedNewton, Solver, Stopping};
+use unfold_param::{Solver, Stopping};
 
 /// Settings of the placenta pipeline; every default from ALGORITHMS 2. The
 /// pieces (template, energy, initializer, line search, solver) are set on
@@ -137,36 +137,6 @@ impl Config {
             max_iterations: self.max_iterations.unwrap_or(default.max_iterations),
             max_seconds: self.max_seconds.unwrap_or(f64::INFINITY),
             ..default
-        }
-    }
-}
-
-/// The shipped solvers by name (the command line's `--solver`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SolverKind {
-    /// Projected Newton with a sparse Cholesky factorization (default).
-    #[default]
-    Newton,
-    /// Gradient descent with the injective line search (the paper's
-    /// Algorithm 1; a baseline, thousands of iterations).
-    Gd,
-}
-
-impl SolverKind {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            SolverKind::Newton => "newton",
-            SolverKind::Gd => "gd",
-        }
-    }
-
-    /// The solver.
-    pub fn build(self) -> Box<dyn Solver> {
-        match self {
-            SolverKind::Newton => Box::new(ProjectedNewton::default()),
-            SolverKind::Gd => Box::new(GradientDescent),
         }
     }
 }

@@ -12,6 +12,7 @@ use crate::{OrganError, PipelineObserver};
 use unfold_mesh::geometry::bounding_box;
 use unfold_mesh::nalgebra::{Matrix4, Point3};
 use unfold_mesh::{TetMesh, Volume};
+use unfold_param::Named;
 
 /// An image to pull into the template: 3D or 4D, in the mesh's scanner
 /// frame.

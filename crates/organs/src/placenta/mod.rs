@@ -47,7 +47,7 @@ pub mod templates;
 
 pub use align::{Alignment, PcaAlignment, TransformReport};
 pub use canonical::{TemplateSymmetry, canonical_motion};
-pub use config::{Config, GridBox, SolverKind};
+pub use config::{Config, GridBox};
 pub use error::{PlacentaError, PullbackError};
 pub use images::{FlatImage, Image};
 pub use pipeline::{Outcome, Pipeline};

@@ -506,15 +506,7 @@ pub enum Interpolation {
     Nearest,
 }
 
-impl Interpolation {
-    /// The name used in reports and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Interpolation::Linear => "linear",
-            Interpolation::Nearest => "nearest",
-        }
-    }
-}
+unfold_param::named!(Interpolation { Linear => "linear", Nearest => "nearest" });
 
 /// Counts of a pull-back: `sampled + outside_image == inside_mesh`, and
 /// `inside_mesh` plus the voxels outside the mesh is the grid's voxel count.

@@ -43,6 +43,8 @@ pub enum Chamber {
     Rv,
 }
 
+unfold_param::named!(Chamber { Lv => "lv", Rv => "rv" });
+
 /// Default distance, mm, within which an anatomy point counts as lying on S
 /// (depth 0, mapped through its closest point of S).
 pub const DEFAULT_ON_SURFACE_MM: f64 = 1e-4;

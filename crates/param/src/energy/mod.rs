@@ -58,7 +58,7 @@ pub use eval::{
     hessian2_eigen,
 };
 pub use mips::Mips;
-pub use registry::{ENERGY_NAMES, energy_by_name};
+pub use registry::{EnergyKind, energy_by_name};
 pub use svd::{signed_svd2, signed_svd3};
 pub use symmetric_dirichlet::SymmetricDirichlet;
 
@@ -240,7 +240,7 @@ mod tests {
     #[test]
     fn a_boxed_energy_forwards_every_method() {
         let f = nalgebra::Matrix2::new(1.3, 0.2, -0.1, 0.8);
-        for name in ENERGY_NAMES {
+        for &name in <EnergyKind as crate::named::Named>::NAMES {
             let e = energy_by_name(name).unwrap();
             let boxed: Box<Box<dyn DistortionEnergy>> = Box::new(energy_by_name(name).unwrap());
             let s = [1.7, 0.6];

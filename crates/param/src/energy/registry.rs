@@ -1,21 +1,48 @@
-//! The energies by name, for command lines and configuration files.
+//! The shipped energies by name ([`Named`]), for command lines, Python and
+//! manifests.
 
 use super::{Arap, AreaRatio, DistortionEnergy, Mips, SymmetricDirichlet};
+use crate::named::Named;
+use serde::{Deserialize, Serialize};
 
-/// The names [`energy_by_name`] accepts, in a stable order.
-pub const ENERGY_NAMES: [&str; 4] = ["symmetric-dirichlet", "mips", "arap", "area-ratio"];
+/// The shipped distortion energies; [`EnergyKind::build`] makes one. The
+/// names are the energies' own [`DistortionEnergy::name`]s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EnergyKind {
+    /// [`SymmetricDirichlet`] (the default).
+    #[default]
+    SymmetricDirichlet,
+    /// [`Mips`].
+    Mips,
+    /// [`Arap`].
+    Arap,
+    /// [`AreaRatio`].
+    AreaRatio,
+}
 
-/// The energy called `name`: `"symmetric-dirichlet"` ([`SymmetricDirichlet`]),
-/// `"mips"` ([`Mips`]), `"arap"` ([`Arap`]) or `"area-ratio"` ([`AreaRatio`]);
-/// `None` for anything else (see [`ENERGY_NAMES`]).
-pub fn energy_by_name(name: &str) -> Option<Box<dyn DistortionEnergy>> {
-    match name {
-        "symmetric-dirichlet" => Some(Box::new(SymmetricDirichlet)),
-        "mips" => Some(Box::new(Mips)),
-        "arap" => Some(Box::new(Arap)),
-        "area-ratio" => Some(Box::new(AreaRatio)),
-        _ => None,
+crate::named!(EnergyKind {
+    SymmetricDirichlet => "symmetric-dirichlet",
+    Mips => "mips",
+    Arap => "arap",
+    AreaRatio => "area-ratio",
+});
+
+impl EnergyKind {
+    /// The energy.
+    pub fn build(self) -> Box<dyn DistortionEnergy> {
+        match self {
+            EnergyKind::SymmetricDirichlet => Box::new(SymmetricDirichlet),
+            EnergyKind::Mips => Box::new(Mips),
+            EnergyKind::Arap => Box::new(Arap),
+            EnergyKind::AreaRatio => Box::new(AreaRatio),
+        }
     }
+}
+
+/// The energy called `name` (one of [`EnergyKind`]'s names), built.
+pub fn energy_by_name(name: &str) -> Option<Box<dyn DistortionEnergy>> {
+    EnergyKind::by_name(name).map(EnergyKind::build)
 }
 
 #[cfg(test)]
@@ -24,9 +51,14 @@ mod tests {
 
     #[test]
     fn energy_by_name_finds_every_energy() {
-        for name in ENERGY_NAMES {
+        crate::named::check_named::<EnergyKind>();
+        for &name in EnergyKind::NAMES {
             let e = energy_by_name(name).expect(name);
             assert_eq!(e.name(), name);
+            assert_eq!(
+                serde_json::to_value(EnergyKind::by_name(name).unwrap()).unwrap(),
+                name
+            );
         }
         assert!(energy_by_name("dirichlet").is_none());
         let expected = [

@@ -13,9 +13,11 @@
 //! [`TutteDisk`] (disk-topology triangle meshes into the plane).
 
 mod identity;
+mod registry;
 mod tutte;
 
 pub use identity::{Identity, PcaIdentity, PcaTransform, pca_transform};
+pub use registry::InitializerKind;
 pub use tutte::{DiskBoundary, TutteDisk, TutteWeights, circle_boundary};
 pub use unfold_mesh::topology::disk_boundary_loop;
 

@@ -15,10 +15,12 @@
 
 pub mod backtracking;
 pub mod max_step;
+mod registry;
 pub mod roots;
 
 pub use backtracking::Backtracking;
 pub use max_step::{max_step_tets, max_step_tets_above, max_step_tris, max_step_tris_above};
+pub use registry::LineSearchKind;
 pub use roots::{smallest_positive_root_cubic, smallest_positive_root_quadratic};
 
 use crate::ParamError;

@@ -25,6 +25,7 @@ mod executor;
 mod gradient_descent;
 mod newton;
 mod observer;
+mod registry;
 mod state;
 mod stopping;
 
@@ -32,6 +33,7 @@ pub use executor::Executor;
 pub use gradient_descent::GradientDescent;
 pub use newton::ProjectedNewton;
 pub use observer::{History, Iteration, NoObserver, Observer};
+pub use registry::SolverKind;
 pub use state::State;
 pub use stopping::{ROUNDOFF_DECREMENT, SolveReport, StopReason, Stopping};
 

@@ -67,7 +67,8 @@ impl<T: PlacentaTemplate + ?Sized> PlacentaTemplate for Box<T> {
     }
 }
 
-/// The shipped templates by name (the command line's `--template`).
+/// The shipped templates by name ([`unfold_param::Named`]: the command line's
+/// `--template`, Python's `template=`, a manifest's `template` column).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TemplateKind {
@@ -81,16 +82,13 @@ pub enum TemplateKind {
     SinglePlane,
 }
 
-impl TemplateKind {
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            TemplateKind::Planes => "planes",
-            TemplateKind::Ellipsoid => "ellipsoid",
-            TemplateKind::SinglePlane => "single-plane",
-        }
-    }
+unfold_param::named!(TemplateKind {
+    Planes => "planes",
+    Ellipsoid => "ellipsoid",
+    SinglePlane => "single-plane",
+});
 
+impl TemplateKind {
     /// The template.
     pub fn build(self) -> Box<dyn PlacentaTemplate> {
         match self {

@@ -3,41 +3,24 @@
 //! library's message speaks to programmers, reworded to say what to do.
 //! `unfold placenta` and Python's `unfold.placenta` both print these.
 
+use crate::app::AppError;
 use crate::io::Frame;
 use crate::mesh::MeshError;
 use crate::organs::OrganError;
 use crate::organs::placenta::{PlacentaError, PullbackError};
-use thiserror::Error;
-
-/// A placenta run's error, one line.
-#[derive(Debug, Error)]
-pub enum InputError {
-    /// A usage error: bad settings, or an input that needs another
-    /// option (the message says which).
-    #[error("{0}")]
-    Usage(String),
-    /// The pipeline rejected an input or failed; `path` names the input.
-    #[error("{path}: {source}")]
-    Organ {
-        /// The input (a file, or the name the caller gave it).
-        path: String,
-        /// What went wrong.
-        source: OrganError,
-    },
-}
 
 /// A pipeline error about the input `path` (the mesh, or an image),
 /// reworded where the library's message speaks to programmers (several
 /// connected components).
-pub fn organ(path: &str, source: impl Into<OrganError>) -> InputError {
+pub fn organ(path: &str, source: impl Into<OrganError>) -> AppError {
     let source = source.into();
     if let OrganError::Mesh(MeshError::MultipleComponents { count }) = source {
-        return InputError::Usage(format!(
+        return AppError::Usage(format!(
             "{path}: the mesh has {count} connected components; the placenta pipeline needs \
              one (`unfold repair {path} -o OUT --largest-component` keeps the largest)"
         ));
     }
-    InputError::Organ {
+    AppError::Organ {
         path: path.to_string(),
         source,
     }
@@ -48,7 +31,7 @@ pub fn organ(path: &str, source: impl Into<OrganError>) -> InputError {
 /// the settings, the rest to the mesh `label`. `frame` is the frame the
 /// mesh was given in (a mesh mirrored against an image is told which frame
 /// to try).
-pub fn pipeline_error(label: &str, frame: Frame, images: &[String], e: OrganError) -> InputError {
+pub fn pipeline_error(label: &str, frame: Frame, images: &[String], e: OrganError) -> AppError {
     let image_path = |index: usize| images.get(index).cloned();
     match e {
         OrganError::Placenta(PlacentaError::MeshFlipped {
@@ -76,7 +59,7 @@ pub fn pipeline_error(label: &str, frame: Frame, images: &[String], e: OrganErro
                     100.0 * flipped_inside
                 )
             };
-            InputError::Usage(format!(
+            AppError::Usage(format!(
                 "{label}: only {:.0}% of the mesh lies in the foreground of {image}; mirrored in {} {fix}",
                 100.0 * inside,
                 flip.describe()
@@ -84,11 +67,11 @@ pub fn pipeline_error(label: &str, frame: Frame, images: &[String], e: OrganErro
         }
         OrganError::Placenta(PlacentaError::MeshOutsideForeground { index, .. }) => {
             let path = image_path(index).unwrap_or_else(|| label.to_string());
-            InputError::Usage(format!(
+            AppError::Usage(format!(
                 "{label}: {e}; if {path} has no placenta foreground, rerun with --no-frame-check"
             ))
         }
-        OrganError::Config(_) => InputError::Usage(e.to_string()),
+        OrganError::Config(_) => AppError::Usage(e.to_string()),
         OrganError::Placenta(PlacentaError::ImagePullback { index, source }) => {
             let path = image_path(index).unwrap_or_else(|| label.to_string());
             organ(&path, *source)
@@ -117,7 +100,7 @@ mod tests {
             "slab.vtu",
             OrganError::Mesh(MeshError::MultipleComponents { count: 2 }),
         );
-        assert!(matches!(e, InputError::Usage(_)));
+        assert!(matches!(e, AppError::Usage(_)));
         assert_eq!(
             e.to_string(),
             "slab.vtu: the mesh has 2 connected components; the placenta pipeline needs one \
@@ -137,7 +120,7 @@ mod tests {
             OrganError::Mesh(MeshError::Empty { what: "tets" }),
         );
         assert_eq!(e.to_string(), "m.vtu: the mesh is empty: tets");
-        assert!(matches!(e, InputError::Organ { .. }));
+        assert!(matches!(e, AppError::Organ { .. }));
     }
 
     #[test]
