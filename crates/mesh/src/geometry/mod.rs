@@ -14,6 +14,10 @@
 //! - `intersect`: [`segment_crosses_triangle`];
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
+//! - `orientation`: [`flipped_triangles`] (one tie rule: the minority
+//!   orientation and the degenerate triangles of a planar map),
+//!   [`majority_sign`], [`flipped_indices`], [`Orientations`],
+//!   [`twice_signed_areas_2d`];
 //! - `folds`: [`folded_faces`], [`folded_edges`] (local overlaps that
 //!   orientation does not show);
 //! - `broad_phase`: [`overlapping_box_pairs`] (meeting boxes on a grid);
@@ -30,6 +34,7 @@ mod folds;
 mod hull;
 mod intersect;
 mod measures;
+mod orientation;
 mod pca;
 mod predicates;
 mod self_intersections;
@@ -47,6 +52,9 @@ pub use measures::{
     area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,
     tet_vertex_volumes, tet_volumes, total_area, total_volume, triangle_area, triangle_area_vector,
     triangle_areas, triangle_normal, triangle_signed_area_2d, vertex_areas, vertex_normals,
+};
+pub use orientation::{
+    Orientations, flipped_indices, flipped_triangles, majority_sign, twice_signed_areas_2d,
 };
 pub use pca::{PcaFrame, pca_frame};
 pub use predicates::{orient2d_exact, orient3d_exact};
