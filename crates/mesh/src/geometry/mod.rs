@@ -11,6 +11,7 @@
 //! - `predicates`: exact orientation tests [`orient3d_exact`],
 //!   [`orient2d_exact`];
 //! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
+//! - `winding`: [`winding_number`] (solid angles over `4 pi`);
 //! - `intersect`: [`segment_crosses_triangle`];
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
@@ -41,6 +42,7 @@ mod self_intersections;
 #[cfg(test)]
 mod strategies;
 mod validation;
+mod winding;
 
 pub use aabb::{Aabb, bounding_box};
 pub use boundary_crossings::{BoundaryCrossings, EdgeCrossing, boundary_edge_crossings};
@@ -63,3 +65,4 @@ pub use self_intersections::{
     triangle_self_intersections,
 };
 pub use validation::{check_finite, check_indices};
+pub use winding::winding_number;

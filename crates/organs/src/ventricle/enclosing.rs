@@ -70,6 +70,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use thiserror::Error;
 use unfold_mesh::clip::clip_below;
+use unfold_mesh::geometry::winding_number;
 use unfold_mesh::marching_tets::isosurface;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
 use unfold_mesh::spatial::{ClosestPointQuery, closest_point_on_triangle};
@@ -461,23 +462,6 @@ pub fn basal_plane(
         .expect("at least one candidate");
     let n = u * best.cos() + v * best.sin();
     Ok((n, g))
-}
-
-/// The winding number of the closed surface `tris` (oriented outward)
-/// about `x`: `sum_t Omega_t / (4 pi)` with the solid angle of each
-/// triangle by Van Oosterom and Strackee's formula
-/// `tan(Omega / 2) = a . (b x c) / (|a||b||c| + (a . b)|c| + (a . c)|b| + (b . c)|a|)`
-/// (`a`, `b`, `c` its corners minus `x`).
-fn winding_number(x: &Point3<f64>, positions: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
-    let mut total = 0.0;
-    for t in tris {
-        let [a, b, c] = t.map(|v| positions[v as usize] - x);
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
-        total += 2.0 * num.atan2(den);
-    }
-    total / (4.0 * std::f64::consts::PI)
 }
 
 /// Builds S from the anatomy (module doc). `landmarks` are the anterior
