@@ -16,7 +16,7 @@
 //! empty input gives a structure whose queries return `None`. Queries with a
 //! non-finite point return `None`.
 
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, closest_point_on_segment};
 use crate::{TetMesh, TriMesh};
 use nalgebra::Point3;
 
@@ -509,21 +509,6 @@ pub struct ClosestPoint {
     pub distance: f64,
 }
 
-/// Closest point to `p` on the segment `[a, b]`: `a + t (b - a)` with
-/// `t = clamp((p-a)·(b-a) / |b-a|^2, 0, 1)` (`t = 0` when `a = b`); returns
-/// the point and `t`.
-#[inline]
-fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> (Point3<f64>, f64) {
-    let ab = b - a;
-    let l2 = ab.norm_squared();
-    let t = if l2 > 0.0 {
-        ((p - a).dot(&ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a + ab * t, t)
-}
-
 /// Exact closest point to `p` on the (closed) triangle `(a, b, c)` and its
 /// barycentric coordinates `(b_a, b_b, b_c)`.
 ///
@@ -549,9 +534,9 @@ pub fn closest_point_on_triangle(
     let proper = ab.cross(&ac).norm_squared() > 1e-24 * l2 * l2;
     if !proper {
         // Degenerate: the closest of the three edges.
-        let (qab, t) = closest_on_segment(p, a, b);
-        let (qbc, u) = closest_on_segment(p, b, c);
-        let (qca, v) = closest_on_segment(p, c, a);
+        let (qab, t) = closest_point_on_segment(p, a, b);
+        let (qbc, u) = closest_point_on_segment(p, b, c);
+        let (qca, v) = closest_point_on_segment(p, c, a);
         let cands = [
             (qab, [1.0 - t, t, 0.0]),
             (qbc, [0.0, 1.0 - u, u]),
@@ -956,13 +941,7 @@ mod tests {
     /// else the best of the three clamped edge projections.
     fn reference_distance2(p: &Point3<f64>, x: &[Point3<f64>; 3]) -> f64 {
         let seg = |a: &Point3<f64>, b: &Point3<f64>| {
-            let d = b - a;
-            let t = if d.norm_squared() > 0.0 {
-                ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (a + d * t - p).norm_squared()
+            (crate::geometry::closest_point_on_segment(p, a, b).0 - p).norm_squared()
         };
         let edges = seg(&x[0], &x[1])
             .min(seg(&x[1], &x[2]))

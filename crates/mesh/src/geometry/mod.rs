@@ -13,6 +13,8 @@
 //! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
 //! - `winding`: [`winding_number`] (solid angles over `4 pi`);
 //! - `intersect`: [`segment_crosses_triangle`];
+//! - `segment`: [`point_segment_distance`], [`closest_point_on_segment`],
+//!   [`closest_point_on_segment_2d`] (clamped projection);
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
 //! - `orientation`: [`flipped_triangles`] (one tie rule: the minority
@@ -38,6 +40,7 @@ mod measures;
 mod orientation;
 mod pca;
 mod predicates;
+mod segment;
 mod self_intersections;
 #[cfg(test)]
 mod strategies;
@@ -60,6 +63,7 @@ pub use orientation::{
 };
 pub use pca::{PcaFrame, pca_frame};
 pub use predicates::{orient2d_exact, orient3d_exact};
+pub use segment::{closest_point_on_segment, closest_point_on_segment_2d, point_segment_distance};
 pub use self_intersections::{
     BoundaryOverlaps, SelfIntersections, TriangleOverlap, tet_boundary_self_intersections,
     triangle_self_intersections,
