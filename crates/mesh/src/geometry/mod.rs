@@ -10,7 +10,8 @@
 //! - `validation`: [`check_finite`], [`check_indices`];
 //! - `predicates`: exact orientation tests [`orient3d_exact`],
 //!   [`orient2d_exact`];
-//! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
+//! - `hull`: [`convex_hull_vertices`] (exact Quickhull, 3D);
+//! - `hull_2d`: [`convex_hull_2d`] (monotone chain, counter-clockwise);
 //! - `winding`: [`winding_number`] (solid angles over `4 pi`);
 //! - `intersect`: [`segment_crosses_triangle`];
 //! - `segment`: [`point_segment_distance`], [`closest_point_on_segment`],
@@ -35,6 +36,7 @@ mod boundary_crossings;
 mod broad_phase;
 mod folds;
 mod hull;
+mod hull_2d;
 mod intersect;
 mod measures;
 mod orientation;
@@ -52,6 +54,7 @@ pub use boundary_crossings::{BoundaryCrossings, EdgeCrossing, boundary_edge_cros
 pub use broad_phase::overlapping_box_pairs;
 pub use folds::{FoldedEdge, FoldedFace, folded_edges, folded_faces};
 pub use hull::convex_hull_vertices;
+pub use hull_2d::convex_hull_2d;
 pub use intersect::segment_crosses_triangle;
 pub use measures::{
     area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,

@@ -70,7 +70,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use thiserror::Error;
 use unfold_mesh::clip::clip_below;
-use unfold_mesh::geometry::winding_number;
+use unfold_mesh::geometry::{convex_hull_2d, winding_number};
 use unfold_mesh::marching_tets::isosurface;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
 use unfold_mesh::spatial::{ClosestPointQuery, closest_point_on_triangle};
@@ -371,36 +371,6 @@ fn anatomy_triangles(anatomy: &CellMesh) -> Result<(Vec<[u32; 3]>, AnatomyKind),
     Ok((tris, kind))
 }
 
-/// The 2D convex hull of `q` (Andrew's monotone chain), counter-clockwise.
-fn hull_2d(q: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    let mut p = q.to_vec();
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    p.dedup();
-    if p.len() < 3 {
-        return p;
-    }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-    };
-    let mut h: Vec<[f64; 2]> = Vec::with_capacity(2 * p.len());
-    for pass in 0..2 {
-        let start = h.len();
-        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
-            Box::new(p.iter())
-        } else {
-            Box::new(p.iter().rev())
-        };
-        for &x in iter {
-            while h.len() >= start + 2 && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
-                h.pop();
-            }
-            h.push(x);
-        }
-        h.pop();
-    }
-    h
-}
-
 /// The basal plane through `a` and `i` (module doc, step 2): the unit
 /// normal towards the base and the highest height `h*` of a point above it.
 ///
@@ -433,7 +403,7 @@ pub fn basal_plane(
         .iter()
         .map(|p| [(p - a).dot(&u), (p - a).dot(&v)])
         .collect();
-    let hull = hull_2d(&q);
+    let hull = convex_hull_2d(&q);
     let support = |t: f64| {
         let (c, s) = (t.cos(), t.sin());
         hull.iter()
