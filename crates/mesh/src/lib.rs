@@ -10,6 +10,7 @@
 //! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
 //! - [`geodesic`]: Dijkstra along edges.
 //! - [`spatial`]: point location and closest points (BVH).
+//! - [`stats`]: [`stats::Summary`] (mean, sample std, percentiles).
 //! - [`Volume`]: 3D / 4D images with their voxel-to-world affine; [`mask`]
 //!   operations and [`mesher`]: tet meshes of segmentations by isosurface
 //!   [`stuffing`].
@@ -37,6 +38,7 @@ pub mod reindex;
 pub mod repair;
 pub mod shapes;
 pub mod spatial;
+pub mod stats;
 pub mod stuffing;
 pub mod taubin;
 #[cfg(test)]

@@ -16,7 +16,7 @@
 //! empty input gives a structure whose queries return `None`. Queries with a
 //! non-finite point return `None`.
 
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, closest_point_on_segment};
 use crate::{TetMesh, TriMesh};
 use nalgebra::Point3;
 
@@ -209,7 +209,7 @@ fn padded_box(pts: &[Point3<f64>], tol: f64) -> Aabb {
 }
 
 // ---------------------------------------------------------------------------
-// Tet location
+// Point location (tets in space, triangles in the plane)
 // ---------------------------------------------------------------------------
 
 /// Default barycentric tolerance of [`TetLocator`] and [`PlanarTriLocator`].
@@ -219,16 +219,20 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-9;
 /// triangles) have no interior and are skipped by the locators.
 const DEGENERATE_REL: f64 = 1e-12;
 
-/// Precomputed affine map of a tet: `(b1, b2, b3) = A (p - x0)` with
-/// `A = [x1-x0 | x2-x0 | x3-x0]^-1`, `b0 = 1 - b1 - b2 - b3`.
+/// Precomputed affine map of a simplex with `K = D + 1` corners
+/// `x_0, ..., x_D`: `(b_1, ..., b_D) = A (p - x_0)` with
+/// `A = [x_1 - x_0 | ... | x_D - x_0]^-1`, `b_0 = 1 - b_1 - ... - b_D`
+/// (sums left to right).
 #[derive(Debug, Clone)]
-struct TetAffine {
-    x0: [f64; 3],
-    inv: [[f64; 3]; 3],
+struct Affine<const D: usize> {
+    x0: [f64; D],
+    inv: [[f64; D]; D],
 }
 
-impl TetAffine {
-    fn new(x: &[Point3<f64>; 4]) -> Option<Self> {
+impl Affine<3> {
+    /// The map of the tet `x`; `None` when degenerate (`|det| <=`
+    /// [`DEGENERATE_REL`]` l_max^3`, NaN included) or not invertible.
+    fn tet(x: &[Point3<f64>; 4]) -> Option<Self> {
         let m = nalgebra::Matrix3::from_columns(&[x[1] - x[0], x[2] - x[0], x[3] - x[0]]);
         let mut l2: f64 = 0.0;
         for i in 0..4 {
@@ -246,131 +250,18 @@ impl TetAffine {
         if !inv.iter().all(|v| v.is_finite()) {
             return None;
         }
-        Some(TetAffine {
+        Some(Affine {
             x0: [x[0].x, x[0].y, x[0].z],
             inv: [0, 1, 2].map(|r| [inv[(r, 0)], inv[(r, 1)], inv[(r, 2)]]),
         })
     }
-
-    #[inline]
-    fn barycentric(&self, p: &Point3<f64>) -> [f64; 4] {
-        let d = [p.x - self.x0[0], p.y - self.x0[1], p.z - self.x0[2]];
-        let r = |i: usize| self.inv[i][0] * d[0] + self.inv[i][1] * d[1] + self.inv[i][2] * d[2];
-        let (b1, b2, b3) = (r(0), r(1), r(2));
-        [1.0 - b1 - b2 - b3, b1, b2, b3]
-    }
 }
 
-/// Finds the tet of a [`TetMesh`] containing a point, with its barycentric
-/// coordinates.
-///
-/// For tet `[x0, x1, x2, x3]` the barycentric coordinates of `p` solve
-/// `p = sum_i b_i x_i`, `sum_i b_i = 1`; they are computed from the
-/// precomputed inverse of `[x1-x0 | x2-x0 | x3-x0]`. `p` is in the tet when
-/// `min_i b_i >= -tolerance` (default [`DEFAULT_TOLERANCE`] `= 1e-9`, relative
-/// to the tet's size), so points on shared faces, edges and the boundary
-/// (up to round-off) are found. When several tets qualify, the one with the
-/// largest `min_i b_i` is returned (the search stops early at a tet with
-/// `min_i b_i > tolerance`, which in a non-overlapping mesh is the only one).
-/// The coordinates returned are not clamped: they sum to 1 and reconstruct
-/// `p` to round-off.
-///
-/// Inverted tets are handled like positive ones; degenerate (flat) tets,
-/// `|det| <= 1e-12 l_max^3`, are skipped.
-#[derive(Debug, Clone, Default)]
-pub struct TetLocator {
-    bvh: Bvh,
-    /// Affine maps in BVH slot order.
-    maps: Vec<TetAffine>,
-    tolerance: f64,
-}
-
-impl TetLocator {
-    /// Builds the locator with [`DEFAULT_TOLERANCE`]; `O(n log n)`.
-    pub fn new(mesh: &TetMesh) -> Self {
-        Self::with_tolerance(mesh, DEFAULT_TOLERANCE)
-    }
-
-    /// Builds the locator accepting `min_i b_i >= -tolerance` (negative or
-    /// NaN tolerances are treated as 0).
-    pub fn with_tolerance(mesh: &TetMesh, tolerance: f64) -> Self {
-        let tolerance = if tolerance > 0.0 { tolerance } else { 0.0 };
-        let mut items = Vec::with_capacity(mesh.tets.len());
-        let mut maps_by_tet: Vec<Option<TetAffine>> = Vec::with_capacity(mesh.tets.len());
-        for (t, tet) in mesh.tets.iter().enumerate() {
-            let map = corners(&mesh.positions, tet).and_then(|x| {
-                let map = TetAffine::new(&x)?;
-                items.push((t, padded_box(&x, tolerance)));
-                Some(map)
-            });
-            maps_by_tet.push(map);
-        }
-        let bvh = Bvh::build(items);
-        let maps = bvh
-            .order
-            .iter()
-            .map(|&t| maps_by_tet[t].take().expect("boxed tets have maps"))
-            .collect();
-        TetLocator {
-            bvh,
-            maps,
-            tolerance,
-        }
-    }
-
-    /// The barycentric tolerance in use.
-    pub fn tolerance(&self) -> f64 {
-        self.tolerance
-    }
-
-    /// Number of (non-degenerate) tets indexed.
-    pub fn len(&self) -> usize {
-        self.maps.len()
-    }
-
-    /// Whether no tet is indexed (every query returns `None`).
-    pub fn is_empty(&self) -> bool {
-        self.maps.is_empty()
-    }
-
-    /// The tet containing `p` and `p`'s barycentric coordinates in it
-    /// (`p = sum_i b_i x_i`, `sum_i b_i = 1`, `b_i >= -tolerance`); `None`
-    /// when `p` is outside the mesh or not finite.
-    pub fn locate(&self, p: &Point3<f64>) -> Option<(usize, [f64; 4])> {
-        if !finite3(p) {
-            return None;
-        }
-        let mut best: Option<(usize, [f64; 4])> = None;
-        let mut best_min = f64::NEG_INFINITY;
-        let tol = self.tolerance;
-        self.bvh.visit_containing(p, |slot| {
-            let b = self.maps[slot].barycentric(p);
-            let m = b[0].min(b[1]).min(b[2]).min(b[3]);
-            if m > best_min {
-                best_min = m;
-                best = Some((slot, b));
-            }
-            m > tol
-        });
-        best.filter(|_| best_min >= -tol)
-            .map(|(slot, b)| (self.bvh.order[slot], b))
-    }
-}
-
-// ---------------------------------------------------------------------------
-// Planar triangle location
-// ---------------------------------------------------------------------------
-
-/// Precomputed affine map of a planar triangle:
-/// `(b1, b2) = A (p - x0)` with `A = [x1-x0 | x2-x0]^-1`, `b0 = 1 - b1 - b2`.
-#[derive(Debug, Clone)]
-struct TriAffine {
-    x0: [f64; 2],
-    inv: [[f64; 2]; 2],
-}
-
-impl TriAffine {
-    fn new(x: &[[f64; 2]; 3]) -> Option<Self> {
+impl Affine<2> {
+    /// The map of the planar triangle `x`; `None` when degenerate
+    /// (`|det| <=` [`DEGENERATE_REL`]` l_max^2`, NaN included) or not
+    /// invertible.
+    fn triangle(x: &[[f64; 2]; 3]) -> Option<Self> {
         let (ux, uy) = (x[1][0] - x[0][0], x[1][1] - x[0][1]);
         let (vx, vy) = (x[2][0] - x[0][0], x[2][1] - x[0][1]);
         let det = ux * vy - vx * uy;
@@ -385,66 +276,99 @@ impl TriAffine {
         inv.iter()
             .flatten()
             .all(|v| v.is_finite())
-            .then_some(TriAffine { x0: x[0], inv })
-    }
-
-    #[inline]
-    fn barycentric(&self, p: [f64; 2]) -> [f64; 3] {
-        let d = [p[0] - self.x0[0], p[1] - self.x0[1]];
-        let b1 = self.inv[0][0] * d[0] + self.inv[0][1] * d[1];
-        let b2 = self.inv[1][0] * d[0] + self.inv[1][1] * d[1];
-        [1.0 - b1 - b2, b1, b2]
+            .then_some(Affine { x0: x[0], inv })
     }
 }
 
-/// Finds the triangle of a planar (2D) triangle mesh containing a point, with
-/// its barycentric coordinates; e.g. to map a point of a flattened surface
-/// back to the 3D surface.
+impl<const D: usize> Affine<D> {
+    /// The barycentric coordinates `[b_0, b_1, ..., b_D]` of `p` (`K = D +
+    /// 1` of them), each `b_i = sum_j A_ij (p_j - x0_j)` summed over `j`
+    /// left to right.
+    #[inline]
+    fn barycentric<const K: usize>(&self, p: &[f64; D]) -> [f64; K] {
+        const { assert!(K == D + 1) };
+        let d: [f64; D] = std::array::from_fn(|j| p[j] - self.x0[j]);
+        let mut b = [0.0; K];
+        let mut b0 = 1.0;
+        for i in 0..D {
+            let row = &self.inv[i];
+            let mut r = row[0] * d[0];
+            for j in 1..D {
+                r += row[j] * d[j];
+            }
+            b[i + 1] = r;
+        }
+        for bi in &b[1..] {
+            b0 -= bi;
+        }
+        b[0] = b0;
+        b
+    }
+}
+
+/// Finds the simplex of a mesh in `D` dimensions (`K = D + 1` corners)
+/// containing a point, with its barycentric coordinates: one locator for
+/// tets in space ([`TetLocator`], `Locator<3, 4>`) and triangles in the
+/// plane ([`PlanarTriLocator`], `Locator<2, 3>`).
 ///
-/// For triangle `[x0, x1, x2]`, `p = sum_i b_i x_i` with `sum_i b_i = 1`;
-/// `p` is in the triangle when `min_i b_i >= -tolerance` (default
-/// [`DEFAULT_TOLERANCE`] `= 1e-9`, relative to the triangle's size). Ties
-/// (shared edges) go to the largest `min_i b_i`, as for [`TetLocator`].
-/// Clockwise (flipped) triangles are handled like counter-clockwise ones;
-/// degenerate triangles, `|det| <= 1e-12 l_max^2`, are skipped.
+/// For the simplex `[x_0, ..., x_D]` the barycentric coordinates of `p`
+/// solve `p = sum_i b_i x_i`, `sum_i b_i = 1`; they are computed from the
+/// precomputed inverse of `[x_1 - x_0 | ... | x_D - x_0]`. `p` is in the
+/// simplex when `min_i b_i >= -tolerance` (default [`DEFAULT_TOLERANCE`]
+/// `= 1e-9`, relative to the simplex's size), so points on shared faces,
+/// edges and the boundary (up to round-off) are found. When several
+/// simplices qualify, the one with the largest `min_i b_i` is returned (the
+/// search stops early at one with `min_i b_i > tolerance`, which in a
+/// non-overlapping mesh is the only one). The coordinates returned are not
+/// clamped: they sum to 1 and reconstruct `p` to round-off.
+///
+/// Inverted (negatively oriented) simplices are handled like positive
+/// ones; degenerate (flat) ones, `|det| <= 1e-12 l_max^D`, are skipped.
 #[derive(Debug, Clone, Default)]
-pub struct PlanarTriLocator {
+pub struct Locator<const D: usize, const K: usize> {
     bvh: Bvh,
-    maps: Vec<TriAffine>,
+    /// Affine maps in BVH slot order.
+    maps: Vec<Affine<D>>,
     tolerance: f64,
 }
 
-impl PlanarTriLocator {
-    /// Builds the locator with [`DEFAULT_TOLERANCE`]; `O(n log n)`.
-    pub fn new(points: &[[f64; 2]], triangles: &[[u32; 3]]) -> Self {
-        Self::with_tolerance(points, triangles, DEFAULT_TOLERANCE)
-    }
+/// Finds the tet of a [`TetMesh`] containing a point, with its barycentric
+/// coordinates: [`Locator`] in space (`b_0 .. b_3`; `|det| <= 1e-12
+/// l_max^3` skipped).
+pub type TetLocator = Locator<3, 4>;
 
-    /// Builds the locator accepting `min_i b_i >= -tolerance` (negative or
-    /// NaN tolerances are treated as 0).
-    pub fn with_tolerance(points: &[[f64; 2]], triangles: &[[u32; 3]], tolerance: f64) -> Self {
+/// Finds the triangle of a planar (2D) triangle mesh containing a point,
+/// with its barycentric coordinates; e.g. to map a point of a flattened
+/// surface back to the 3D surface: [`Locator`] in the plane (clockwise
+/// triangles handled like counter-clockwise ones; `|det| <= 1e-12
+/// l_max^2` skipped).
+pub type PlanarTriLocator = Locator<2, 3>;
+
+impl<const D: usize, const K: usize> Locator<D, K> {
+    /// Builds the locator from each element's map and corners (`None` for
+    /// an element left out: an index out of range, a non-finite corner, a
+    /// degenerate simplex); `tolerance` as in `with_tolerance`.
+    fn build(
+        tolerance: f64,
+        elements: impl ExactSizeIterator<Item = Option<(Affine<D>, [Point3<f64>; K])>>,
+    ) -> Self {
         let tolerance = if tolerance > 0.0 { tolerance } else { 0.0 };
-        let lifted: Vec<Point3<f64>> = points
-            .iter()
-            .map(|p| Point3::new(p[0], p[1], 0.0))
-            .collect();
-        let mut items = Vec::with_capacity(triangles.len());
-        let mut maps_by_tri: Vec<Option<TriAffine>> = Vec::with_capacity(triangles.len());
-        for (t, tri) in triangles.iter().enumerate() {
-            let map = corners(&lifted, tri).and_then(|x| {
-                let map = TriAffine::new(&x.map(|q| [q.x, q.y]))?;
+        let mut items = Vec::with_capacity(elements.len());
+        let mut maps_by_element: Vec<Option<Affine<D>>> = Vec::with_capacity(elements.len());
+        for (t, element) in elements.enumerate() {
+            let map = element.map(|(map, x)| {
                 items.push((t, padded_box(&x, tolerance)));
-                Some(map)
+                map
             });
-            maps_by_tri.push(map);
+            maps_by_element.push(map);
         }
         let bvh = Bvh::build(items);
         let maps = bvh
             .order
             .iter()
-            .map(|&t| maps_by_tri[t].take().expect("boxed triangles have maps"))
+            .map(|&t| maps_by_element[t].take().expect("boxed elements have maps"))
             .collect();
-        PlanarTriLocator {
+        Locator {
             bvh,
             maps,
             tolerance,
@@ -456,30 +380,32 @@ impl PlanarTriLocator {
         self.tolerance
     }
 
-    /// Number of (non-degenerate) triangles indexed.
+    /// Number of (non-degenerate) elements indexed.
     pub fn len(&self) -> usize {
         self.maps.len()
     }
 
-    /// Whether no triangle is indexed (every query returns `None`).
+    /// Whether no element is indexed (every query returns `None`).
     pub fn is_empty(&self) -> bool {
         self.maps.is_empty()
     }
 
-    /// The triangle containing `p` and `p`'s barycentric coordinates in it
-    /// (`p = sum_i b_i x_i`, `sum_i b_i = 1`, `b_i >= -tolerance`); `None`
-    /// when `p` is outside the mesh or not finite.
-    pub fn locate(&self, p: [f64; 2]) -> Option<(usize, [f64; 3])> {
-        if !(p[0].is_finite() && p[1].is_finite()) {
+    /// The element containing `p` (`D` coordinates) and `p`'s barycentric
+    /// coordinates in it (`p = sum_i b_i x_i`, `sum_i b_i = 1`,
+    /// `b_i >= -tolerance`); `None` when `p` is outside the mesh or not
+    /// finite.
+    #[inline]
+    fn locate_coords(&self, p: &[f64; D]) -> Option<(usize, [f64; K])> {
+        if !p.iter().all(|x| x.is_finite()) {
             return None;
         }
-        let q = Point3::new(p[0], p[1], 0.0);
-        let mut best: Option<(usize, [f64; 3])> = None;
+        let q = Point3::new(p[0], p[1], p.get(2).copied().unwrap_or(0.0));
+        let mut best: Option<(usize, [f64; K])> = None;
         let mut best_min = f64::NEG_INFINITY;
         let tol = self.tolerance;
         self.bvh.visit_containing(&q, |slot| {
-            let b = self.maps[slot].barycentric(p);
-            let m = b[0].min(b[1]).min(b[2]);
+            let b = self.maps[slot].barycentric::<K>(p);
+            let m = b[1..].iter().fold(b[0], |m, &x| m.min(x));
             if m > best_min {
                 best_min = m;
                 best = Some((slot, b));
@@ -488,6 +414,61 @@ impl PlanarTriLocator {
         });
         best.filter(|_| best_min >= -tol)
             .map(|(slot, b)| (self.bvh.order[slot], b))
+    }
+}
+
+impl Locator<3, 4> {
+    /// Builds the locator with [`DEFAULT_TOLERANCE`]; `O(n log n)`.
+    pub fn new(mesh: &TetMesh) -> Self {
+        Self::with_tolerance(mesh, DEFAULT_TOLERANCE)
+    }
+
+    /// Builds the locator accepting `min_i b_i >= -tolerance` (negative or
+    /// NaN tolerances are treated as 0).
+    pub fn with_tolerance(mesh: &TetMesh, tolerance: f64) -> Self {
+        Self::build(
+            tolerance,
+            mesh.tets
+                .iter()
+                .map(|tet| corners(&mesh.positions, tet).and_then(|x| Some((Affine::tet(&x)?, x)))),
+        )
+    }
+
+    /// The tet containing `p` and `p`'s barycentric coordinates in it
+    /// (`p = sum_i b_i x_i`, `sum_i b_i = 1`, `b_i >= -tolerance`); `None`
+    /// when `p` is outside the mesh or not finite.
+    pub fn locate(&self, p: &Point3<f64>) -> Option<(usize, [f64; 4])> {
+        self.locate_coords(&[p.x, p.y, p.z])
+    }
+}
+
+impl Locator<2, 3> {
+    /// Builds the locator with [`DEFAULT_TOLERANCE`]; `O(n log n)`.
+    pub fn new(points: &[[f64; 2]], triangles: &[[u32; 3]]) -> Self {
+        Self::with_tolerance(points, triangles, DEFAULT_TOLERANCE)
+    }
+
+    /// Builds the locator accepting `min_i b_i >= -tolerance` (negative or
+    /// NaN tolerances are treated as 0).
+    pub fn with_tolerance(points: &[[f64; 2]], triangles: &[[u32; 3]], tolerance: f64) -> Self {
+        let lifted: Vec<Point3<f64>> = points
+            .iter()
+            .map(|p| Point3::new(p[0], p[1], 0.0))
+            .collect();
+        Self::build(
+            tolerance,
+            triangles.iter().map(|tri| {
+                corners(&lifted, tri)
+                    .and_then(|x| Some((Affine::triangle(&x.map(|q| [q.x, q.y]))?, x)))
+            }),
+        )
+    }
+
+    /// The triangle containing `p` and `p`'s barycentric coordinates in it
+    /// (`p = sum_i b_i x_i`, `sum_i b_i = 1`, `b_i >= -tolerance`); `None`
+    /// when `p` is outside the mesh or not finite.
+    pub fn locate(&self, p: [f64; 2]) -> Option<(usize, [f64; 3])> {
+        self.locate_coords(&p)
     }
 }
 
@@ -507,21 +488,6 @@ pub struct ClosestPoint {
     pub barycentric: [f64; 3],
     /// Euclidean distance `|p - q|`.
     pub distance: f64,
-}
-
-/// Closest point to `p` on the segment `[a, b]`: `a + t (b - a)` with
-/// `t = clamp((p-a)·(b-a) / |b-a|^2, 0, 1)` (`t = 0` when `a = b`); returns
-/// the point and `t`.
-#[inline]
-fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> (Point3<f64>, f64) {
-    let ab = b - a;
-    let l2 = ab.norm_squared();
-    let t = if l2 > 0.0 {
-        ((p - a).dot(&ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a + ab * t, t)
 }
 
 /// Exact closest point to `p` on the (closed) triangle `(a, b, c)` and its
@@ -549,9 +515,9 @@ pub fn closest_point_on_triangle(
     let proper = ab.cross(&ac).norm_squared() > 1e-24 * l2 * l2;
     if !proper {
         // Degenerate: the closest of the three edges.
-        let (qab, t) = closest_on_segment(p, a, b);
-        let (qbc, u) = closest_on_segment(p, b, c);
-        let (qca, v) = closest_on_segment(p, c, a);
+        let (qab, t) = closest_point_on_segment(p, a, b);
+        let (qbc, u) = closest_point_on_segment(p, b, c);
+        let (qca, v) = closest_point_on_segment(p, c, a);
         let cands = [
             (qab, [1.0 - t, t, 0.0]),
             (qbc, [0.0, 1.0 - u, u]),
@@ -956,13 +922,7 @@ mod tests {
     /// else the best of the three clamped edge projections.
     fn reference_distance2(p: &Point3<f64>, x: &[Point3<f64>; 3]) -> f64 {
         let seg = |a: &Point3<f64>, b: &Point3<f64>| {
-            let d = b - a;
-            let t = if d.norm_squared() > 0.0 {
-                ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (a + d * t - p).norm_squared()
+            (crate::geometry::closest_point_on_segment(p, a, b).0 - p).norm_squared()
         };
         let edges = seg(&x[0], &x[1])
             .min(seg(&x[1], &x[2]))

@@ -5,7 +5,7 @@
 
 use crate::energy::{Eigen2, HessianMode, density2, density3, eval2, eval3, hessian2_eigen};
 use crate::{DistortionEnergy, ParamError, ParamMesh, RestElements, Template};
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, SVector};
 use rayon::prelude::*;
 use std::sync::Arc;
 use unfold_linalg::sparse::{MultigridSettings, SpdPattern, VertexSolver};
@@ -339,56 +339,17 @@ impl<'a> Objective<'a> {
         let m = self.mesh;
         let lambda = self.lambda;
         // Element gradients in parallel, then a serial scatter.
+        let energy = self.energy;
         let value = match &m.elements {
             RestElements::Tets { tets, dm_inv } => {
-                let parts: Vec<(f64, [f64; 12])> = (0..tets.len())
-                    .into_par_iter()
-                    .map(|k| {
-                        let f = jacobian3(x, &tets[k], &dm_inv[k]);
-                        match eval3(self.energy, &f, HessianMode::None) {
-                            Some(e) => {
-                                let w = lambda * m.weight[k];
-                                (w * e.value, vertex_gradient3(&(e.grad * w), &dm_inv[k]))
-                            }
-                            None => (f64::INFINITY, [0.0; 12]),
-                        }
-                    })
-                    .collect();
-                let mut v = 0.0;
-                for (k, (val, g)) in parts.iter().enumerate() {
-                    v += val;
-                    for (a, &vi) in tets[k].iter().enumerate() {
-                        for i in 0..3 {
-                            grad[3 * vi as usize + i] += g[3 * a + i];
-                        }
-                    }
-                }
-                v
+                element_gradients::<3, 4, 12>(tets, dm_inv, &m.weight, lambda, x, grad, |f| {
+                    eval3(energy, f, HessianMode::None).map(|e| (e.value, e.grad))
+                })
             }
             RestElements::Tris { tris, dm_inv } => {
-                let parts: Vec<(f64, [f64; 6])> = (0..tris.len())
-                    .into_par_iter()
-                    .map(|k| {
-                        let f = jacobian2(x, &tris[k], &dm_inv[k]);
-                        match eval2(self.energy, &f, HessianMode::None) {
-                            Some(e) => {
-                                let w = lambda * m.weight[k];
-                                (w * e.value, vertex_gradient2(&(e.grad * w), &dm_inv[k]))
-                            }
-                            None => (f64::INFINITY, [0.0; 6]),
-                        }
-                    })
-                    .collect();
-                let mut v = 0.0;
-                for (k, (val, g)) in parts.iter().enumerate() {
-                    v += val;
-                    for (a, &vi) in tris[k].iter().enumerate() {
-                        for i in 0..2 {
-                            grad[2 * vi as usize + i] += g[2 * a + i];
-                        }
-                    }
-                }
-                v
+                element_gradients::<2, 3, 6>(tris, dm_inv, &m.weight, lambda, x, grad, |f| {
+                    eval2(energy, f, HessianMode::None).map(|e| (e.value, e.grad))
+                })
             }
         };
         let mut value = value;
@@ -905,35 +866,48 @@ fn element_floors(mesh: &ParamMesh) -> Vec<f64> {
     }
 }
 
-/// `J = Ds Dm^-1` of tet `t` at positions `x` (3 per vertex).
+/// `J = Ds Dm^-1` of the simplex `t` with `N = D + 1` corners at positions
+/// `x` (`D` per vertex), with `Ds = [x_1 - x_0 | ... | x_D - x_0]` (columns)
+/// (ALGORITHMS 1.1): one kernel for tets (`D = 3`) and triangles in the
+/// plane (`D = 2`), [`jacobian3`] and [`jacobian2`].
+#[inline]
+pub fn jacobian<const D: usize, const N: usize>(
+    x: &[f64],
+    t: &[u32; N],
+    dm_inv: &SMatrix<f64, D, D>,
+) -> SMatrix<f64, D, D> {
+    const { assert!(N == D + 1) };
+    let p = |v: u32| {
+        let i = D * v as usize;
+        SVector::<f64, D>::from_fn(|r, _| x[i + r])
+    };
+    let a = p(t[0]);
+    let columns: [SVector<f64, D>; D] = std::array::from_fn(|c| p(t[c + 1]) - a);
+    SMatrix::<f64, D, D>::from_columns(&columns) * dm_inv
+}
+
+/// `J = Ds Dm^-1` of tet `t` at positions `x` (3 per vertex): [`jacobian`]
+/// with `D = 3`.
 #[inline]
 pub fn jacobian3(x: &[f64], t: &[u32; 4], dm_inv: &Matrix3<f64>) -> Matrix3<f64> {
-    let p = |v: u32| {
-        let i = 3 * v as usize;
-        nalgebra::Vector3::new(x[i], x[i + 1], x[i + 2])
-    };
-    let a = p(t[0]);
-    Matrix3::from_columns(&[p(t[1]) - a, p(t[2]) - a, p(t[3]) - a]) * dm_inv
+    jacobian::<3, 4>(x, t, dm_inv)
 }
 
-/// `J = Ds Dm^-1` of triangle `t` at planar positions `x` (2 per vertex).
+/// `J = Ds Dm^-1` of triangle `t` at planar positions `x` (2 per vertex):
+/// [`jacobian`] with `D = 2`.
 #[inline]
 pub fn jacobian2(x: &[f64], t: &[u32; 3], dm_inv: &Matrix2<f64>) -> Matrix2<f64> {
-    let p = |v: u32| {
-        let i = 2 * v as usize;
-        nalgebra::Vector2::new(x[i], x[i + 1])
-    };
-    let a = p(t[0]);
-    Matrix2::from_columns(&[p(t[1]) - a, p(t[2]) - a]) * dm_inv
+    jacobian::<2, 3>(x, t, dm_inv)
 }
 
-/// `P[v][j] = dF_ij / dx_{v,i}` for the 4 corners: `P[0] = -sum_k Dm^-1[k]`,
-/// `P[v] = Dm^-1[v-1]` (rows of `Dm^-1`).
+/// `P[v][j] = dF_ij / dx_{v,i}` for the `N = D + 1` corners:
+/// `P[0] = -sum_k Dm^-1[k]`, `P[v] = Dm^-1[v-1]` (rows of `Dm^-1`).
 #[inline]
-fn corner_map3(dm_inv: &Matrix3<f64>) -> [[f64; 3]; 4] {
-    let mut p = [[0.0; 3]; 4];
-    for j in 0..3 {
-        for k in 0..3 {
+fn corner_map<const D: usize, const N: usize>(dm_inv: &SMatrix<f64, D, D>) -> [[f64; D]; N] {
+    const { assert!(N == D + 1) };
+    let mut p = [[0.0; D]; N];
+    for j in 0..D {
+        for k in 0..D {
             p[k + 1][j] = dm_inv[(k, j)];
             p[0][j] -= dm_inv[(k, j)];
         }
@@ -941,41 +915,64 @@ fn corner_map3(dm_inv: &Matrix3<f64>) -> [[f64; 3]; 4] {
     p
 }
 
+/// Vertex gradient of a simplex from `G = dE/dF`:
+/// `dE/dx_{v,i} = sum_j G_ij P[v][j]` ([`corner_map`]), at local DOF
+/// `D v + i` (`L = D N` of them).
 #[inline]
-fn corner_map2(dm_inv: &Matrix2<f64>) -> [[f64; 2]; 3] {
-    let mut p = [[0.0; 2]; 3];
-    for j in 0..2 {
-        for k in 0..2 {
-            p[k + 1][j] = dm_inv[(k, j)];
-            p[0][j] -= dm_inv[(k, j)];
-        }
-    }
-    p
-}
-
-/// Vertex gradient of a tet from `G = dE/dF`: `dE/dx_{v,i} = sum_j G_ij P[v][j]`.
-#[inline]
-fn vertex_gradient3(g: &Matrix3<f64>, dm_inv: &Matrix3<f64>) -> [f64; 12] {
-    let p = corner_map3(dm_inv);
-    let mut out = [0.0; 12];
-    for v in 0..4 {
-        for i in 0..3 {
-            out[3 * v + i] = (0..3).map(|j| g[(i, j)] * p[v][j]).sum();
+fn vertex_gradient<const D: usize, const N: usize, const L: usize>(
+    g: &SMatrix<f64, D, D>,
+    dm_inv: &SMatrix<f64, D, D>,
+) -> [f64; L] {
+    const { assert!(L == D * N) };
+    let p = corner_map::<D, N>(dm_inv);
+    let mut out = [0.0; L];
+    for v in 0..N {
+        for i in 0..D {
+            out[D * v + i] = (0..D).map(|j| g[(i, j)] * p[v][j]).sum();
         }
     }
     out
 }
 
-#[inline]
-fn vertex_gradient2(g: &Matrix2<f64>, dm_inv: &Matrix2<f64>) -> [f64; 6] {
-    let p = corner_map2(dm_inv);
-    let mut out = [0.0; 6];
-    for v in 0..3 {
-        for i in 0..2 {
-            out[2 * v + i] = (0..2).map(|j| g[(i, j)] * p[v][j]).sum();
+/// `sum_k lambda V_k psi(J_k)` over the simplices `elements` and its
+/// gradient added into `grad` (`D` per vertex): `eval` gives `psi` and
+/// `dpsi/dF` of a Jacobian ([`jacobian`]), or `None` for an infinite value
+/// (an inverted element under a barrier; no gradient then). The element
+/// values and gradients ([`vertex_gradient`] of `lambda V_k dpsi/dF`) are
+/// evaluated in parallel, then summed and scattered serially in element
+/// order (so the result does not depend on the thread count).
+fn element_gradients<const D: usize, const N: usize, const L: usize>(
+    elements: &[[u32; N]],
+    dm_inv: &[SMatrix<f64, D, D>],
+    weight: &[f64],
+    lambda: f64,
+    x: &[f64],
+    grad: &mut [f64],
+    eval: impl Fn(&SMatrix<f64, D, D>) -> Option<(f64, SMatrix<f64, D, D>)> + Sync,
+) -> f64 {
+    let parts: Vec<(f64, [f64; L])> = (0..elements.len())
+        .into_par_iter()
+        .map(|k| {
+            let f = jacobian::<D, N>(x, &elements[k], &dm_inv[k]);
+            match eval(&f) {
+                Some((value, g)) => {
+                    let w = lambda * weight[k];
+                    (w * value, vertex_gradient::<D, N, L>(&(g * w), &dm_inv[k]))
+                }
+                None => (f64::INFINITY, [0.0; L]),
+            }
+        })
+        .collect();
+    let mut v = 0.0;
+    for (k, (val, g)) in parts.iter().enumerate() {
+        v += val;
+        for (a, &vi) in elements[k].iter().enumerate() {
+            for i in 0..D {
+                grad[D * vi as usize + i] += g[D * a + i];
+            }
         }
     }
-    out
+    v
 }
 
 /// `H_x[(v,i),(w,k)] = w sum_{j,l} P[v][j] P[w][l] H_F[i+3j, k+3l]` (12x12,
@@ -987,7 +984,7 @@ fn vertex_hessian3(
     w: f64,
     out: &mut [f64; 144],
 ) {
-    let p = corner_map3(dm_inv);
+    let p = corner_map::<3, 4>(dm_inv);
     for v in 0..4 {
         for i in 0..3 {
             let r = 3 * v + i;
@@ -1015,7 +1012,7 @@ fn vertex_hessian3(
 /// eigenvalue (clamped ones) are skipped.
 #[inline]
 fn vertex_hessian2(eigen: &Eigen2, dm_inv: &Matrix2<f64>, w: f64, out: &mut [f64; TRI_SLOTS]) {
-    let p = corner_map2(dm_inv);
+    let p = corner_map::<2, 3>(dm_inv);
     *out = [0.0; TRI_SLOTS];
     for (&l, m) in eigen.values.iter().zip(&eigen.modes) {
         if l == 0.0 {

@@ -10,10 +10,18 @@
 //! - `validation`: [`check_finite`], [`check_indices`];
 //! - `predicates`: exact orientation tests [`orient3d_exact`],
 //!   [`orient2d_exact`];
-//! - `hull`: [`convex_hull_vertices`] (exact Quickhull);
+//! - `hull`: [`convex_hull_vertices`] (exact Quickhull, 3D);
+//! - `hull_2d`: [`convex_hull_2d`] (monotone chain, counter-clockwise);
+//! - `winding`: [`winding_number`] (solid angles over `4 pi`);
 //! - `intersect`: [`segment_crosses_triangle`];
+//! - `segment`: [`point_segment_distance`], [`closest_point_on_segment`],
+//!   [`closest_point_on_segment_2d`] (clamped projection);
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
 //! - `aabb`: [`Aabb`], [`bounding_box`];
+//! - `orientation`: [`flipped_triangles`] (one tie rule: the minority
+//!   orientation and the degenerate triangles of a planar map),
+//!   [`majority_sign`], [`flipped_indices`], [`Orientations`],
+//!   [`twice_signed_areas_2d`];
 //! - `folds`: [`folded_faces`], [`folded_edges`] (local overlaps that
 //!   orientation does not show);
 //! - `broad_phase`: [`overlapping_box_pairs`] (meeting boxes on a grid);
@@ -28,30 +36,40 @@ mod boundary_crossings;
 mod broad_phase;
 mod folds;
 mod hull;
+mod hull_2d;
 mod intersect;
 mod measures;
+mod orientation;
 mod pca;
 mod predicates;
+mod segment;
 mod self_intersections;
 #[cfg(test)]
 mod strategies;
 mod validation;
+mod winding;
 
 pub use aabb::{Aabb, bounding_box};
 pub use boundary_crossings::{BoundaryCrossings, EdgeCrossing, boundary_edge_crossings};
 pub use broad_phase::overlapping_box_pairs;
 pub use folds::{FoldedEdge, FoldedFace, folded_edges, folded_faces};
 pub use hull::convex_hull_vertices;
+pub use hull_2d::convex_hull_2d;
 pub use intersect::segment_crosses_triangle;
 pub use measures::{
     area_weighted_centroid, centroid, enclosed_volume, tet_dihedral_angles, tet_signed_volume,
     tet_vertex_volumes, tet_volumes, total_area, total_volume, triangle_area, triangle_area_vector,
     triangle_areas, triangle_normal, triangle_signed_area_2d, vertex_areas, vertex_normals,
 };
+pub use orientation::{
+    Orientations, flipped_indices, flipped_triangles, majority_sign, twice_signed_areas_2d,
+};
 pub use pca::{PcaFrame, pca_frame};
 pub use predicates::{orient2d_exact, orient3d_exact};
+pub use segment::{closest_point_on_segment, closest_point_on_segment_2d, point_segment_distance};
 pub use self_intersections::{
     BoundaryOverlaps, SelfIntersections, TriangleOverlap, tet_boundary_self_intersections,
     triangle_self_intersections,
 };
 pub use validation::{check_finite, check_indices};
+pub use winding::winding_number;

@@ -403,15 +403,7 @@ pub(super) fn segments_meet_2d(
     if d1 == 0.0 && on_segment(p1, q0, q1) {
         return Some(1.0);
     }
-    let along = |q: [f64; 2]| {
-        let (dx, dy) = (p1[0] - p0[0], p1[1] - p0[1]);
-        let l2 = dx * dx + dy * dy;
-        if l2 > 0.0 {
-            (((q[0] - p0[0]) * dx + (q[1] - p0[1]) * dy) / l2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
-    };
+    let along = |q: [f64; 2]| super::closest_point_on_segment_2d(q, p0, p1).1;
     if e0 == 0.0 && on_segment(q0, p0, p1) {
         return Some(along(q0));
     }

@@ -126,22 +126,6 @@ pub fn tet_boundary(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
     out
 }
 
-/// Winding number of the closed oriented triangle surface around `p`
-/// (sum of signed solid angles / 4 pi; Van Oosterom & Strackee).
-pub fn winding_number(p: &Point3<f64>, pos: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
-    let mut total = 0.0;
-    for t in tris {
-        let a = pos[t[0] as usize] - p;
-        let b = pos[t[1] as usize] - p;
-        let c = pos[t[2] as usize] - p;
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + b.dot(&c) * la + c.dot(&a) * lb;
-        total += 2.0 * num.atan2(den);
-    }
-    total / (4.0 * std::f64::consts::PI)
-}
-
 /// Sum of the triangles' area vectors `(b-a)x(c-a)/2`.
 pub fn area_vector_sum(pos: &[Point3<f64>], tris: &[[u32; 3]]) -> Vector3<f64> {
     tris.iter()

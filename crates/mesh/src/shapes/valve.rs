@@ -456,6 +456,7 @@ pub fn mitral_valve(p: &ValveParams) -> Result<ValveShape, MeshError> {
 mod tests {
     use super::super::test_util::*;
     use super::*;
+    use crate::geometry::point_segment_distance;
     use proptest::prelude::*;
 
     fn column_length(mesh: &TriMesh, col: &[u32]) -> f64 {
@@ -531,12 +532,6 @@ mod tests {
             up_tris * 10 >= top_tris * 9,
             "{up_tris} of {top_tris} annulus triangles face the atrium"
         );
-    }
-
-    fn point_segment_distance(q: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
-        let ab = b - a;
-        let t = ((q - a).dot(&ab) / ab.norm_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-        (q - (a + ab * t)).norm()
     }
 
     fn check_valve(shape: &ValveShape) {

@@ -2,6 +2,7 @@
 //! anatomy inside and landmarks on its basal rim.
 
 use super::{ArcTable, Pose, check_count, check_positive, check_range, invalid};
+use crate::geometry::winding_number;
 use crate::{MeshError, TriMesh};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -337,28 +338,16 @@ fn closest_to_origin(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> Vecto
     a + ab * (vb * denom) + ac * (vc * denom)
 }
 
-/// Winding number of S closed by a fan over its rim (the last ring) around
-/// `q`: the sum of the signed solid angles of the triangles over `4 pi`
-/// (Van Oosterom & Strackee).
-fn winding_number_closed(
-    q: &Point3<f64>,
+/// S closed by a fan over its rim (the last ring, by increasing azimuth)
+/// around the rim's centre (its vertices' mean): the positions with the
+/// centre appended and the triangles with the fan `(centre, u, v)` (normal
+/// +z) appended, for [`winding_number`].
+fn closed_by_cap(
     pos: &[Point3<f64>],
     tris: &[[u32; 3]],
     rings: usize,
     ring_info: &[(usize, usize, f64)],
-) -> f64 {
-    let solid = |a: Point3<f64>, b: Point3<f64>, c: Point3<f64>| {
-        let (a, b, c) = (a - q, b - q, c - q);
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + b.dot(&c) * la + c.dot(&a) * lb;
-        2.0 * num.atan2(den)
-    };
-    let mut total: f64 = tris
-        .iter()
-        .map(|t| solid(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]))
-        .sum();
-    // Cap: the rim polygon (increasing azimuth) around its centre, normal +z.
+) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
     let (start, count, _) = ring_info[rings];
     let centre = Point3::from(
         (start..start + count)
@@ -366,11 +355,15 @@ fn winding_number_closed(
             .sum::<Vector3<f64>>()
             / count as f64,
     );
+    let mut closed_pos = pos.to_vec();
+    closed_pos.push(centre);
+    let hub = pos.len() as u32;
+    let mut closed = tris.to_vec();
     for i in 0..count {
         let (u, v) = (start + i, start + (i + 1) % count);
-        total += solid(centre, pos[u], pos[v]);
+        closed.push([hub, u as u32, v as u32]);
     }
-    total / (2.0 * TAU)
+    (closed_pos, closed)
 }
 
 /// Builds the synthetic ventricle described by `p`.
@@ -472,7 +465,8 @@ pub fn ventricle_cup(p: &VentricleParams) -> Result<VentricleShape, MeshError> {
         )));
     }
     let probe = anat.positions[0];
-    let w = winding_number_closed(&probe, &s.positions, &s.triangles, p.rings, &s.rings);
+    let (closed_pos, closed) = closed_by_cap(&s.positions, &s.triangles, p.rings, &s.rings);
+    let w = winding_number(&probe, &closed_pos, &closed);
     if (w - 1.0).abs() > 0.5 {
         return Err(invalid(format!(
             "{W}: internal check failed: the anatomy lies outside S (winding number {w})"

@@ -93,7 +93,7 @@ use super::{ANTERIOR, ContractError, Leaflet, LeafletSide, POSTERIOR, PreparedVa
 use crate::OrganError;
 use std::ops::Range;
 use unfold_mesh::TriMesh;
-use unfold_mesh::geometry::{PcaFrame, pca_frame};
+use unfold_mesh::geometry::{PcaFrame, closest_point_on_segment, pca_frame};
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::{boundary_loops, euler_characteristic};
 
@@ -279,15 +279,8 @@ impl Ring {
         let n = self.n();
         let mut best = (f64::INFINITY, segs.start, 0.0);
         for i in segs {
-            let a = self.pts[i];
-            let d = self.pts[(i + 1) % n] - a;
-            let dd = d.norm_squared();
-            let t = if dd > 0.0 {
-                ((q - a).dot(&d) / dd).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let dist = (q - (a + d * t)).norm();
+            let (c, t) = closest_point_on_segment(q, &self.pts[i], &self.pts[(i + 1) % n]);
+            let dist = (q - c).norm();
             if dist < best.0 {
                 best = (dist, i, t);
             }

@@ -37,6 +37,7 @@ use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::ops::Index;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::{majority_sign, twice_signed_areas_2d};
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::spatial::ClosestPointQuery;
 use unfold_param::ParamMesh;
@@ -731,7 +732,7 @@ struct Energies {
 /// module docs).
 fn energies(k: usize, mesh: &TriMesh, uv: &[[f64; 2]]) -> Result<Energies, OrganError> {
     let rest = ParamMesh::from_triangles(mesh)?;
-    let sign = super::majority_sign(&super::signed_areas(mesh, uv));
+    let sign = majority_sign(&twice_signed_areas_2d(uv, &mesh.triangles));
     let x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
     let angle = angle_energy(&rest, &x).ok_or(MapsError::NotATriangleMesh {
         leaflet: LeafletSide::of(k),

@@ -306,7 +306,9 @@ pub struct Report {
     pub area_below_plane_mm2: f64,
     /// Mean area, angle and length energies, before and after relaxing.
     pub distortion: DistortionReport,
-    /// Triangles with non-positive area in the final 2D map (both leaflets).
+    /// Triangles with non-positive area in the final 2D map (both leaflets),
+    /// against each leaflet's majority orientation
+    /// ([`unfold_mesh::geometry::flipped_triangles`]).
     pub flipped_triangles: usize,
     /// Interior edges folded in the final 2D map, both leaflets (the two
     /// triangles of an edge on the same side of it,
@@ -428,47 +430,6 @@ pub struct Outcome {
     pub maps: [maps::LeafletMaps; 2],
     /// The report.
     pub report: Report,
-}
-
-/// Twice the signed area `(q1 - q0) x (q2 - q0)` of every uv triangle.
-pub(crate) fn signed_areas(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<f64> {
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| uv[v as usize]);
-            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        })
-        .collect()
-}
-
-/// The majority orientation of `areas` (`+1` counter-clockwise, `-1`
-/// clockwise; a tie goes to the sign of the sum, then to `+1`).
-pub(crate) fn majority_sign(areas: &[f64]) -> f64 {
-    let pos = areas.iter().filter(|&&a| a > 0.0).count();
-    let neg = areas.iter().filter(|&&a| a < 0.0).count();
-    if pos > neg || (pos == neg && areas.iter().sum::<f64>() >= 0.0) {
-        1.0
-    } else {
-        -1.0
-    }
-}
-
-/// Indices of the triangles that are not strictly of orientation `sign`
-/// (NaN areas included).
-pub(crate) fn flipped(areas: &[f64], sign: f64) -> Vec<usize> {
-    areas
-        .iter()
-        .enumerate()
-        .filter(|&(_, &a)| (sign * a).is_nan() || sign * a <= 0.0)
-        .map(|(t, _)| t)
-        .collect()
-}
-
-/// Triangles of a 2D layout that are not of the majority orientation (or
-/// have zero or NaN area): the flipped triangles of `report.json`.
-pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
-    let areas = signed_areas(mesh, uv);
-    flipped(&areas, majority_sign(&areas)).len()
 }
 
 /// A per-leaflet map with its name (static, for

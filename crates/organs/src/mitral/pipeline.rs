@@ -6,10 +6,11 @@ use super::relax::{self, default_solver};
 use super::{
     ANTERIOR, AnnulusError, AnnulusMode, CoaptationCounts, Config, DistortionReport, LayoutError,
     Leaflet, LeafletSide, Outcome, POSTERIOR, Pieces, PlaneReport, RelaxMode, Report, Timings,
-    ValveInput, annulus, contract, flipped_triangles, layout, maps, merged,
+    ValveInput, annulus, contract, layout, maps, merged,
 };
 use crate::OrganError;
 use std::time::Instant;
+use unfold_mesh::geometry::flipped_triangles;
 use unfold_mesh::nalgebra::Point3;
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::{
@@ -294,7 +295,7 @@ impl Pipeline {
 
         let flipped = [ANTERIOR, POSTERIOR]
             .iter()
-            .map(|&k| flipped_triangles(&valve.leaflets[k].mesh, &uv[k]))
+            .map(|&k| flipped_triangles(&uv[k], &valve.leaflets[k].mesh.triangles))
             .sum();
         let folded: usize = [ANTERIOR, POSTERIOR]
             .iter()

@@ -33,12 +33,13 @@
 //! `unfold_mesh::shapes::mitral_valve` (u increasing along the annulus,
 //! v decreasing down the columns) is counter-clockwise, needing no mirror.
 
-use super::{RelaxError, flipped, majority_sign, signed_areas};
+use super::RelaxError;
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::{flipped_indices, majority_sign, twice_signed_areas_2d};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
 use unfold_param::{
@@ -301,7 +302,7 @@ pub fn spring(
     let t0 = Instant::now();
     config.validate()?;
     let pm = check_inputs(mesh, uv, fixed)?;
-    let sign = majority_sign(&signed_areas(mesh, uv));
+    let sign = majority_sign(&twice_signed_areas_2d(uv, &mesh.triangles));
     let n = uv.len();
     let edges = unique_edges(&pm);
     let rest: Vec<f64> = edges
@@ -340,7 +341,7 @@ pub fn spring(
         method: "spring",
         iterations,
         converged: f_max <= tol,
-        flipped_triangles: flipped(&signed_areas(mesh, uv), sign).len(),
+        flipped_triangles: flipped_indices(&twice_signed_areas_2d(uv, &mesh.triangles), sign).len(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -482,9 +483,9 @@ pub fn minimize(
     let t0 = Instant::now();
     config.validate()?;
     let pm = check_inputs(mesh, uv, fixed)?;
-    let areas = signed_areas(mesh, uv);
+    let areas = twice_signed_areas_2d(uv, &mesh.triangles);
     let sign = majority_sign(&areas);
-    let bad = flipped(&areas, sign);
+    let bad = flipped_indices(&areas, sign);
     if let Some(&first) = bad.first() {
         return Err(RelaxError::FlippedStart {
             flipped: bad.len(),
@@ -535,7 +536,7 @@ pub fn minimize(
             *qi = [sign * x[2 * i], x[2 * i + 1]];
         }
     }
-    let bad = flipped(&signed_areas(mesh, &q), sign);
+    let bad = flipped_indices(&twice_signed_areas_2d(&q, &mesh.triangles), sign);
     if let Some(&first) = bad.first() {
         // Cannot happen with the injective line search; never hand out a
         // flipped layout as the flip-free one.
@@ -776,7 +777,11 @@ mod tests {
         assert_eq!(rm.iterations, r.iterations);
         assert_fixed_unchanged(&m, &uvm);
         // Clockwise throughout, like the input.
-        assert!(signed_areas(&m.mesh, &uvm).iter().all(|&a| a < 0.0));
+        assert!(
+            twice_signed_areas_2d(&uvm, &m.mesh.triangles)
+                .iter()
+                .all(|&a| a < 0.0)
+        );
         for (a, b) in uv.iter().zip(&uvm) {
             assert!((a[0] + b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
         }

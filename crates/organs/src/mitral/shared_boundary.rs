@@ -42,6 +42,7 @@
 use super::{ANTERIOR, ContractError, LeafletSide, POSTERIOR};
 use crate::OrganError;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::point_segment_distance;
 use unfold_mesh::nalgebra::{Point3, Vector3};
 
 /// The annulus found from the leaflets, with how it was found.
@@ -150,23 +151,10 @@ fn distances_to_loop(points: &[Point3<f64>], ring: &[Point3<f64>]) -> Vec<f64> {
         .iter()
         .map(|q| {
             (0..n)
-                .map(|i| segment_distance(q, &ring[i], &ring[(i + 1) % n]))
+                .map(|i| point_segment_distance(q, &ring[i], &ring[(i + 1) % n]))
                 .fold(f64::INFINITY, f64::min)
         })
         .collect()
-}
-
-/// Distance from `q` to the segment `a b`:
-/// `|q - a - t (b - a)|`, `t = clamp((q - a).(b - a) / |b - a|^2, 0, 1)`.
-fn segment_distance(q: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
-    let ab = b - a;
-    let l2 = ab.norm_squared();
-    let t = if l2 > 0.0 {
-        ((q - a).dot(&ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (q - (a + ab * t)).norm()
 }
 
 /// The arcs of a boundary loop between its runs of shared vertices: each
@@ -318,7 +306,7 @@ mod tests {
             Point3::new(5.0, 6.0, 1.0),
         ];
         assert!((vector_area(&sq) - Vector3::z()).norm() < 1e-12);
-        assert_eq!(segment_distance(&sq[2], &sq[0], &sq[1]), 1.0);
+        assert_eq!(point_segment_distance(&sq[2], &sq[0], &sq[1]), 1.0);
     }
 
     #[test]

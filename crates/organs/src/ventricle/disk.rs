@@ -8,6 +8,7 @@ use super::harmonic_disk::{ANTERIOR, APEX, INFERIOR, wrap};
 use super::landmarks::Landmarks;
 use crate::OrganError;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::flipped_triangles;
 use unfold_param::initializer::circle_boundary;
 use unfold_param::{Constraints, Initializer, ParamError, ParamMesh, Pin};
 
@@ -18,7 +19,8 @@ pub struct DiskMap {
     /// triangle).
     pub uv: Vec<[f64; 2]>,
     /// Triangles whose orientation differs from the majority, or with zero
-    /// area, after the apex warp (0 for a bijective map).
+    /// or NaN area, after the apex warp (0 for a bijective map; the tie rule
+    /// of [`unfold_mesh::geometry::flipped_triangles`]).
     pub flipped_triangles: usize,
     /// The weights of the embedding: `"cotangent"` (the harmonic map), or
     /// `"mean-value"` when the harmonic map flipped triangles (mean-value
@@ -29,30 +31,6 @@ pub struct DiskMap {
     /// The apex warp used: `"thin-plate spline"` (the rim kept in place), or
     /// `"mobius"` when the spline folded triangles (see [`lv_disk`]).
     pub apex_warp: &'static str,
-}
-
-/// Triangles of `uv` whose signed area has the other sign than the
-/// majority's, or is zero.
-pub fn flipped_triangles(mesh: &TriMesh, uv: &[[f64; 2]]) -> usize {
-    let areas: Vec<f64> = mesh
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| uv[v as usize]);
-            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        })
-        .collect();
-    let positive = areas.iter().filter(|&&x| x > 0.0).count();
-    let sign = if 2 * positive >= areas.len() {
-        1.0
-    } else {
-        -1.0
-    };
-    // NaN areas count as flipped too.
-    areas
-        .iter()
-        .filter(|&&x| x * sign <= 0.0 || x.is_nan())
-        .count()
 }
 
 /// The LV disk map (ALGORITHMS 3.2), by the disk initializer `disk`
@@ -136,7 +114,7 @@ fn map_disk(
     }
     let uv: Vec<[f64; 2]> = start.x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
     Ok(DiskMap {
-        flipped_triangles: flipped_triangles(surface, &uv),
+        flipped_triangles: flipped_triangles(&uv, &surface.triangles),
         uv,
         weights: start.detail("weights").unwrap_or(disk.name()),
         mirrored,

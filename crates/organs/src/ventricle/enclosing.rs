@@ -70,6 +70,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use thiserror::Error;
 use unfold_mesh::clip::clip_below;
+use unfold_mesh::geometry::{convex_hull_2d, winding_number};
 use unfold_mesh::marching_tets::isosurface;
 use unfold_mesh::nalgebra::{Matrix3, Point3, Vector3};
 use unfold_mesh::spatial::{ClosestPointQuery, closest_point_on_triangle};
@@ -370,36 +371,6 @@ fn anatomy_triangles(anatomy: &CellMesh) -> Result<(Vec<[u32; 3]>, AnatomyKind),
     Ok((tris, kind))
 }
 
-/// The 2D convex hull of `q` (Andrew's monotone chain), counter-clockwise.
-fn hull_2d(q: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    let mut p = q.to_vec();
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    p.dedup();
-    if p.len() < 3 {
-        return p;
-    }
-    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-    };
-    let mut h: Vec<[f64; 2]> = Vec::with_capacity(2 * p.len());
-    for pass in 0..2 {
-        let start = h.len();
-        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
-            Box::new(p.iter())
-        } else {
-            Box::new(p.iter().rev())
-        };
-        for &x in iter {
-            while h.len() >= start + 2 && cross(h[h.len() - 2], h[h.len() - 1], x) <= 0.0 {
-                h.pop();
-            }
-            h.push(x);
-        }
-        h.pop();
-    }
-    h
-}
-
 /// The basal plane through `a` and `i` (module doc, step 2): the unit
 /// normal towards the base and the highest height `h*` of a point above it.
 ///
@@ -432,7 +403,7 @@ pub fn basal_plane(
         .iter()
         .map(|p| [(p - a).dot(&u), (p - a).dot(&v)])
         .collect();
-    let hull = hull_2d(&q);
+    let hull = convex_hull_2d(&q);
     let support = |t: f64| {
         let (c, s) = (t.cos(), t.sin());
         hull.iter()
@@ -461,23 +432,6 @@ pub fn basal_plane(
         .expect("at least one candidate");
     let n = u * best.cos() + v * best.sin();
     Ok((n, g))
-}
-
-/// The winding number of the closed surface `tris` (oriented outward)
-/// about `x`: `sum_t Omega_t / (4 pi)` with the solid angle of each
-/// triangle by Van Oosterom and Strackee's formula
-/// `tan(Omega / 2) = a . (b x c) / (|a||b||c| + (a . b)|c| + (a . c)|b| + (b . c)|a|)`
-/// (`a`, `b`, `c` its corners minus `x`).
-fn winding_number(x: &Point3<f64>, positions: &[Point3<f64>], tris: &[[u32; 3]]) -> f64 {
-    let mut total = 0.0;
-    for t in tris {
-        let [a, b, c] = t.map(|v| positions[v as usize] - x);
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
-        total += 2.0 * num.atan2(den);
-    }
-    total / (4.0 * std::f64::consts::PI)
 }
 
 /// Builds S from the anatomy (module doc). `landmarks` are the anterior

@@ -17,10 +17,10 @@
 //! into the plane whose triangles all have one orientation (the pipeline
 //! counts the others and refuses the map when there are any).
 
-use super::disk::flipped_triangles;
 use crate::OrganError;
 use unfold_linalg::tps::ThinPlateSpline2;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::flipped_triangles;
 use unfold_mesh::topology::disk_boundary_loop;
 use unfold_param::initializer::{DiskBoundary, TutteDisk, TutteWeights};
 use unfold_param::{Constraints, InitialMap, Initializer, ParamError, ParamMesh, Pin};
@@ -105,7 +105,7 @@ impl Initializer for HarmonicDisk {
             .layout(&surface)
         };
         let harmonic = layout(TutteWeights::Cotangent)?;
-        let (uv, weights) = if flipped_triangles(&surface, &harmonic) == 0 {
+        let (uv, weights) = if flipped_triangles(&harmonic, &surface.triangles) == 0 {
             (harmonic, "cotangent")
         } else {
             (layout(TutteWeights::MeanValue)?, "mean-value")
@@ -114,10 +114,10 @@ impl Initializer for HarmonicDisk {
         if !interior.is_empty() {
             warped = spline_warp(&uv, &rim, &interior).map_err(piece)?;
             warp = "thin-plate spline";
-            let flips = flipped_triangles(&surface, &warped);
+            let flips = flipped_triangles(&warped, &surface.triangles);
             if flips > 0
                 && let Some(m) = mobius_warp(&uv, &rim, &interior, constraints.labels)
-                && flipped_triangles(&surface, &m) < flips
+                && flipped_triangles(&m, &surface.triangles) < flips
             {
                 (warped, warp) = (m, "mobius");
             }

@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
+use unfold_mesh::geometry::closest_point_on_segment_2d;
 use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::repair::{RepairOptions, RepairReport, Weld, repair_tri_mesh_with};
 use unfold_mesh::spatial::{ClosestPointQuery, PlanarTriLocator};
@@ -463,14 +464,7 @@ impl Chart {
         for &(a, b, t) in &self.rim_edges {
             let pa = self.disk.uv[a as usize];
             let pb = self.disk.uv[b as usize];
-            let d = [pb[0] - pa[0], pb[1] - pa[1]];
-            let l2 = d[0] * d[0] + d[1] * d[1];
-            let s = if l2 > 0.0 {
-                (((p[0] - pa[0]) * d[0] + (p[1] - pa[1]) * d[1]) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let q = [pa[0] + s * d[0], pa[1] + s * d[1]];
+            let (q, s) = closest_point_on_segment_2d(p, pa, pb);
             let dist = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
             if best.is_none_or(|x| dist < x.0) {
                 let tri = self.surface.triangles[t];

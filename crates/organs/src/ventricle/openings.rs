@@ -37,7 +37,7 @@ use super::landmarks::check_finite_landmark;
 use crate::OrganError;
 use serde::Serialize;
 use unfold_mesh::TriMesh;
-use unfold_mesh::geometry::segment_crosses_triangle;
+use unfold_mesh::geometry::{point_segment_distance, segment_crosses_triangle};
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::boundary_loops;
 
@@ -99,24 +99,12 @@ pub struct Capped {
     pub openings: Openings,
 }
 
-/// Distance from `p` to the segment `a b`.
-fn segment_distance(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
-    let d = b - a;
-    let l2 = d.norm_squared();
-    let t = if l2 > 0.0 {
-        ((p - a).dot(&d) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + d * t)).norm()
-}
-
 /// Distance from `p` to the closed polyline through `loop_`'s vertices.
 pub fn loop_distance(positions: &[Point3<f64>], loop_: &[u32], p: &Point3<f64>) -> f64 {
     let m = loop_.len();
     (0..m)
         .map(|k| {
-            segment_distance(
+            point_segment_distance(
                 p,
                 &positions[loop_[k] as usize],
                 &positions[loop_[(k + 1) % m] as usize],

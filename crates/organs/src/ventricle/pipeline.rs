@@ -55,7 +55,18 @@ pub struct LandmarkPoints {
     pub rim_near: Option<Point3<f64>>,
 }
 
-/// Mean, median, standard deviation and maximum of a set of values.
+/// Mean, median, standard deviation and maximum of a set of values: the
+/// round-trip errors of [`Report::roundtrip_error_um`].
+///
+/// Not [`unfold_mesh::stats::Summary`], the one summary of the other
+/// reports, on purpose: `report.json` has always printed these four
+/// numbers as computed here, and that summary computes each differently
+/// to the bit: `mean = sum v / n` here sums in the values' order (there
+/// over the sorted values), `std` here is the **population** standard
+/// deviation `sqrt(sum (v - mean)^2 / n)` (there the sample one, `n - 1`),
+/// and the median of an even count is `(a + b) / 2` here (there
+/// `a + (b - a) / 2`). No conversion reproduces these bits from that
+/// summary, so this one stays as the report's own format.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Summary {
     /// Mean.
