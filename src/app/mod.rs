@@ -13,6 +13,7 @@
 
 pub mod error;
 pub mod mesh;
+pub mod mitral;
 pub mod names;
 pub mod observer;
 pub mod placenta;
