@@ -17,8 +17,8 @@
 //!
 //! A run is [`Settings`] (checked once, [`Settings::validate`]), its
 //! [`Files`] checked ([`Files::check`]) and read into [`Inputs`] ([`read`];
-//! the targets file's format is in [`inputs`]), [`run`] into a [`Run`] with
-//! its typed [`DeformRunReport`], and [`write`]:
+//! the targets file's format is in [`inputs`]), [`run()`] into a [`Run`] with
+//! its typed [`DeformRunReport`], and [`write()`]:
 //!
 //! Output: OUT is the input mesh (its cells, point and cell arrays) with the
 //! positions replaced; `OUT.report.json` beside it holds the result

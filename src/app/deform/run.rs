@@ -1,7 +1,7 @@
 //! A deformation on its inputs: the mesh repaired, the library's
 //! [`Deform`] solved on it (the memory budget checked before a Newton
 //! factor), the solution put back on the input's vertex numbers, and the
-//! typed report. Nothing is written here ([`super::write`] does).
+//! typed report. Nothing is written here ([`super::write()`] does).
 
 use super::inputs::Inputs;
 use super::report::DeformRunReport;

@@ -7,8 +7,8 @@
 //! its [`Files`] checked ([`Files::check`]: one valve's [`ValveFiles`], or
 //! a series directory's steps) and read into [`Inputs`] ([`read`]: the
 //! leaflets, then the annulus ring from its file or from the places where
-//! the leaflets' boundaries meet), [`run`] (or [`run_with`] other pieces)
-//! into a [`Run`] with its typed [`MitralReport`], and [`write`] into a
+//! the leaflets' boundaries meet), [`run()`] (or [`run_with`] other pieces)
+//! into a [`Run`] with its typed [`MitralReport`], and [`write()`] into a
 //! staged output directory ([`run_valve`] does all three):
 //!
 //! - `valve3d.vtu`: both leaflets, anterior first, with every map as a

@@ -1,6 +1,6 @@
 //! A mitral run on one valve's inputs: the library's [`Pipeline`] (the
 //! annulus laid out, the leaflets below it, relaxed flip-free, the maps)
-//! and the typed report. Nothing is written here ([`super::write`] does).
+//! and the typed report. Nothing is written here ([`super::write()`] does).
 
 use super::inputs::Inputs;
 use super::report::MitralReport;

@@ -8,7 +8,7 @@ use crate::app::AppError;
 use crate::organs::mitral::Pipeline;
 
 /// Reads one valve ([`read`]), runs `pipeline` on it ([`run_with`]) and
-/// writes its files into `out.dir` ([`write`], the figures with
+/// writes its files into `out.dir` ([`write()`], the figures with
 /// `figures`); the report names the inputs as they will be after
 /// `out.staged`'s commit.
 ///
