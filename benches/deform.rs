@@ -53,7 +53,7 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use summary::{Runs, Summary};
-use unfold::cli::deform::{DeformSettings, Deformed, deform_mesh};
+use unfold::app::deform::{Deformed, Settings as DeformSettings, deform_mesh};
 use unfold::io::{WriteOptions, write_mesh};
 use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
 use unfold::mesh::{CellMesh, TetMesh};

@@ -1,6 +1,6 @@
 //! `unfold.deform`: `unfold deform` on numpy arrays
-//! ([`unfold::cli::deform::deform_mesh`], the command line's own repair,
-//! solve, messages and `OUT.report.json` layout).
+//! ([`unfold::app::deform`]: the command line's own repair, solve,
+//! messages and `OUT.report.json` layout, [`DeformRunReport`]).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
 use crate::inputs::choice;
@@ -8,7 +8,8 @@ use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::Path;
-use unfold::cli::deform::{DeformSettings, Deformed, Report, deform_mesh, tet_mesh_of};
+use unfold::app::deform::{DeformRunReport, Inputs, Settings, run, tet_mesh_of};
+use unfold::app::run::provenance::Provenance;
 
 /// Deforms a tet mesh towards targets; returns `(deformed, report_json)`,
 /// the mesh as `(points, cells, point_data, cell_data)`.
@@ -35,38 +36,41 @@ pub(crate) fn deform<'py>(
     name: &str,
     targets_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
-    let settings = DeformSettings {
+    let started = unfold::app::run::provenance::now();
+    let settings = Settings {
         weight,
         energy: choice("--energy", energy)?,
         solver: choice("--solver", solver)?,
         tol,
         max_iterations: crate::inputs::max_iterations(max_iterations, "--max-iterations")?,
     };
-    settings.check().map_err(crate::error)?;
+    settings.validate().map_err(crate::error)?;
     let mesh_path = Path::new(name);
     let targets_path = Path::new(targets_name);
     let cells = cell_mesh(points, cells, point_data, cell_data)?;
     let tets = tet_mesh_of(&cells, mesh_path).map_err(crate::error)?;
     let pairs = target_pairs(&vertices, &targets, cells.positions.len(), targets_name)?;
-    let parameters = format!("{settings:?}");
-    let Deformed {
-        mesh,
-        repair,
-        report,
-        ..
-    } = py
-        .detach(|| deform_mesh(cells, &tets, &pairs, &settings, mesh_path, targets_path))
-        .map_err(crate::error)?;
-    let json = crate::report::json(&Report {
-        mesh: name.to_string(),
-        targets_file: targets_name.to_string(),
-        output: String::new(),
-        repair,
-        report: &report,
-        provenance: crate::report::Provenance::new(parameters, started),
-    })?;
-    let mesh = mesh_tuple(py, &mesh)?;
+    // The settings as the report has always named them.
+    let parameters = format!(
+        "DeformSettings {{ weight: {:?}, energy: {:?}, solver: {:?}, tol: {:?}, \
+         max_iterations: {:?} }}",
+        settings.weight, settings.energy, settings.solver, settings.tol, settings.max_iterations
+    );
+    let inputs = Inputs {
+        mesh: mesh_path.to_path_buf(),
+        targets: targets_path.to_path_buf(),
+        cells,
+        tets,
+        pairs,
+    };
+    let run = py.detach(|| run(&settings, inputs)).map_err(crate::error)?;
+    let report = DeformRunReport {
+        provenance: Provenance::python(parameters, started),
+        ..run.report
+    };
+    // As before: the report without a final newline.
+    let json = serde_json::to_string_pretty(&report).map_err(crate::error)?;
+    let mesh = mesh_tuple(py, &run.mesh)?;
     PyTuple::new(py, [mesh.into_any(), json.into_pyobject(py)?.into_any()])
 }
 

@@ -1,6 +1,6 @@
 //! `unfold.mitral`: `unfold mitral` on one valve given as numpy arrays
-//! ([`unfold::cli::mitral`]: the command line's settings checks, pipeline,
-//! messages and `report.json` layout).
+//! ([`unfold::app::mitral`]: the command line's settings checks, pipeline,
+//! messages and `report.json` layout, [`MitralReport`]).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
 use crate::inputs::{choice, points};
@@ -8,7 +8,8 @@ use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::Path;
-use unfold::cli::mitral::{FullReport, MitralSettings, leaflet_of, map_valve};
+use unfold::app::mitral::{Inputs, MitralReport, Settings, leaflet_of, run_with};
+use unfold::app::run::provenance::Provenance;
 use unfold::mesh::CellMesh;
 
 /// A leaflet given as `(points, cells, point_data)` (meshio's layout).
@@ -42,13 +43,13 @@ pub(crate) fn mitral<'py>(
     cut_posteromedial: bool,
     name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
+    let started = unfold::app::run::provenance::now();
     let Ok(iterations) = usize::try_from(iterations) else {
         return Err(crate::error(format!(
             "--iterations must be a whole number >= 0, got {iterations}"
         )));
     };
-    let settings = MitralSettings {
+    let settings = Settings {
         annulus_mode: choice("--annulus-mode", annulus_mode)?,
         init: choice("--init", init)?,
         relax: choice("--relax", relax)?,
@@ -57,6 +58,7 @@ pub(crate) fn mitral<'py>(
         coaptation_mm,
         tolerance_mm,
         cut_posteromedial,
+        no_figures: true,
     };
     let pipeline = settings.pipeline().map_err(crate::error)?;
     let leaflet = |(p, c, d): Leaflet<'py>, which: &str| -> PyResult<_> {
@@ -77,7 +79,7 @@ pub(crate) fn mitral<'py>(
         .map(|found| found.ring)
         .map_err(|source| {
             crate::input_error(
-                unfold::cli::AppError::Organ {
+                unfold::app::AppError::Organ {
                     path: name.to_string(),
                     source,
                 },
@@ -88,24 +90,44 @@ pub(crate) fn mitral<'py>(
             )
         })?,
     };
-    let parameters = format!("{settings:?}, annulus given: {}", annulus.is_some());
-    let outcome = py
-        .detach(|| map_valve(&pipeline, &anterior, &posterior, &ring, name))
-        .map_err(|e| {
-            crate::input_error(
-                e,
-                &[
-                    ("the anterior leaflet", &anterior.positions),
-                    ("the posterior leaflet", &posterior.positions),
-                    ("the annulus", &ring),
-                ],
-            )
-        })?;
-    let json = crate::report::json(&FullReport {
-        inputs: name,
-        report: &outcome.report,
-        provenance: crate::report::Provenance::new(parameters, started),
+    // The settings as the report has always named them.
+    let parameters = format!(
+        "MitralSettings {{ annulus_mode: {:?}, init: {:?}, relax: {:?}, iterations: {:?}, \
+         step_scale: {:?}, coaptation_mm: {:?}, tolerance_mm: {:?}, cut_posteromedial: {:?} }}, \
+         annulus given: {}",
+        settings.annulus_mode,
+        settings.init,
+        settings.relax,
+        settings.iterations,
+        settings.step_scale,
+        settings.coaptation_mm,
+        settings.tolerance_mm,
+        settings.cut_posteromedial,
+        annulus.is_some()
+    );
+    let inputs = Inputs {
+        label: name.to_string(),
+        anterior,
+        posterior,
+        ring,
+    };
+    let run = py.detach(|| run_with(&pipeline, &inputs)).map_err(|e| {
+        crate::input_error(
+            e,
+            &[
+                ("the anterior leaflet", &inputs.anterior.positions),
+                ("the posterior leaflet", &inputs.posterior.positions),
+                ("the annulus", &inputs.ring),
+            ],
+        )
     })?;
+    let outcome = run.outcome;
+    let report = MitralReport {
+        provenance: Provenance::python(parameters, started),
+        ..run.report
+    };
+    // As before: the report without a final newline.
+    let json = serde_json::to_string_pretty(&report).map_err(crate::error)?;
     let valve2d = mesh_tuple(py, &CellMesh::from(&outcome.valve2d))?;
     let valve3d = mesh_tuple(py, &CellMesh::from(&outcome.valve3d))?;
     PyTuple::new(

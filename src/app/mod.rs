@@ -11,8 +11,10 @@
 //! command line (`crate::cli`) turns flags into settings and prints, Python
 //! turns numpy arrays into settings and inputs.
 
+pub mod deform;
 pub mod error;
 pub mod mesh;
+pub mod mitral;
 pub mod names;
 pub mod observer;
 pub mod placenta;

@@ -10,8 +10,8 @@
 //! are its `distortion.final`, the quantities a series writes).
 
 use super::cohort::SubjectRow;
-use super::mitral::SERIES_COLUMNS;
 use super::{AppError, at};
+use crate::app::mitral::SERIES_COLUMNS;
 use std::path::{Path, PathBuf};
 
 /// The measurement columns: those of `series.csv` after `step` up to

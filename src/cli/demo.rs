@@ -227,22 +227,24 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
     println!("{summary}");
 
     // The mitral pipeline, from the valve files written above.
-    let files = super::mitral::ValveFiles {
+    let files = crate::app::mitral::ValveFiles {
         anterior: dir.join("valve_anterior.vtu"),
         posterior: dir.join("valve_posterior.vtu"),
         annulus: Some(dir.join("valve_annulus.vtu")),
     };
     let mitral_dir = dir.join("mitral");
-    let outcome = super::mitral::run_valve(
+    let run = crate::app::mitral::run_valve(
         &files,
         &crate::organs::mitral::Pipeline::new(),
-        &mitral_dir,
+        &crate::app::mitral::Outputs {
+            dir: &mitral_dir,
+            staged,
+        },
         true,
-        staged,
     )?;
     println!(
         "built-in mitral valve: {}",
-        super::mitral::summary(&outcome.report)
+        crate::app::mitral::summary(&run.outcome.report)
     );
     println!(
         "wrote {} (valve3d.vtu, valve2d.vtu, report.json)",

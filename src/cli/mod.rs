@@ -18,7 +18,6 @@ mod demo_cohort;
 mod info;
 pub mod mesh;
 pub mod mitral;
-mod mitral_series;
 pub mod placenta;
 mod pushback;
 mod repair;

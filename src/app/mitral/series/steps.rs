@@ -1,5 +1,5 @@
-//! The files of `unfold mitral --series DIR`: which file is which leaflet
-//! (or annulus) of which time step.
+//! The files of a series directory (`unfold mitral --series DIR`): which
+//! file is which leaflet (or annulus) of which time step.
 //!
 //! A file's role comes from its name (any case): the anterior leaflet is
 //! named `*anterior*` or has the word `AL` (a run of letters `al`, as in
@@ -15,14 +15,14 @@
 //! given for every step or for none (then each step's annulus is found
 //! from its leaflets, [`unfold_organs::mitral::annulus_from_leaflets`]).
 
-use super::{AppError, at};
+use crate::app::error::{AppError, at};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// One step's files.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct StepFiles {
+pub struct StepFiles {
     /// The step's key (the name without the role and extension).
     pub key: String,
     /// The anterior leaflet.
@@ -155,7 +155,7 @@ fn natural(a: &str, b: &str) -> Ordering {
 /// directory; two files of one role and step; a leaflet without its
 /// partner; an annulus without leaflets; annulus files for some steps but
 /// not all; no leaflet file at all. Each one line naming the file(s).
-pub(crate) fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, AppError> {
+pub fn series_steps(dir: &Path) -> Result<Vec<StepFiles>, AppError> {
     let fs = |source| AppError::Fs {
         path: dir.display().to_string(),
         source,

@@ -1,0 +1,81 @@
+//! A mitral run on one valve's inputs: the library's [`Pipeline`] (the
+//! annulus laid out, the leaflets below it, relaxed flip-free, the maps)
+//! and the typed report. Nothing is written here ([`super::write()`] does).
+
+use super::inputs::Inputs;
+use super::report::MitralReport;
+use super::settings::Settings;
+use crate::app::AppError;
+use crate::app::error::organ;
+use crate::app::run::provenance;
+use crate::mesh::TriMesh;
+use crate::mesh::nalgebra::Point3;
+use crate::organs::mitral::{Outcome, Pipeline, ValveInput};
+
+/// What a run produced.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// The library's outcome: both leaflets in 3D and 2D with their maps,
+    /// and its report.
+    pub outcome: Outcome,
+    /// `report.json`: the outcome's report with the inputs named and the
+    /// run's provenance.
+    pub report: MitralReport,
+}
+
+impl Run {
+    /// The run of `outcome` on the inputs called `label`, with this
+    /// process's provenance.
+    pub fn new(outcome: Outcome, label: &str) -> Run {
+        let report = MitralReport {
+            inputs: label.to_string(),
+            report: outcome.report.clone(),
+            provenance: provenance::this_run(),
+        };
+        Run { outcome, report }
+    }
+}
+
+/// Runs the pipeline of `settings` on `inputs` ([`run_with`]).
+///
+/// # Errors
+/// The settings' ([`Settings::pipeline`]) and the pipeline's, about the
+/// inputs.
+pub fn run(settings: &Settings, inputs: &Inputs) -> Result<Run, AppError> {
+    run_with(&settings.pipeline()?, inputs)
+}
+
+/// Runs `pipeline` (its pieces may be a method developer's) on `inputs`.
+///
+/// # Errors
+/// The pipeline's, about `inputs.label` (settings as usage errors).
+pub fn run_with(pipeline: &Pipeline, inputs: &Inputs) -> Result<Run, AppError> {
+    let outcome = map_valve(
+        pipeline,
+        &inputs.anterior,
+        &inputs.posterior,
+        &inputs.ring,
+        &inputs.label,
+    )?;
+    Ok(Run::new(outcome, &inputs.label))
+}
+
+/// Runs `pipeline` on one valve (named `label` in messages).
+///
+/// # Errors
+/// The pipeline's, about `label` (settings as usage errors).
+pub fn map_valve(
+    pipeline: &Pipeline,
+    anterior: &TriMesh,
+    posterior: &TriMesh,
+    annulus: &[Point3<f64>],
+    label: &str,
+) -> Result<Outcome, AppError> {
+    pipeline
+        .run(&ValveInput {
+            anterior,
+            posterior,
+            annulus,
+        })
+        .map_err(|e| organ(label, e))
+}
