@@ -1,34 +1,9 @@
-//! The sections of a Python run's report that differ from the command
-//! line's: `memory` (the prediction only, no budget) and `provenance` (no
-//! command line, no input files), with the command line's keys.
+//! The section of a Python run's report that differs from the command
+//! line's: `provenance` (no command line, no input files), with the command
+//! line's keys (the memory section is
+//! `unfold::app::run::memory::MemoryReport::predicted`).
 
 use serde::Serialize;
-
-/// `memory` in a Python report: the keys of the command line's; the
-/// prediction is not checked against a budget (there is none in Python).
-#[derive(Serialize)]
-pub(crate) struct Memory {
-    pub predicted_peak_bytes: u64,
-    pub peak_bytes: Option<u64>,
-    pub limit_bytes: Option<u64>,
-    pub limit_source: &'static str,
-}
-
-impl Memory {
-    /// A prediction of `bytes` (0 when not finite or negative).
-    pub fn predicted(bytes: f64) -> Self {
-        Memory {
-            predicted_peak_bytes: if bytes.is_finite() && bytes > 0.0 {
-                bytes as u64
-            } else {
-                0
-            },
-            peak_bytes: None,
-            limit_bytes: None,
-            limit_source: "unknown",
-        }
-    }
-}
 
 /// `provenance` in a Python report: the command line's keys where they
 /// apply (no command line, no input files).

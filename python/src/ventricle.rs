@@ -1,24 +1,26 @@
-//! `unfold.ventricle`: `unfold ventricle` on numpy arrays
-//! ([`unfold::cli::ventricle::map_anatomy`]: the command line's settings
-//! checks, pipeline, transfer, messages and `report.json` layout).
+//! `unfold.ventricle`: the ventricle run of the application layer
+//! ([`unfold::app::ventricle`]) on numpy arrays: the command line's
+//! settings checks, pipeline, transfer, messages and `report.json` layout
+//! ([`VentricleReport`]).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
-use crate::inputs::{opt_point, point, tri_mesh};
-use crate::report::{Memory, Provenance};
+use crate::inputs::{choice, opt_point, point, tri_mesh};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use unfold::cli::ventricle::{
-    FullReport, Inputs, Mapped, TransferInput, hemisphere, map_anatomy, settings, with_vertex_cells,
+use std::io::IsTerminal;
+use unfold::app::error::positive;
+use unfold::app::run::memory::MemoryReport;
+use unfold::app::run::provenance::Provenance;
+use unfold::app::ventricle::surface::build_from;
+use unfold::app::ventricle::{
+    ChartSettings, EnclosingSettings, Inputs, Settings, Transfer, VentricleReport, run,
+    with_vertex_cells,
 };
-use unfold::cli::ventricle_surface::build_from;
 use unfold::mesh::CellMesh;
-use unfold::organs::ventricle::enclosing::{
-    DEFAULT_MARGIN_MM, DEFAULT_SMOOTHING_ITERATIONS, DEFAULT_VOXEL_MM,
-};
-use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
-use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::organs::PipelineObserver;
 use unfold::organs::ventricle::{Chamber, LandmarkPoints};
+use unfold::param::Named;
 
 /// The anatomy given as `(points, cells, point_data, cell_data)`.
 type Anatomy<'py> = (
@@ -28,14 +30,29 @@ type Anatomy<'py> = (
     Option<Bound<'py, PyDict>>,
 );
 
-/// The chamber of a name ("lv", "rv").
+/// The chamber of a name ("lv", "rv", any case).
 pub(crate) fn chamber(name: &str) -> PyResult<Chamber> {
-    match name.to_ascii_lowercase().as_str() {
-        "lv" => Ok(Chamber::Lv),
-        "rv" => Ok(Chamber::Rv),
-        _ => Err(crate::error(format!(
-            "--chamber must be one of lv, rv, got '{name}'"
-        ))),
+    match Chamber::by_name(&name.to_ascii_lowercase()) {
+        Some(c) => Ok(c),
+        None => choice("--chamber", name),
+    }
+}
+
+/// The run's progress lines on stderr when it is a terminal, and its
+/// warnings, as the command line shows them.
+struct Terminal;
+
+impl PipelineObserver for Terminal {}
+
+impl unfold::app::observer::Observer for Terminal {
+    fn progress(&mut self, line: &str) {
+        if std::io::stderr().is_terminal() {
+            eprintln!("{line}");
+        }
+    }
+
+    fn warning(&mut self, text: &str) {
+        eprintln!("warning: {text}");
     }
 }
 
@@ -43,7 +60,7 @@ pub(crate) fn chamber(name: &str) -> PyResult<Chamber> {
 /// anatomy, disk, transferred or None, report_json, built S or None)`,
 /// each mesh as `(points, cells, point_data, cell_data)`. Without
 /// `points` and `triangles`, S is built from the anatomy
-/// ([`unfold::cli::ventricle_surface::build_from`], `surface_voxel_mm`,
+/// ([`unfold::app::ventricle::surface::build_from`], `surface_voxel_mm`,
 /// `surface_margin_mm`, `surface_smoothing`), as the command line does
 /// without `--surface`.
 #[pyfunction]
@@ -84,15 +101,20 @@ pub(crate) fn ventricle<'py>(
     surface_name: &str,
     to_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
-    let config = settings(
-        self::chamber(chamber)?,
-        grid_mm.unwrap_or(DEFAULT_GRID_MM),
-        hemisphere_mm.unwrap_or(DEFAULT_HEMISPHERE_MM),
-        display_exponent,
-        snap_mm.unwrap_or(DEFAULT_SNAP_MM),
-    )
-    .map_err(crate::error)?;
+    let started = unfold::app::run::provenance::now();
+    let defaults = ChartSettings::default();
+    let mut settings = Settings {
+        chart: ChartSettings {
+            chamber: self::chamber(chamber)?,
+            grid_mm: grid_mm.unwrap_or(defaults.grid_mm),
+            hemisphere_mm: hemisphere_mm.unwrap_or(defaults.hemisphere_mm),
+            display_exponent,
+            snap_mm: snap_mm.unwrap_or(defaults.snap_mm),
+        },
+        no_figures: true,
+        ..Settings::default()
+    };
+    let config = settings.validate().map_err(crate::error)?;
     let parameters = format!("{config:?}");
     let given = match (&points, &triangles) {
         (Some(p), Some(t)) => {
@@ -131,30 +153,24 @@ pub(crate) fn ventricle<'py>(
     let (surface, built, surface_name) = match given {
         Some(s) => (s, None, surface_name),
         None => {
+            let defaults = EnclosingSettings::default();
+            settings.enclosing = EnclosingSettings {
+                surface_voxel_mm: surface_voxel_mm.unwrap_or(defaults.surface_voxel_mm),
+                surface_margin_mm: surface_margin_mm.unwrap_or(defaults.surface_margin_mm),
+                surface_smoothing: surface_smoothing.unwrap_or(defaults.surface_smoothing),
+            };
             let built = py
-                .detach(|| {
-                    build_from(
-                        &anatomy,
-                        anatomy_name,
-                        &landmarks,
-                        surface_voxel_mm.unwrap_or(DEFAULT_VOXEL_MM),
-                        surface_margin_mm.unwrap_or(DEFAULT_MARGIN_MM),
-                        surface_smoothing.unwrap_or(DEFAULT_SMOOTHING_ITERATIONS),
-                    )
-                })
+                .detach(|| build_from(&anatomy, anatomy_name, &landmarks, &settings.enclosing))
                 .map_err(|e| crate::input_error(e, &[(anatomy_name, &anatomy.positions)]))?;
             // the given rim landmarks lie on the anatomy's rim: carried to S's
             [landmarks.anterior, landmarks.inferior] = built.rim_landmarks;
             (built.surface.clone(), Some(built), built_label.as_str())
         }
     };
-    if to_hemisphere.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
-        return Err(crate::error(format!(
-            "--to-hemisphere must be a finite number > 0, got {}",
-            to_hemisphere.unwrap_or(f64::NAN)
-        )));
+    if let Some(r) = to_hemisphere {
+        positive("--to-hemisphere", r).map_err(crate::error)?;
     }
-    let second = match (to_points, to_triangles, to_hemisphere) {
+    let transfer = match (to_points, to_triangles, to_hemisphere) {
         (Some(_), _, Some(_)) => {
             return Err(crate::error("give to_surface or to_hemisphere, not both"));
         }
@@ -165,81 +181,52 @@ pub(crate) fn ventricle<'py>(
                      rim landmarks)",
                 ));
             };
-            Some((
-                tri_mesh(&p, &t, to_name)?,
-                LandmarkPoints {
+            Some(Transfer {
+                surface: tri_mesh(&p, &t, to_name)?,
+                landmarks: LandmarkPoints {
                     anterior: point(a, "to_anterior")?,
                     inferior: point(i, "to_inferior")?,
                     apex: opt_point(to_apex, "to_apex")?,
                     rim_near: opt_point(to_rim_near, "to_rim_near")?,
                 },
-                to_name.to_string(),
-            ))
+                label: to_name.to_string(),
+            })
         }
-        (None, _, Some(r)) => {
-            let h = hemisphere(r).map_err(crate::error)?;
-            Some((
-                h.surface,
-                LandmarkPoints {
-                    anterior: h.anterior,
-                    inferior: h.inferior,
-                    apex: Some(h.apex),
-                    rim_near: None,
-                },
-                format!("the hemisphere of radius {r} mm"),
-            ))
-        }
+        (None, _, Some(r)) => Some(Transfer::hemisphere(r).map_err(crate::error)?),
         _ => None,
     };
-    let Mapped {
-        outcome,
-        transferred,
-    } = py
-        .detach(|| {
-            let transfer = second
-                .as_ref()
-                .map(|(surface, landmarks, label)| TransferInput {
-                    label,
-                    surface,
-                    landmarks: *landmarks,
-                });
-            map_anatomy(
-                anatomy_name,
-                &anatomy,
-                surface_name,
-                &surface,
-                &landmarks,
-                config,
-                transfer.as_ref(),
-            )
-        })
+    settings.to_hemisphere = to_hemisphere;
+    let inputs = Inputs {
+        anatomy_label: anatomy_name.to_string(),
+        anatomy,
+        surface_label: surface_name.to_string(),
+        surface,
+        landmarks,
+        from_rv: None,
+        enclosing: built.as_ref().map(|b| b.report.clone()),
+        transfer,
+    };
+    let run = py
+        .detach(|| run(&settings, &inputs, &mut Terminal))
         .map_err(|e| {
             crate::input_error(
                 e,
                 &[
-                    (anatomy_name, &anatomy.positions),
-                    (surface_name, &surface.positions),
+                    (anatomy_name, &inputs.anatomy.positions),
+                    (surface_name, &inputs.surface.positions),
                 ],
             )
         })?;
-    let json = crate::report::json(&FullReport {
-        inputs: Inputs {
-            anatomy: anatomy_name,
-            surface: surface_name,
-            rv_landmarks: None,
-        },
-        report: &outcome.report,
-        transfer: transferred.as_ref().map(|(_, r)| r),
-        sensitivity: None,
-        enclosing_surface: built.as_ref().map(|b| &b.report),
-        memory: Memory::predicted(outcome.report.field.estimated_bytes),
-        provenance: Provenance::new(parameters, started),
-    })?;
+    let outcome = &run.outcome;
+    let mut report: VentricleReport = run.report.clone();
+    report.memory = MemoryReport::predicted(outcome.report.field.estimated_bytes);
+    report.provenance = Provenance::python(parameters, started);
+    let json = serde_json::to_string_pretty(&report).map_err(crate::error)?;
     let normalized = mesh_tuple(py, &with_vertex_cells(&outcome.normalized))?;
     let anatomy = mesh_tuple(py, &with_vertex_cells(&outcome.anatomy))?;
     let disk = mesh_tuple(py, &CellMesh::from(&outcome.disk))?;
-    let transferred = match &transferred {
-        Some((mesh, _)) => mesh_tuple(py, &with_vertex_cells(mesh))?.into_any(),
+    let transferred = match &run.transferred {
+        Some(mesh) => mesh_tuple(py, &with_vertex_cells(mesh))?.into_any(),
         None => py.None().into_bound(py),
     };
     let built = match &built {

@@ -1,21 +1,21 @@
-//! `unfold.ventricle_inverse`: `unfold ventricle-inverse` on numpy arrays
-//! ([`unfold::cli::ventricle_inverse::invert`]: the command line's
-//! coordinate reading, chart, per-point statuses, messages and
-//! `report.json` layout).
+//! `unfold.ventricle_inverse`: `ventricle-inverse` of the application
+//! layer ([`unfold::app::ventricle::inverse`]) on numpy arrays: the
+//! command line's coordinate reading, chart, per-point statuses, messages
+//! and `report.json` layout ([`InverseReport`]).
 
 use crate::arrays::{cell_mesh, mesh_tuple};
-use crate::inputs::{opt_point, point, tri_mesh};
-use crate::report::{Memory, Provenance};
-use clap::ValueEnum;
+use crate::inputs::{choice, opt_point, point, tri_mesh};
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::time::Instant;
-use unfold::cli::ventricle::{MAX_LAYERS, settings, with_vertex_cells};
-use unfold::cli::ventricle_inverse::{CoordinatesArg, InverseInput, InverseReport, invert};
+use unfold::app::run::memory::MemoryReport;
+use unfold::app::run::provenance::Provenance;
+use unfold::app::ventricle::inverse::{Coordinates, Inputs, InverseReport, Settings, run};
+use unfold::app::ventricle::layers::check_layers;
+use unfold::app::ventricle::{ChartSettings, with_vertex_cells};
 use unfold::organs::ventricle::LandmarkPoints;
-use unfold::organs::ventricle::field::{DEFAULT_GRID_MM, DEFAULT_HEMISPHERE_MM};
-use unfold::organs::ventricle::landmarks::DEFAULT_SNAP_MM;
+use unfold::param::Named;
 
 /// The mesh in cylinder coordinates, as `(points, cells, point_data,
 /// cell_data)`.
@@ -55,29 +55,27 @@ pub(crate) fn ventricle_inverse<'py>(
     normalized_name: &str,
     surface_name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
+    let started = unfold::app::run::provenance::now();
     let clock = Instant::now();
-    let config = settings(
-        crate::ventricle::chamber(chamber)?,
-        grid_mm.unwrap_or(DEFAULT_GRID_MM),
-        hemisphere_mm.unwrap_or(DEFAULT_HEMISPHERE_MM),
+    let defaults = ChartSettings::default();
+    let chart = ChartSettings {
+        chamber: crate::ventricle::chamber(chamber)?,
+        grid_mm: grid_mm.unwrap_or(defaults.grid_mm),
+        hemisphere_mm: hemisphere_mm.unwrap_or(defaults.hemisphere_mm),
         display_exponent,
-        snap_mm.unwrap_or(DEFAULT_SNAP_MM),
-    )
-    .map_err(crate::error)?;
-    let how = CoordinatesArg::from_str(coordinates, true).map_err(|_| {
-        crate::error(format!(
-            "--coordinates must be one of auto, arrays, points, got '{coordinates}'"
-        ))
-    })?;
-    let layers = match layers {
-        None => None,
-        Some(k) if (1..=i64::from(MAX_LAYERS)).contains(&k) => Some(k as u32),
-        Some(k) => {
-            return Err(crate::error(format!(
-                "--layers must be between 1 and {MAX_LAYERS}, got {k}"
-            )));
-        }
+        snap_mm: snap_mm.unwrap_or(defaults.snap_mm),
+    };
+    let config = chart.config().map_err(crate::error)?;
+    let how = match Coordinates::by_name(&coordinates.to_ascii_lowercase()) {
+        Some(how) => how,
+        None => choice("--coordinates", coordinates)?,
+    };
+    let layers = check_layers(layers).map_err(crate::error)?;
+    let settings = Settings {
+        coordinates: how,
+        chart,
+        layers,
+        ..Settings::default()
     };
     let parameters = format!("{config:?}");
     let surface = tri_mesh(&points, &triangles, surface_name)?;
@@ -89,27 +87,22 @@ pub(crate) fn ventricle_inverse<'py>(
         apex: opt_point(apex, "apex")?,
         rim_near: opt_point(rim_near, "rim_near")?,
     };
+    let inputs = Inputs {
+        normalized,
+        normalized_label: normalized_name.to_string(),
+        surface,
+        surface_label: surface_name.to_string(),
+        landmarks,
+        from_rv: None,
+        started: clock,
+    };
     let inverted = py
-        .detach(|| {
-            invert(&InverseInput {
-                normalized: &normalized,
-                normalized_label: normalized_name,
-                coordinates: how,
-                surface: &surface,
-                surface_label: surface_name,
-                landmarks,
-                from_rv: None,
-                config,
-                layers,
-                started: clock,
-            })
-        })
+        .detach(|| run(&settings, &inputs))
         .map_err(crate::error)?;
-    let json = crate::report::json(&InverseReport {
-        body: &inverted.body,
-        memory: Memory::predicted(inverted.estimated_bytes),
-        provenance: Provenance::new(parameters, started),
-    })?;
+    let mut report: InverseReport = inverted.report.clone();
+    report.memory = MemoryReport::predicted(inverted.estimated_bytes);
+    report.provenance = Provenance::python(parameters, started);
+    let json = serde_json::to_string_pretty(&report).map_err(crate::error)?;
     let mapped = mesh_tuple(py, &with_vertex_cells(&inverted.mapped))?;
     PyTuple::new(py, [mapped.into_any(), json.into_pyobject(py)?.into_any()])
 }

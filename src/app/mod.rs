@@ -19,5 +19,6 @@ pub mod names;
 pub mod observer;
 pub mod placenta;
 pub mod run;
+pub mod ventricle;
 
 pub use error::AppError;

@@ -13,9 +13,9 @@
 //! deviation `s` (empty where the others are fewer than two or do not
 //! vary).
 
-use super::aha_segments::heart_segments;
 use super::cohort::SubjectRow;
 use super::{AppError, at};
+use crate::app::ventricle::aha_segments::heart_segments;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

@@ -253,35 +253,46 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
 
     // The ventricle pipeline on the built-in cup, its inner cup the anatomy.
     let ventricle_dir = dir.join("ventricle");
-    let mut config = crate::organs::ventricle::Config::default();
-    config.chart.field.grid_mm = VENTRICLE_GRID_MM;
+    let settings = crate::app::ventricle::Settings {
+        chart: crate::app::ventricle::ChartSettings {
+            grid_mm: VENTRICLE_GRID_MM,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     let (anatomy, rings, meridians) = cup_anatomy(&v);
-    let result = super::ventricle::run_pipeline(&super::ventricle::PipelineInput {
-        anatomy_label: "built-in ventricle cup: inner cup, rings and meridians",
-        anatomy: &anatomy,
-        surface_label: "built-in ventricle cup: S",
-        surface: &v.surface,
+    let inputs = crate::app::ventricle::Inputs {
+        anatomy_label: "built-in ventricle cup: inner cup, rings and meridians".into(),
+        anatomy,
+        surface_label: "built-in ventricle cup: S".into(),
+        surface: v.surface.clone(),
         landmarks: crate::organs::ventricle::LandmarkPoints {
             anterior: v.anterior,
             inferior: v.inferior,
             apex: Some(v.apex),
             rim_near: None,
         },
-        config,
-        transfer: None,
-        dir: &ventricle_dir,
-        figures: true,
-        bullseye_array: None,
         from_rv: None,
-        layers: None,
-        sensitivity: None,
         enclosing: None,
-    })?;
+        transfer: None,
+    };
+    let mut progress = super::progress::Progress::new(false);
+    let run = crate::app::ventricle::run(&settings, &inputs, &mut progress)?;
+    crate::app::ventricle::write(
+        &run,
+        &settings,
+        &inputs,
+        &crate::app::ventricle::Outputs {
+            dir: &ventricle_dir,
+            staged,
+        },
+    )?;
+    drop(progress);
     println!(
         "built-in ventricle cup: {}",
-        super::ventricle::summary(&result.outcome.report)
+        super::ventricle::summary(&run.outcome.report)
     );
-    let check = rings_and_meridians(&result.outcome.coords, &rings, &meridians);
+    let check = rings_and_meridians(&run.outcome.coords, &rings, &meridians);
     println!(
         "built-in ventricle cup: {} rings of constant height -> circles of the disk (worst \
          radius spread {:.2} %), {} meridians -> rays (worst angle spread {:.2} deg); drawn in \

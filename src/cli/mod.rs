@@ -2,7 +2,6 @@
 //! library (`unfold::cli`) so the Python package runs the same code (its
 //! batch subjects and cohort tables).
 
-mod aha_segments;
 pub mod batch;
 pub mod cohort;
 mod cohort_figures;
@@ -22,20 +21,14 @@ pub mod placenta;
 mod pushback;
 mod repair;
 pub mod ventricle;
-mod ventricle_grid_sweep;
-pub mod ventricle_inverse;
-mod ventricle_landmark_args;
-mod ventricle_sensitivity;
-pub mod ventricle_surface;
 
 mod choice;
 mod progress;
 
 pub use crate::app::AppError;
-pub(crate) use crate::app::error::{about, at, organ, positive, shown};
+pub(crate) use crate::app::error::{at, organ, positive, shown};
 pub(crate) use crate::app::names::stop_name;
 pub use crate::app::run::files::{canonical, ensure_dir, read_image_checked, write_figures};
-pub(crate) use crate::app::run::frame::{MeshFrame, mesh_frame, to_ras};
 pub use crate::app::run::printable::printable;
 pub(crate) use crate::app::run::{memory, provenance, units};
 use clap::{Parser, Subcommand};
@@ -84,7 +77,7 @@ enum Command {
     /// Carry a mesh or label field given in the cylinder's normalized coordinates (xi, zeta,
     /// depth; e.g. an `unfold ventricle` run's normalized.vtu, regions drawn on the disk) back
     /// onto a heart through the exact inverse map.
-    VentricleInverse(Box<ventricle_inverse::VentricleInverseArgs>),
+    VentricleInverse(Box<ventricle::inverse::VentricleInverseArgs>),
     /// Run many subjects from a CSV manifest (one row each, --jobs at a time), then gather their
     /// reports into OUT/cohort.csv.
     Batch(batch::BatchArgs),
@@ -131,7 +124,7 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), AppEr
         Command::Placenta(a) => placenta::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::Pushback(a) => pushback::run(&a),
         Command::Ventricle(a) => ventricle::run(&a).map_err(|e| hint(e, &a.input_meshes())),
-        Command::VentricleInverse(a) => ventricle_inverse::run(&a),
+        Command::VentricleInverse(a) => ventricle::inverse::run(&a),
         Command::Mitral(a) => mitral::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::Batch(a) => batch::run(&a),
         Command::Cohort(a) => cohort::run(&a),

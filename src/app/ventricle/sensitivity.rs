@@ -1,5 +1,5 @@
-//! `unfold ventricle --sensitivity MM`: how much the map moves when the
-//! landmarks are placed MM off (the source paper's §5.4, Fig. 14-17).
+//! Landmark sensitivity (`--sensitivity MM`): how much the map moves when
+//! the landmarks are placed MM off (the source paper's §5.4, Fig. 14-17).
 //!
 //! The paper displaces the landmarks by 1, 3 and 5 mm in three schemes;
 //! here each run of `--sensitivity MM` builds one chart per perturbation,
@@ -33,7 +33,8 @@
 //! (`D` the displayed disk position, `d` the depth); NaN for a point that
 //! some perturbation cannot map.
 
-use super::AppError;
+use crate::app::error::{AppError, at, organ, positive};
+use crate::app::observer::Observer;
 use crate::figures::ventricle::sensitivity_figure;
 use crate::figures::{Figure, FigureOptions};
 use crate::mesh::nalgebra::{Point3, Vector3};
@@ -47,7 +48,7 @@ use std::time::Instant;
 
 /// One perturbation of the landmarks.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Perturbation {
+pub struct Perturbation {
     /// Its name (`anterior +`, `both towards`, `apex +t1`, ...).
     pub name: &'static str,
     /// The landmarks given to its chart.
@@ -103,7 +104,7 @@ fn vertex_normal(surface: &TriMesh, v: u32) -> Vector3<f64> {
 }
 
 /// The ten perturbations of `given` by `mm` on `chart`'s S (module doc).
-pub(crate) fn perturbations(chart: &Chart, given: &LandmarkPoints, mm: f64) -> Vec<Perturbation> {
+pub fn perturbations(chart: &Chart, given: &LandmarkPoints, mm: f64) -> Vec<Perturbation> {
     let s = chart.surface();
     let rim: Vec<Point3<f64>> = chart
         .rim_of_s()
@@ -204,7 +205,7 @@ fn snapped(chart: &Chart) -> [Point3<f64>; 3] {
 #[derive(Debug, Clone, Serialize)]
 pub struct PerturbationReport {
     /// Its name (module doc).
-    pub name: &'static str,
+    pub name: String,
     /// How far the snapped anterior, inferior and apex landmarks moved, mm.
     pub moved_mm: [f64; 3],
     /// `|psi_k^-1(psi(v)) - v|` over the anatomy points, mm.
@@ -242,7 +243,7 @@ pub struct SensitivityReport {
 
 /// The per-point arrays and the report.
 #[derive(Debug, Clone)]
-pub(crate) struct Sensitivity {
+pub struct Sensitivity {
     /// `sensitivity_mm` per anatomy point.
     pub error_mm: Vec<f64>,
     /// `sensitivity_disk` per anatomy point.
@@ -256,7 +257,7 @@ pub(crate) struct Sensitivity {
 impl Sensitivity {
     /// Adds the point arrays `sensitivity_mm`, `sensitivity_disk` and
     /// `sensitivity_depth` to `mesh` (the anatomy or its normalized copy).
-    pub(crate) fn add_arrays(&self, mesh: &mut CellMesh) {
+    pub fn add_arrays(&self, mesh: &mut CellMesh) {
         let data = &mut mesh.point_data;
         data.insert(Field::scalars("sensitivity_mm", self.error_mm.clone()));
         data.insert(Field::scalars("sensitivity_disk", self.disk_shift.clone()));
@@ -272,7 +273,7 @@ impl Sensitivity {
     ///
     /// # Errors
     /// The figure's, as a usage error naming `dir`.
-    pub(crate) fn figure(&self, outcome: &Outcome, dir: &Path) -> Result<Figure, AppError> {
+    pub fn figure(&self, outcome: &Outcome, dir: &Path) -> Result<Figure, AppError> {
         let shown: Vec<[f64; 2]> = outcome
             .normalized
             .positions
@@ -286,7 +287,7 @@ impl Sensitivity {
             self.report.displacement_mm,
             &FigureOptions::default(),
         )
-        .map_err(|e| super::at(dir, e))
+        .map_err(|e| at(dir, e))
     }
 }
 
@@ -297,12 +298,14 @@ fn finite_summary(v: &[f64]) -> Summary {
 }
 
 /// Runs the ten perturbations of `given` by `mm` (module doc) for the
-/// anatomy `anatomy` of `outcome` in `surface`, with `config`.
+/// anatomy `anatomy` of `outcome` in `surface`, with `config`; warns
+/// `observer` when perturbations moved no landmark.
 ///
 /// # Errors
 /// A usage error for `mm` not finite and > 0; an organ error (named
 /// `label`) when no perturbed chart can be built.
-pub(crate) fn sensitivity(
+#[allow(clippy::too_many_arguments)]
+pub fn sensitivity(
     outcome: &Outcome,
     anatomy: &CellMesh,
     surface: &TriMesh,
@@ -310,13 +313,14 @@ pub(crate) fn sensitivity(
     config: Config,
     mm: f64,
     label: &str,
+    observer: &mut dyn Observer,
 ) -> Result<Sensitivity, AppError> {
-    let mm = super::positive("--sensitivity", mm)?;
+    let mm = positive("--sensitivity", mm)?;
     let t0 = Instant::now();
     let chamber = config.chart.chamber;
     let shown = |c: &[CylinderPoint]| -> Result<Vec<[f64; 2]>, AppError> {
         let uv: Vec<[f64; 2]> = c.iter().map(|c| [c.xi, c.zeta]).collect();
-        displayed(chamber, &uv, config.display_exponent).map_err(|e| super::organ(label, e))
+        displayed(chamber, &uv, config.display_exponent).map_err(|e| organ(label, e))
     };
     let base = shown(&outcome.coords)?;
     let base_landmarks = snapped(&outcome.chart);
@@ -336,7 +340,7 @@ pub(crate) fn sensitivity(
                 let msg = e.to_string();
                 first_error.get_or_insert((p.name, e));
                 reports.push(PerturbationReport {
-                    name: p.name,
+                    name: p.name.to_string(),
                     moved_mm: [f64::NAN; 3],
                     error_mm: Summary::default(),
                     disk_shift: Summary::default(),
@@ -389,7 +393,7 @@ pub(crate) fn sensitivity(
             }
         }
         reports.push(PerturbationReport {
-            name: p.name,
+            name: p.name.to_string(),
             moved_mm,
             error_mm: finite_summary(&e_k),
             disk_shift: finite_summary(&s_k),
@@ -401,10 +405,7 @@ pub(crate) fn sensitivity(
     if reports.iter().all(|r| r.error.is_some())
         && let Some((name, e)) = first_error
     {
-        return Err(super::organ(
-            &format!("{label} (--sensitivity {mm}, {name})"),
-            e,
-        ));
+        return Err(organ(&format!("{label} (--sensitivity {mm}, {name})"), e));
     }
     // Landmarks snap to S's vertices: a displacement shorter than half an
     // edge moves nothing, which the numbers alone would not say.
@@ -413,12 +414,12 @@ pub(crate) fn sensitivity(
         .filter(|r| r.error.is_none() && r.moved_mm.iter().all(|&m| m == 0.0))
         .count();
     if unmoved > 0 {
-        eprintln!(
-            "warning: {label}: --sensitivity {mm}: {unmoved} of {} perturbations left every \
+        observer.warning(&format!(
+            "{label}: --sensitivity {mm}: {unmoved} of {} perturbations left every \
              landmark on its vertex (the landmarks snap to S's vertices; a displacement under \
              half an edge of S moves nothing); see report.json's sensitivity.perturbations",
             reports.len()
-        );
+        ));
     }
     for j in 0..n {
         if failed[j] {

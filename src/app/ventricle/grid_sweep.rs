@@ -1,4 +1,4 @@
-//! `unfold ventricle --grid-sweep 2,1,0.5`: the pipeline rerun on each
+//! The grid sweep (`--grid-sweep 2,1,0.5`): the pipeline rerun on each
 //! grid spacing of the Laplace field (the source paper's Fig. 11: error
 //! and time against the voxel size).
 //!
@@ -25,7 +25,10 @@
 //! ([`crate::figures::ventricle::grid_sweep_plot`]). The main outputs are
 //! those of `--grid-mm`.
 
-use super::{AppError, at};
+use crate::app::error::{AppError, at, organ, positive};
+use crate::app::observer::Observer;
+use crate::app::run::StagedOutputs;
+use crate::app::run::files::write_figures;
 use crate::figures::FigureOptions;
 use crate::figures::ventricle::{GridPoint, grid_sweep_plot};
 use crate::io::atomic_write;
@@ -36,10 +39,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The table's file name.
-pub(crate) const GRID_SWEEP_CSV: &str = "grid_sweep.csv";
+pub const GRID_SWEEP_CSV: &str = "grid_sweep.csv";
 
 /// The table's columns.
-const COLUMNS: [&str; 14] = [
+pub const COLUMNS: [&str; 14] = [
     "grid_mm",
     "unknowns",
     "cg_iterations",
@@ -60,9 +63,9 @@ const COLUMNS: [&str; 14] = [
 ///
 /// # Errors
 /// A usage error naming the spacing.
-pub(crate) fn check_grids(grids: &[f64]) -> Result<(), AppError> {
+pub fn check_grids(grids: &[f64]) -> Result<(), AppError> {
     for (k, &g) in grids.iter().enumerate() {
-        super::positive("--grid-sweep", g)?;
+        positive("--grid-sweep", g)?;
         if grids[..k].contains(&g) {
             return Err(AppError::Usage(format!(
                 "--grid-sweep lists {g} twice; give each spacing once"
@@ -73,6 +76,7 @@ pub(crate) fn check_grids(grids: &[f64]) -> Result<(), AppError> {
 }
 
 /// One grid's run.
+#[derive(Debug, Clone)]
 struct Row {
     grid_mm: f64,
     unknowns: usize,
@@ -90,22 +94,29 @@ struct Row {
     peak_bytes: Option<f64>,
 }
 
-/// Runs the sweep (module doc) and writes its table and figure into
-/// `dir`; prints a line per grid. Returns the files written.
+/// The sweep's runs, one per grid in the order given.
+#[derive(Debug, Clone)]
+pub struct GridSweep {
+    rows: Vec<Row>,
+}
+
+/// Runs the pipeline on `anatomy` inside `surface` (called `label` in
+/// messages) once per grid spacing in `grids`, with `config` otherwise
+/// (module doc); tells `observer` a line per grid as a result (the
+/// command line prints it on stdout). Nothing is written ([`write`]).
 ///
 /// # Errors
-/// A grid whose run fails (named with its spacing), writing the outputs.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn grid_sweep(
+/// A spacing that is not finite and > 0 or repeated; a grid whose run
+/// fails (named with its spacing).
+pub fn sweep(
     grids: &[f64],
     anatomy: &CellMesh,
     surface: &TriMesh,
     landmarks: &LandmarkPoints,
     config: Config,
     label: &str,
-    dir: &Path,
-    figures: bool,
-) -> Result<Vec<PathBuf>, AppError> {
+    observer: &mut dyn Observer,
+) -> Result<GridSweep, AppError> {
     check_grids(grids)?;
     let mut rows = Vec::with_capacity(grids.len());
     for &g in grids {
@@ -117,7 +128,7 @@ pub(crate) fn grid_sweep(
         let outcome = Pipeline::new()
             .config(c)
             .run(anatomy, surface, landmarks)
-            .map_err(|e| super::organ(&format!("{label} (--grid-sweep {g})"), e))?;
+            .map_err(|e| organ(&format!("{label} (--grid-sweep {g})"), e))?;
         let seconds = t0.elapsed().as_secs_f64();
         let peak_bytes = if reset {
             crate::app::run::memory::peak_since_reset()
@@ -126,8 +137,8 @@ pub(crate) fn grid_sweep(
         };
         let r = &outcome.report;
         let uv: Vec<[f64; 2]> = outcome.coords.iter().map(|c| [c.xi, c.zeta]).collect();
-        let shown = displayed(c.chart.chamber, &uv, c.display_exponent)
-            .map_err(|e| super::organ(label, e))?;
+        let shown =
+            displayed(c.chart.chamber, &uv, c.display_exponent).map_err(|e| organ(label, e))?;
         let row = Row {
             grid_mm: g,
             unknowns: r.field.unknowns,
@@ -144,7 +155,7 @@ pub(crate) fn grid_sweep(
             estimated_bytes: r.field.estimated_bytes,
             peak_bytes,
         };
-        println!(
+        observer.info(&format!(
             "grid sweep {g} mm: {} unknowns, round trip mean {:.3e} um, max {:.3e} um, {:.2} s \
              (Laplace {:.2} s), field estimate {:.1} MiB{}",
             row.unknowns,
@@ -157,9 +168,26 @@ pub(crate) fn grid_sweep(
                 Some(p) => format!(", peak {:.1} MiB", p / 1048576.0),
                 None => String::new(),
             }
-        );
+        ));
         rows.push(row);
     }
+    Ok(GridSweep { rows })
+}
+
+/// Writes the sweep's table [`GRID_SWEEP_CSV`] (a row per grid,
+/// [`COLUMNS`]) and, with `figures`, `figures/grid_sweep.png` into `dir`
+/// (a staging area of `staged`). Returns the files written as they will be
+/// named after the commit.
+///
+/// # Errors
+/// Writing the table or the figure.
+pub fn write(
+    sweep: &GridSweep,
+    dir: &Path,
+    figures: bool,
+    staged: &StagedOutputs,
+) -> Result<Vec<PathBuf>, AppError> {
+    let rows = &sweep.rows;
     // the finest grid is the reference of the shifts
     let finest = rows
         .iter()
@@ -169,7 +197,7 @@ pub(crate) fn grid_sweep(
     let path = dir.join(GRID_SWEEP_CSV);
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(COLUMNS).map_err(|e| at(&path, e))?;
-    for r in &rows {
+    for r in rows {
         let disk_shift = r
             .shown
             .iter()
@@ -216,9 +244,9 @@ pub(crate) fn grid_sweep(
             .collect();
         let figure =
             grid_sweep_plot(&points, &FigureOptions::default()).map_err(|e| at(&path, e))?;
-        written.extend(super::write_figures(dir, &[figure])?);
+        written.extend(write_figures(dir, &[figure])?);
     }
-    Ok(written)
+    Ok(written.iter().map(|p| staged.shown(p)).collect())
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 //! carried in). The cohort statistics (`cohort_segments`) average the same
 //! per-heart means across hearts.
 
-use super::{AppError, at};
+use crate::app::error::{AppError, at};
 use crate::mesh::CellMesh;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -13,7 +13,7 @@ use std::path::Path;
 /// One heart's segment figures: points per segment (index `k - 1` for
 /// segment `k`) and `(array, segment) -> mean` over the finite values.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub(crate) struct HeartSegments {
+pub struct HeartSegments {
     /// Points labelled `k`, at `k - 1`.
     pub points: [usize; 17],
     /// Mean of each scalar array (not the labels `aha` and `layer`) over the finite values of the
@@ -24,7 +24,7 @@ pub(crate) struct HeartSegments {
 /// The segment figures of an anatomy with the point array `aha`
 /// (1..=17; other labels are skipped); `None` without it (RV, or not
 /// mapped).
-pub(crate) fn heart_segments(mesh: &CellMesh) -> Option<HeartSegments> {
+pub fn heart_segments(mesh: &CellMesh) -> Option<HeartSegments> {
     let labels = mesh.point_data.get("aha")?;
     let mut out = HeartSegments::default();
     for i in 0..labels.tuples() {
@@ -64,7 +64,7 @@ pub(crate) fn heart_segments(mesh: &CellMesh) -> Option<HeartSegments> {
 ///
 /// # Errors
 /// Only the CSV writer's (named at `path`).
-pub(crate) fn segment_table(s: &HeartSegments, path: &Path) -> Result<Vec<u8>, AppError> {
+pub fn segment_table(s: &HeartSegments, path: &Path) -> Result<Vec<u8>, AppError> {
     let arrays: Vec<&String> = {
         let mut a: Vec<&String> = s.means.keys().map(|(n, _)| n).collect();
         a.dedup();
