@@ -26,7 +26,7 @@ mod choice;
 mod progress;
 
 pub use crate::app::AppError;
-pub(crate) use crate::app::error::{at, organ, positive, shown};
+pub(crate) use crate::app::error::{at, positive, shown};
 pub(crate) use crate::app::names::stop_name;
 pub use crate::app::run::files::{canonical, ensure_dir, read_image_checked, write_figures};
 pub use crate::app::run::printable::printable;
