@@ -12,3 +12,8 @@ pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;
 pub use unfold_organs as organs;
 pub use unfold_param as param;
+
+/// The `unfold` program on the command line `argv` (program name first),
+/// returning its exit code ([`cli::main`]): the binary, and Python's
+/// `python -m unfold`.
+pub use cli::main as program;

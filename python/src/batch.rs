@@ -1,6 +1,5 @@
 //! `unfold batch` and `unfold cohort` in steps, for `unfold.dask`: the
-//! command line's own functions ([`unfold::cli::batch`],
-//! [`unfold::cli::cohort`]), converted. A subject runs as its own process
+//! application's cohort functions ([`unfold::app::cohort`]), converted. A subject runs as its own process
 //! (`python -m unfold ...`, which is [`main`]), as in the command line's
 //! batch, so an error or a crash stays with its subject and each report
 //! records its own run.
@@ -8,14 +7,14 @@
 use pyo3::prelude::*;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use unfold::cli::batch::{self, Ended, Program, Subject};
-use unfold::cli::cohort::PlotSpec;
+use unfold::app::cohort::{self as batch, Ended, PlotSpec, Program, Subject};
+use unfold::app::observer::Plain;
 
 /// The `unfold` program on `argv` (program name first): its exit code,
 /// its output on this process's stdout and stderr (`python -m unfold`).
 #[pyfunction]
 pub(crate) fn main(py: Python<'_>, argv: Vec<String>) -> u8 {
-    py.detach(|| unfold::cli::main(argv.into_iter().map(OsString::from).collect()))
+    py.detach(|| unfold::program(argv.into_iter().map(OsString::from).collect()))
 }
 
 /// A checked batch manifest ([`batch::plan`]).
@@ -46,7 +45,9 @@ impl Plan {
 /// Reads and checks a manifest (every row, before anything runs).
 #[pyfunction]
 pub(crate) fn plan(py: Python<'_>, manifest: PathBuf) -> PyResult<Plan> {
-    let plan = py.detach(|| batch::plan(&manifest)).map_err(crate::error)?;
+    let plan = py
+        .detach(|| batch::plan(&manifest, &unfold::cli::cohort::organ_columns))
+        .map_err(crate::error)?;
     Ok(Plan { plan })
 }
 
@@ -167,7 +168,7 @@ pub(crate) fn finish(
         })
         .collect::<PyResult<Vec<_>>>()?;
     let c = py
-        .detach(|| batch::finish(&out_dir, &plan.plan, &ended))
+        .detach(|| batch::finish(&out_dir, &plan.plan, &ended, &mut Plain))
         .map_err(crate::error)?;
     Ok((c.total, c.ran, c.not_converged, c.skipped, c.failed))
 }
@@ -182,6 +183,6 @@ pub(crate) fn cohort(py: Python<'_>, out_dir: PathBuf, plots: Vec<String>) -> Py
         .map(|p| p.parse::<PlotSpec>())
         .collect::<Result<Vec<_>, _>>()
         .map_err(crate::error)?;
-    py.detach(|| unfold::cli::cohort::gather(Path::new(&out_dir), &plots))
+    py.detach(|| batch::gather(Path::new(&out_dir), &plots, &mut Plain))
         .map_err(crate::error)
 }

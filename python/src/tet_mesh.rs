@@ -10,7 +10,7 @@ use pyo3::types::PyTuple;
 use serde::Serialize;
 use std::path::Path;
 use unfold::app::mesh::mask::MaskSettings;
-use unfold::app::observer::WarnOnStderr;
+use unfold::app::observer::Plain;
 use unfold::mesh::CellMesh;
 use unfold::mesh::mesher::MeshQuality;
 
@@ -75,7 +75,7 @@ pub(crate) fn tet_mesh<'py>(
     let out = py
         .detach(|| {
             let mask = how.mask_of(path, &image)?;
-            let out = how.mesh(path, &mask, keep_all_components, &mut WarnOnStderr)?;
+            let out = how.mesh(path, &mask, keep_all_components, &mut Plain)?;
             let quality = MeshQuality::of(&out.mesh)?;
             Ok::<_, unfold::app::AppError>((out, quality))
         })

@@ -11,6 +11,7 @@
 //! command line (`crate::cli`) turns flags into settings and prints, Python
 //! turns numpy arrays into settings and inputs.
 
+pub mod cohort;
 pub mod deform;
 pub mod error;
 pub mod mesh;

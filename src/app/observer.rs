@@ -34,14 +34,23 @@ pub struct Quiet;
 impl PipelineObserver for Quiet {}
 impl Observer for Quiet {}
 
-/// An observer that prints warnings on stderr as the command line does
-/// and ignores the rest (Python's runs, whose warnings went to stderr
-/// before there was an observer).
+/// An observer that prints as the command line does without a terminal:
+/// info lines on stdout, status lines and warnings on stderr, no progress
+/// (Python's runs, whose messages went there before there was an
+/// observer).
 #[derive(Debug, Default, Clone, Copy)]
-pub struct WarnOnStderr;
+pub struct Plain;
 
-impl PipelineObserver for WarnOnStderr {}
-impl Observer for WarnOnStderr {
+impl PipelineObserver for Plain {}
+impl Observer for Plain {
+    fn status(&mut self, line: &str) {
+        eprintln!("{line}");
+    }
+
+    fn info(&mut self, line: &str) {
+        println!("{line}");
+    }
+
     fn warning(&mut self, text: &str) {
         eprintln!("warning: {text}");
     }

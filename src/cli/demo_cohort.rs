@@ -222,5 +222,5 @@ pub(crate) fn run(dir: &Path, placentas: usize) -> Result<(), AppError> {
          age_weeks, group and phase)",
         manifest.display()
     );
-    super::batch::run_manifest(&manifest, &dir.join("study"), None)
+    super::cohort::run_manifest(&manifest, &dir.join("study"), None)
 }

@@ -2,14 +2,7 @@
 //! library (`unfold::cli`) so the Python package runs the same code (its
 //! batch subjects and cohort tables).
 
-pub mod batch;
 pub mod cohort;
-mod cohort_figures;
-mod cohort_images;
-mod cohort_mitral;
-mod cohort_mitral_maps;
-mod cohort_report;
-mod cohort_segments;
 mod convert;
 pub mod deform;
 mod demo;
@@ -80,7 +73,7 @@ enum Command {
     VentricleInverse(Box<ventricle::inverse::VentricleInverseArgs>),
     /// Run many subjects from a CSV manifest (one row each, --jobs at a time), then gather their
     /// reports into OUT/cohort.csv.
-    Batch(batch::BatchArgs),
+    Batch(cohort::BatchArgs),
     /// Gather the reports of an `unfold batch` output directory into OUT/cohort.csv.
     Cohort(cohort::CohortArgs),
     /// Lay a mitral valve out in 2D: annulus first, leaflets below, relaxed flip-free, with
@@ -126,8 +119,8 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), AppEr
         Command::Ventricle(a) => ventricle::run(&a).map_err(|e| hint(e, &a.input_meshes())),
         Command::VentricleInverse(a) => ventricle::inverse::run(&a),
         Command::Mitral(a) => mitral::run(&a).map_err(|e| hint(e, &a.input_meshes())),
-        Command::Batch(a) => batch::run(&a),
-        Command::Cohort(a) => cohort::run(&a),
+        Command::Batch(a) => cohort::run(&a),
+        Command::Cohort(a) => cohort::run_cohort(&a),
     }
 }
 

@@ -13,8 +13,8 @@
 //! anywhere; every text read from a file is HTML-escaped. The page is the
 //! same for the same outputs apart from its timestamp.
 
-use super::AppError;
-use super::cohort::SubjectRow;
+use super::table::{SubjectRow, flatten};
+use crate::app::AppError;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -230,7 +230,7 @@ impl Status {
 /// with whether it is a problem.
 fn quality_flags(report: &serde_json::Value) -> Vec<(String, String, bool)> {
     let mut scalars = std::collections::BTreeMap::new();
-    super::cohort::flatten("", report, &mut scalars);
+    flatten("", report, &mut scalars);
     scalars
         .into_iter()
         .filter_map(|(key, value)| {
@@ -317,7 +317,7 @@ fn link_if_file(html: &mut String, out: &Path, segments: &[&str], label: &str) {
 ///
 /// # Errors
 /// Writing the page.
-pub(crate) fn write_report(
+pub fn write_report(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],

@@ -25,7 +25,10 @@
 //! is skipped, and a line says so. PNGs of an earlier run that this run did
 //! not draw are removed, so that the index lists exactly the PNGs present.
 
-use super::{AppError, at};
+use crate::app::error::{AppError, at};
+use crate::app::observer::Observer;
+use crate::app::run::files::{read_image_checked, write_figures};
+use crate::app::run::printable::printable;
 use crate::figures::cohort::bullseyes::{
     SegmentStatistics, mean_bullseye, std_bullseye, z_bullseye,
 };
@@ -172,7 +175,7 @@ fn check_plots(table: &Table, plots: &[PlotSpec], path: &Path) -> Result<(), App
                     "--plot {}:{}: {what} '{}' is not a column of {}; the columns are: {}",
                     p.measure,
                     p.covariate,
-                    super::printable(col),
+                    printable(col),
                     path.display(),
                     table.header.join(", ")
                 )));
@@ -498,11 +501,11 @@ fn slices(
             drawn.skip(name, format!("no {}", std_path.display()));
             continue;
         }
-        let mean = super::read_image_checked(&dir.join(format!("{image}_mean.nii.gz")), 1.0)?;
-        let std = super::read_image_checked(&std_path, 1.0)?;
+        let mean = read_image_checked(&dir.join(format!("{image}_mean.nii.gz")), 1.0)?;
+        let std = read_image_checked(&std_path, 1.0)?;
         let count_path = dir.join(format!("{image}_count.nii.gz"));
         let count = if count_path.is_file() {
-            Some(super::read_image_checked(&count_path, 1.0)?)
+            Some(read_image_checked(&count_path, 1.0)?)
         } else {
             None
         };
@@ -622,11 +625,12 @@ fn energies(
 /// A `--plot` naming a column `cohort.csv` lacks or a covariate that is not
 /// numeric (the message lists the columns); reading the tables or images;
 /// drawing or writing a figure.
-pub(crate) fn cohort_figures(
+pub fn cohort_figures(
     out: &Path,
     covariates: &[String],
     plots: &[PlotSpec],
     placenta_images: &[String],
+    observer: &mut dyn Observer,
 ) -> Result<Vec<PathBuf>, AppError> {
     let csv_path = out.join("cohort.csv");
     let table = Table::read(&csv_path)?;
@@ -639,7 +643,7 @@ pub(crate) fn cohort_figures(
     slices(out, placenta_images, &opts, &mut drawn)?;
     energies(out, &table, &opts, &mut drawn)?;
     for (figure, why) in &drawn.skipped {
-        println!("cohort: figure {figure} skipped: {why}");
+        observer.info(&format!("cohort: figure {figure} skipped: {why}"));
     }
     let cohort_dir = out.join("cohort");
     let fig_dir = cohort_dir.join("figures");
@@ -647,7 +651,7 @@ pub(crate) fn cohort_figures(
     if figures.is_empty() && !fig_dir.is_dir() {
         return Ok(Vec::new());
     }
-    let mut written = super::write_figures(&cohort_dir, &figures)?;
+    let mut written = write_figures(&cohort_dir, &figures)?;
     // PNGs an earlier run drew and this one did not.
     if let Ok(listing) = std::fs::read_dir(&fig_dir) {
         for e in listing.filter_map(Result::ok) {

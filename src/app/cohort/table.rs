@@ -1,5 +1,5 @@
-//! `unfold cohort OUT`: every subject's `report.json` in one table (issue
-//! 19; also run at the end of `unfold batch`).
+//! The cohort table: every subject's `report.json` in one table (`unfold
+//! cohort OUT`; also run at the end of `unfold batch`).
 //!
 //! `OUT/subjects.csv` (written by the batch: `id`, `organ`, then the
 //! covariates) names the subjects; `OUT/cohort.csv` gets one row per
@@ -12,36 +12,26 @@
 //! the run rather than the organ). Columns are the union over subjects,
 //! sorted; a subject without a value has an empty cell. Then the
 //! template-space statistics of the placenta subjects
-//! ([`super::cohort_images`]) and the AHA-segment statistics of the
-//! ventricle subjects ([`super::cohort_segments`]), the mitral
-//! measurements over valves and series steps ([`super::cohort_mitral`]) and
+//! ([`super::images`]) and the AHA-segment statistics of the
+//! ventricle subjects ([`super::segments`]), the mitral
+//! measurements over valves and series steps ([`super::mitral`]) and
 //! their mean maps on one normalised `(u, v)` grid
-//! ([`super::cohort_mitral_maps`]), and the cohort figures
-//! ([`super::cohort_figures`]; `--plot MEASURE:COVARIATE` chooses the
+//! ([`super::mitral_maps`]), and the cohort figures
+//! ([`super::figures`]; `--plot MEASURE:COVARIATE` chooses the
 //! scatter plots). Last, the visual report `OUT/index.html`
-//! ([`super::cohort_report`]).
+//! ([`super::report_page`]).
 
-pub use super::cohort_figures::PlotSpec;
-use super::{AppError, at};
-use clap::Args;
+use super::figures::PlotSpec;
+use super::subject::valid_id;
+use crate::app::error::{AppError, at};
+use crate::app::observer::Observer;
+use crate::app::run::printable::printable;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-/// `unfold cohort`.
-#[derive(Debug, Args)]
-pub struct CohortArgs {
-    /// The output directory of an `unfold batch` run.
-    output: PathBuf,
-    /// A scatter plot of a `cohort.csv` column against a numeric covariate
-    /// (repeatable; default: every numeric covariate against the headline
-    /// measurements of each organ).
-    #[arg(long = "plot", value_name = "MEASURE:COVARIATE")]
-    plot: Vec<super::cohort_figures::PlotSpec>,
-}
+use std::path::Path;
 
 /// A subject as the batch ran it.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct SubjectRow {
+pub struct SubjectRow {
     /// Its id (`OUT/<id>/`).
     pub id: String,
     /// Its organ.
@@ -53,7 +43,7 @@ pub(crate) struct SubjectRow {
 /// The scalars of a JSON value, keys joined by dots (numbers as written,
 /// booleans as 0 and 1; at the top level the `provenance` section is left
 /// out).
-pub(crate) fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
+pub fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
     match v {
         serde_json::Value::Number(n) => {
             out.insert(prefix.to_string(), n.to_string());
@@ -83,12 +73,13 @@ pub(crate) fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<St
 ///
 /// # Errors
 /// Writing either file.
-pub(crate) fn write_cohort(
+pub fn write_cohort(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
+    observer: &mut dyn Observer,
 ) -> Result<(), AppError> {
-    write_cohort_plots(out, subjects, covariates, &[])
+    write_cohort_plots(out, subjects, covariates, &[], observer)
 }
 
 /// [`write_cohort`] with the scatter plots `plots` (none: the defaults).
@@ -99,7 +90,8 @@ fn write_cohort_plots(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
-    plots: &[super::cohort_figures::PlotSpec],
+    plots: &[PlotSpec],
+    observer: &mut dyn Observer,
 ) -> Result<(), AppError> {
     let path = out.join("subjects.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -157,25 +149,25 @@ fn write_cohort_plots(
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
     crate::io::atomic_write(&path, &bytes)?;
-    let super::cohort_images::Statistics { written, left_out } =
-        super::cohort_images::placenta_statistics(out, subjects)?;
+    let super::images::Statistics { written, left_out } =
+        super::images::placenta_statistics(out, subjects)?;
     if !written.is_empty() {
-        println!(
+        observer.info(&format!(
             "cohort: {} template-space statistics images in {}",
             written.len(),
             out.join("cohort").display()
-        );
+        ));
     }
     for (id, why) in left_out {
-        println!("cohort: {id} left out of the statistics: {why}");
+        observer.info(&format!("cohort: {id} left out of the statistics: {why}"));
     }
-    for p in super::cohort_segments::ventricle_segments(out, subjects)? {
-        println!("cohort: wrote {}", p.display());
+    for p in super::segments::ventricle_segments(out, subjects)? {
+        observer.info(&format!("cohort: wrote {}", p.display()));
     }
-    if let Some(p) = super::cohort_mitral::mitral_measurements(out, subjects)? {
-        println!("cohort: wrote {}", p.display());
+    if let Some(p) = super::mitral::mitral_measurements(out, subjects)? {
+        observer.info(&format!("cohort: wrote {}", p.display()));
     }
-    super::cohort_mitral_maps::mitral_maps(out, subjects)?.print(&out.join("cohort"));
+    super::mitral_maps::mitral_maps(out, subjects)?.tell(&out.join("cohort"), observer);
     // The placenta images with statistics, by name (`<name>_mean.nii.gz`).
     let mut placenta_images: Vec<String> = written
         .iter()
@@ -183,22 +175,18 @@ fn write_cohort_plots(
         .map(str::to_string)
         .collect();
     placenta_images.sort();
-    let figures = super::cohort_figures::cohort_figures(out, covariates, plots, &placenta_images)?;
+    let figures =
+        super::figures::cohort_figures(out, covariates, plots, &placenta_images, observer)?;
     if !figures.is_empty() {
-        println!(
+        observer.info(&format!(
             "cohort: {} figures in {}",
             figures.len() - 1,
             out.join("cohort").join("figures").display()
-        );
+        ));
     }
-    let page = super::cohort_report::write_report(out, subjects, covariates)?;
-    println!("cohort: wrote {}", page.display());
+    let page = super::report_page::write_report(out, subjects, covariates)?;
+    observer.info(&format!("cohort: wrote {}", page.display()));
     Ok(())
-}
-
-/// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
-pub fn run(a: &CohortArgs) -> Result<(), AppError> {
-    gather(&a.output, &a.plot)
 }
 
 /// `unfold cohort OUT --plot ...`: reads `OUT/subjects.csv` (written by a
@@ -208,7 +196,11 @@ pub fn run(a: &CohortArgs) -> Result<(), AppError> {
 /// # Errors
 /// `OUT/subjects.csv` missing or malformed; writing a file; a `plots`
 /// entry naming an unknown column.
-pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), AppError> {
+pub fn gather(
+    output: &Path,
+    plots: &[PlotSpec],
+    observer: &mut dyn Observer,
+) -> Result<(), AppError> {
     let path = output.join("subjects.csv");
     let mut reader = csv::Reader::from_path(&path).map_err(|e| {
         at(
@@ -232,10 +224,10 @@ pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), AppError> {
     for r in reader.records() {
         let r = r.map_err(|e| at(&path, e))?;
         let id = r.get(0).unwrap_or("");
-        if !super::batch::valid_id(id) {
+        if !valid_id(id) {
             return Err(at(
                 &path,
-                format!("'{}' is not a subject id", super::printable(id)),
+                format!("'{}' is not a subject id", printable(id)),
             ));
         }
         subjects.push(SubjectRow {
@@ -248,11 +240,11 @@ pub fn gather(output: &Path, plots: &[PlotSpec]) -> Result<(), AppError> {
                 .collect(),
         });
     }
-    write_cohort_plots(output, &subjects, &covariates, plots)?;
-    println!(
+    write_cohort_plots(output, &subjects, &covariates, plots, observer)?;
+    observer.info(&format!(
         "{}: {} subjects",
         output.join("cohort.csv").display(),
         subjects.len()
-    );
+    ));
     Ok(())
 }

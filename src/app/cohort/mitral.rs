@@ -9,9 +9,10 @@
 //! its `report.json` (`step` empty, `anterior_file` empty; the energies
 //! are its `distortion.final`, the quantities a series writes).
 
-use super::cohort::SubjectRow;
-use super::{AppError, at};
+use super::table::SubjectRow;
+use crate::app::error::{AppError, at};
 use crate::app::mitral::SERIES_COLUMNS;
+use crate::app::run::files::ensure_dir;
 use std::path::{Path, PathBuf};
 
 /// The measurement columns: those of `series.csv` after `step` up to
@@ -48,7 +49,7 @@ fn report_row(report: &serde_json::Value) -> Vec<String> {
 ///
 /// # Errors
 /// Reading a subject's `series.csv`, writing the table.
-pub(crate) fn mitral_measurements(
+pub fn mitral_measurements(
     out: &Path,
     subjects: &[SubjectRow],
 ) -> Result<Option<PathBuf>, AppError> {
@@ -91,7 +92,7 @@ pub(crate) fn mitral_measurements(
         return Ok(None);
     }
     let stats_dir = out.join("cohort");
-    super::ensure_dir(&stats_dir)?;
+    ensure_dir(&stats_dir)?;
     let path = stats_dir.join("mitral_measurements.csv");
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["id", "step"];

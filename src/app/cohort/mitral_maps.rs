@@ -42,8 +42,10 @@
 //! statistics: nibabel, ITK, 3D Slicer and ParaView read it, it holds
 //! NaN, and an image is the natural form of a regular grid.
 
-use super::AppError;
-use super::cohort::SubjectRow;
+use super::table::SubjectRow;
+use crate::app::error::{AppError, at};
+use crate::app::observer::Observer;
+use crate::app::run::files::ensure_dir;
 use crate::io::{NiftiImage, read_mesh, write_image};
 use crate::mesh::nalgebra::Matrix4;
 use crate::mesh::raster::{Coverage, Grid2};
@@ -198,7 +200,7 @@ fn sample(dir: &Path) -> Result<Sampled, String> {
 
 /// What [`mitral_maps`] did: the images written, the maps used, and the
 /// maps left out (or partly outside the grid) with why.
-pub(crate) struct MitralMaps {
+pub struct MitralMaps {
     /// The images written.
     pub written: Vec<PathBuf>,
     /// The number of flat maps averaged.
@@ -208,18 +210,19 @@ pub(crate) struct MitralMaps {
 }
 
 impl MitralMaps {
-    /// Says what was written into `dir` and every note, one line each.
-    pub(crate) fn print(&self, dir: &Path) {
+    /// Tells `observer` what was written into `dir` and every note, one
+    /// line each.
+    pub fn tell(&self, dir: &Path, observer: &mut dyn Observer) {
         if !self.written.is_empty() {
-            println!(
+            observer.info(&format!(
                 "cohort: {} mitral map images over {} flat maps in {}",
                 self.written.len(),
                 self.maps,
                 dir.display()
-            );
+            ));
         }
         for (map, why) in &self.notes {
-            println!("cohort: {map}: {why}");
+            observer.info(&format!("cohort: {map}: {why}"));
         }
     }
 }
@@ -229,7 +232,7 @@ impl MitralMaps {
 ///
 /// # Errors
 /// Writing an image.
-pub(crate) fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralMaps, AppError> {
+pub fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralMaps, AppError> {
     let g = grid();
     let mut stats: BTreeMap<String, Accumulator> = BTreeMap::new();
     let mut notes = Vec::new();
@@ -267,7 +270,7 @@ pub(crate) fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralM
         });
     }
     let dir = out.join("cohort");
-    super::ensure_dir(&dir)?;
+    ensure_dir(&dir)?;
     // voxel (i, j, 0) -> the centre of cell (i, j) in (u', v', 0)
     let mut affine = Matrix4::identity();
     affine[(0, 0)] = g.spacing[0];
@@ -296,7 +299,7 @@ pub(crate) fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralM
         let count: Vec<f32> = acc.n.iter().map(|&n| n as f32).collect();
         for (what, data) in [("mean", mean), ("std", std), ("count", count)] {
             let path = dir.join(format!("mitral_{name}_{what}.nii.gz"));
-            let vol = Volume::new([NU, NV, 1, 1], affine, data).map_err(|e| super::at(&path, e))?;
+            let vol = Volume::new([NU, NV, 1, 1], affine, data).map_err(|e| at(&path, e))?;
             write_image(&path, &NiftiImage::new(vol))?;
             written.push(path);
         }

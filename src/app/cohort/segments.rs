@@ -13,8 +13,9 @@
 //! deviation `s` (empty where the others are fewer than two or do not
 //! vary).
 
-use super::cohort::SubjectRow;
-use super::{AppError, at};
+use super::table::SubjectRow;
+use crate::app::error::{AppError, at};
+use crate::app::run::files::ensure_dir;
 use crate::app::ventricle::aha_segments::heart_segments;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -45,10 +46,7 @@ fn mean_std(values: impl Iterator<Item = f64> + Clone) -> (f64, Option<f64>) {
 ///
 /// # Errors
 /// Reading a subject's `anatomy.vtu`, writing the tables.
-pub(crate) fn ventricle_segments(
-    out: &Path,
-    subjects: &[SubjectRow],
-) -> Result<Vec<PathBuf>, AppError> {
+pub fn ventricle_segments(out: &Path, subjects: &[SubjectRow]) -> Result<Vec<PathBuf>, AppError> {
     let mut by: SegmentMeans = BTreeMap::new();
     for s in subjects.iter().filter(|s| s.organ == "ventricle") {
         let dir = out.join(&s.id);
@@ -63,7 +61,7 @@ pub(crate) fn ventricle_segments(
         return Ok(Vec::new());
     }
     let stats_dir = out.join("cohort");
-    super::ensure_dir(&stats_dir)?;
+    ensure_dir(&stats_dir)?;
     let seg_path = stats_dir.join("ventricle_segments.csv");
     let z_path = stats_dir.join("ventricle_z.csv");
     let mut seg = csv::Writer::from_writer(Vec::new());

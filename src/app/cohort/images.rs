@@ -25,8 +25,9 @@
 //! `OUT/cohort/z/<id>_<name>.nii.gz`. A subject whose image is on another
 //! grid (a run without the common `--grid`) is left out and named.
 
-use super::AppError;
-use super::cohort::SubjectRow;
+use super::table::SubjectRow;
+use crate::app::error::{AppError, at};
+use crate::app::run::files::{ensure_dir, read_image_checked};
 use crate::io::{NiftiImage, read_tet_mesh, write_image};
 use crate::mesh::Volume;
 use crate::mesh::nalgebra::{Matrix4, Point3};
@@ -80,7 +81,7 @@ fn inside(dir: &Path, grid: &Volume<f32>) -> Result<Vec<bool>, AppError> {
 
 /// One subject's image and mask on the common grid.
 fn load(dir: &Path, name: &str) -> Result<(Volume<f32>, Vec<bool>), AppError> {
-    let img = super::read_image_checked(&dir.join(format!("{name}{FLAT}")), 1.0)?;
+    let img = read_image_checked(&dir.join(format!("{name}{FLAT}")), 1.0)?;
     let mask = inside(dir, &img.volume)?;
     Ok((img.volume, mask))
 }
@@ -91,13 +92,13 @@ fn write(
     affine: Matrix4<f64>,
     data: Vec<f32>,
 ) -> Result<(), AppError> {
-    let vol = Volume::new(dims, affine, data).map_err(|e| super::at(path, e))?;
+    let vol = Volume::new(dims, affine, data).map_err(|e| at(path, e))?;
     Ok(write_image(path, &NiftiImage::new(vol))?)
 }
 
 /// What [`placenta_statistics`] did: the files written, and the subjects
 /// left out with why.
-pub(crate) struct Statistics {
+pub struct Statistics {
     /// The images written.
     pub written: Vec<PathBuf>,
     /// `(id, why)` of each subject left out of an image's statistics.
@@ -109,10 +110,7 @@ pub(crate) struct Statistics {
 ///
 /// # Errors
 /// Reading a subject's image or mesh, writing the results.
-pub(crate) fn placenta_statistics(
-    out: &Path,
-    subjects: &[SubjectRow],
-) -> Result<Statistics, AppError> {
+pub fn placenta_statistics(out: &Path, subjects: &[SubjectRow]) -> Result<Statistics, AppError> {
     let dirs: Vec<(&SubjectRow, PathBuf)> = subjects
         .iter()
         .filter(|s| s.organ == "placenta")
@@ -127,7 +125,7 @@ pub(crate) fn placenta_statistics(
     }
     let stats_dir = out.join("cohort");
     if !by_name.is_empty() {
-        super::ensure_dir(&stats_dir.join("z"))?;
+        ensure_dir(&stats_dir.join("z"))?;
     }
     let mut written = Vec::new();
     let mut left_out = Vec::new();

@@ -1,0 +1,26 @@
+//! Cohorts: many subjects run from a manifest, each as its own process
+//! ([`batch`], [`manifest`], [`subject`], [`finish`]), then gathered into
+//! the cohort table ([`table`]), the template-space statistics of the
+//! placentas ([`images`]), the AHA-segment statistics of the ventricles
+//! ([`segments`]), the mitral measurements and mean maps ([`mitral`],
+//! [`mitral_maps`]), the cohort figures ([`figures`]) and the report page
+//! ([`report_page`]).
+
+pub mod batch;
+pub mod figures;
+pub mod finish;
+pub mod images;
+pub mod manifest;
+pub mod mitral;
+pub mod mitral_maps;
+pub mod report_page;
+pub mod segments;
+pub mod subject;
+pub mod table;
+
+pub use batch::{BatchObserver, run_manifest};
+pub use figures::PlotSpec;
+pub use finish::{Counts, finish, prepare_output};
+pub use manifest::{OrganColumns, Plan, plan};
+pub use subject::{Ended, Program, STATUSES, Subject, place_subject, recorded_hash, run_subject};
+pub use table::{SubjectRow, gather};

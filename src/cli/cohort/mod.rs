@@ -1,0 +1,201 @@
+//! `unfold batch MANIFEST.csv -o OUT [--jobs N]` and `unfold cohort OUT`:
+//! the flags of a cohort turned into the application's batch
+//! ([`crate::app::cohort`]), its progress drawn (a bar on a terminal, a
+//! line per subject otherwise: cluster job logs).
+
+use super::progress::Progress;
+use crate::app::AppError;
+use crate::app::cohort::{BatchObserver, Ended, OrganColumns, PlotSpec, Subject};
+use crate::app::observer::Observer;
+use crate::app::run::printable::printable;
+use crate::organs::PipelineObserver;
+use clap::{Args, CommandFactory};
+use std::collections::{BTreeMap, HashSet};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+/// `unfold batch`.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// The manifest: CSV with a header, one row per subject (columns `id`, `organ`, `input`,
+    /// the command's long options without dashes, covariates).
+    manifest: PathBuf,
+    /// Output directory: `OUT/<id>/` per subject, `OUT/failures.csv`, `OUT/cohort.csv`,
+    /// `OUT/logs/`.
+    #[arg(short, long, value_name = "OUT")]
+    output: PathBuf,
+    /// Subjects run at a time [default: the number of CPUs].
+    #[arg(long, value_name = "N")]
+    jobs: Option<usize>,
+}
+
+/// `unfold cohort`.
+#[derive(Debug, Args)]
+pub struct CohortArgs {
+    /// The output directory of an `unfold batch` run.
+    output: PathBuf,
+    /// A scatter plot of a `cohort.csv` column against a numeric covariate
+    /// (repeatable; default: every numeric covariate against the headline
+    /// measurements of each organ).
+    #[arg(long = "plot", value_name = "MEASURE:COVARIATE")]
+    plot: Vec<PlotSpec>,
+}
+
+/// How `organ`'s command takes the manifest's columns, from its clap
+/// arguments.
+pub fn organ_columns(organ: &str) -> Option<OrganColumns> {
+    let cli = crate::cli::Cli::command();
+    let cmd = cli.find_subcommand(organ)?;
+    let mut k = OrganColumns {
+        valued: BTreeMap::new(),
+        switches: HashSet::new(),
+        repeated: HashSet::new(),
+        input: None,
+    };
+    for a in cmd.get_arguments() {
+        let is_path = a.get_value_parser().type_id() == std::any::TypeId::of::<PathBuf>();
+        if a.is_positional() {
+            k.input = Some(is_path);
+            continue;
+        }
+        let Some(long) = a.get_long() else { continue };
+        if matches!(long, "output" | "help" | "max-memory") {
+            continue;
+        }
+        match a.get_action() {
+            clap::ArgAction::SetTrue => {
+                k.switches.insert(long.to_string());
+            }
+            clap::ArgAction::Append => {
+                k.repeated.insert(long.to_string());
+                k.valued.insert(long.to_string(), is_path);
+            }
+            clap::ArgAction::Set => {
+                k.valued.insert(long.to_string(), is_path);
+            }
+            _ => {}
+        }
+    }
+    Some(k)
+}
+
+/// The batch's progress on the command line.
+struct BatchProgress {
+    bar: Option<indicatif::ProgressBar>,
+    lines: Progress,
+}
+
+impl PipelineObserver for BatchProgress {}
+
+impl Observer for BatchProgress {
+    fn info(&mut self, line: &str) {
+        self.lines.info(line);
+    }
+}
+
+impl BatchObserver for BatchProgress {
+    fn start(&mut self, total: usize) {
+        self.bar = std::io::stderr().is_terminal().then(|| {
+            let b = indicatif::ProgressBar::new(total as u64);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("batch [{bar:30}] {pos}/{len} {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        });
+    }
+
+    fn ended(&mut self, k: usize, total: usize, s: &Subject, e: &Ended) {
+        match &self.bar {
+            Some(b) => {
+                b.inc(1);
+                b.set_message(format!("{} {}", s.id, e.status));
+            }
+            None => println!(
+                "batch [{k}/{total}] {} ({}): {} in {:.1} s{}",
+                s.id,
+                s.organ,
+                e.status,
+                e.seconds,
+                if e.message.is_empty() {
+                    String::new()
+                } else {
+                    format!(": {}", printable(&e.message))
+                }
+            ),
+        }
+    }
+
+    fn finished(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Runs `unfold batch`.
+pub fn run(a: &BatchArgs) -> Result<(), AppError> {
+    run_manifest(&a.manifest, &a.output, a.jobs)
+}
+
+/// Runs the subjects of `manifest` into `out` ([`crate::app::cohort::run_manifest`]).
+pub(crate) fn run_manifest(
+    manifest: &std::path::Path,
+    out: &std::path::Path,
+    jobs: Option<usize>,
+) -> Result<(), AppError> {
+    let mut progress = BatchProgress {
+        bar: None,
+        lines: Progress::new(false),
+    };
+    crate::app::cohort::run_manifest(manifest, out, jobs, &organ_columns, &mut progress)
+}
+
+/// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
+pub fn run_cohort(a: &CohortArgs) -> Result<(), AppError> {
+    crate::app::cohort::gather(&a.output, &a.plot, &mut Progress::new(false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::cohort::{finish, plan};
+
+    #[test]
+    fn finish_refuses_unplanned_or_repeated_ids() {
+        let d = tempfile::tempdir().unwrap();
+        let m = d.path().join("m.csv");
+        std::fs::write(&m, "id,organ,input\na,placenta,x.vtu\n").unwrap();
+        let plan = plan(&m, &organ_columns).unwrap();
+        let a = Ended::skipped(&plan.subjects[0]);
+        let mut b = a.clone();
+        b.id = "b".into();
+        for ended in [vec![a.clone(), a.clone()], vec![b]] {
+            let e = finish(d.path(), &plan, &ended, &mut crate::app::observer::Quiet).unwrap_err();
+            assert!(e.to_string().contains("not in the manifest"), "{e}");
+        }
+        let counts = finish(d.path(), &plan, &[a], &mut crate::app::observer::Quiet).unwrap();
+        assert_eq!((counts.total, counts.skipped, counts.failed), (1, 1, 0));
+        assert!(d.path().join("failures.csv").is_file());
+    }
+
+    #[test]
+    fn the_organs_options_are_known_from_their_commands() {
+        let p = organ_columns("placenta").unwrap();
+        assert_eq!(p.input, Some(true));
+        assert_eq!(p.valued.get("seg"), Some(&true));
+        assert_eq!(p.valued.get("template"), Some(&false));
+        assert!(p.repeated.contains("image"));
+        assert!(p.switches.contains("no-figures"));
+        assert!(!p.valued.contains_key("output"));
+        let m = organ_columns("mitral").unwrap();
+        assert_eq!(m.input, None);
+        assert_eq!(m.valued.get("annulus"), Some(&true));
+        assert!(
+            organ_columns("ventricle")
+                .unwrap()
+                .valued
+                .contains_key("surface")
+        );
+    }
+}
