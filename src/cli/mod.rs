@@ -11,17 +11,14 @@ mod cohort_mitral;
 mod cohort_mitral_maps;
 mod cohort_report;
 mod cohort_segments;
-mod convert;
 pub mod deform;
 mod demo;
 mod demo_cohort;
-mod info;
 pub mod mesh;
 pub mod mitral;
 mod mitral_series;
 pub mod placenta;
 mod pushback;
-mod repair;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 pub mod ventricle_inverse;
@@ -31,6 +28,8 @@ pub mod ventricle_surface;
 
 mod choice;
 mod progress;
+
+use mesh::{convert, info, repair};
 
 pub use crate::app::AppError;
 pub(crate) use crate::app::error::{about, at, organ, positive, shown};

@@ -1,4 +1,8 @@
-//! Meshes from segmentations and from other tools: masks meshed into tets
-//! ([`mask`]).
+//! Meshes from segmentations and from other tools, and the files around
+//! them: masks meshed into tets ([`mask`]), meshes repaired ([`repair`]), files converted
+//! ([`convert`]) and described ([`info`]).
 
+pub mod convert;
+pub mod info;
 pub mod mask;
+pub mod repair;

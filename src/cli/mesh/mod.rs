@@ -6,6 +6,10 @@
 //! `.msh`); it holds the tets only. The largest connected component is kept
 //! (with a warning naming the others' sizes) unless `--keep-all-components`.
 
+pub(crate) mod convert;
+pub(crate) mod info;
+pub(crate) mod repair;
+
 use super::progress::Progress;
 use super::{AppError, at};
 use crate::app::mesh::mask::{MaskSettings, describe};
