@@ -18,7 +18,6 @@ pub mod mesh;
 pub mod mitral;
 mod mitral_series;
 pub mod placenta;
-mod pushback;
 pub mod ventricle;
 mod ventricle_grid_sweep;
 pub mod ventricle_inverse;
@@ -29,7 +28,7 @@ pub mod ventricle_surface;
 mod choice;
 mod progress;
 
-use mesh::{convert, info, repair};
+use mesh::{convert, info, pushback, repair};
 
 pub use crate::app::AppError;
 pub(crate) use crate::app::error::{about, at, organ, positive, shown};

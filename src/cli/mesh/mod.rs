@@ -8,6 +8,7 @@
 
 pub(crate) mod convert;
 pub(crate) mod info;
+pub(crate) mod pushback;
 pub(crate) mod repair;
 
 use super::progress::Progress;
