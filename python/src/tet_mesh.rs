@@ -1,35 +1,18 @@
 //! `unfold.tet_mesh`: `unfold mesh` on a numpy mask
-//! ([`unfold::app::mesh::mask::MaskSettings`], the command line's own
-//! checks, messages and mesher).
+//! ([`unfold::app::mesh::segmentation`], the command line's own checks,
+//! messages, mesher and report).
 
 use crate::arrays::mesh_tuple;
 use crate::inputs::volume;
 use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
-use serde::Serialize;
 use std::path::Path;
 use unfold::app::mesh::mask::MaskSettings;
+use unfold::app::mesh::segmentation::{self, Settings};
 use unfold::app::observer::Plain;
+use unfold::app::run::provenance::{Provenance, now};
 use unfold::mesh::CellMesh;
-use unfold::mesh::mesher::MeshQuality;
-
-/// What the command line prints of a mask's mesh, as a report.
-#[derive(Serialize)]
-struct Report<'a> {
-    mask: &'a str,
-    mask_voxels: usize,
-    mask_volume_mm3: f64,
-    size_mm: f64,
-    smooth_voxels: f64,
-    dilate: u8,
-    level: f64,
-    graded_collapses: usize,
-    components: usize,
-    dropped_components: &'a [usize],
-    quality: &'a MeshQuality,
-    provenance: crate::report::Provenance,
-}
 
 /// Meshes a mask; returns `(mesh, report_json)`, the mesh as `(points,
 /// cells, point_data, cell_data)`.
@@ -53,7 +36,7 @@ pub(crate) fn tet_mesh<'py>(
     keep_all_components: bool,
     name: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let started = crate::report::started();
+    let started = now();
     if !(0..=1).contains(&dilate) {
         return Err(crate::error(format!(
             "--dilate must be 0 or 1, got {dilate}"
@@ -68,33 +51,22 @@ pub(crate) fn tet_mesh<'py>(
         level,
         grade,
     };
-    how.options(keep_all_components).map_err(crate::error)?;
+    let settings = Settings {
+        mask: how,
+        keep_all_components,
+    };
+    settings.validate().map_err(crate::error)?;
     let image = volume(&mask, &affine, name)?;
     let parameters = format!("{how:?}, keep_all_components: {keep_all_components}");
     let path = Path::new(name);
-    let out = py
+    let run = py
         .detach(|| {
             let mask = how.mask_of(path, &image)?;
-            let out = how.mesh(path, &mask, keep_all_components, &mut Plain)?;
-            let quality = MeshQuality::of(&out.mesh)?;
-            Ok::<_, unfold::app::AppError>((out, quality))
+            segmentation::run(&settings, path, &mask, &mut Plain)
         })
         .map_err(crate::error)?;
-    let (out, quality) = out;
-    let json = crate::report::json(&Report {
-        mask: name,
-        mask_voxels: out.mask_voxels,
-        mask_volume_mm3: out.mask_volume_mm3,
-        size_mm: out.size_mm,
-        smooth_voxels,
-        dilate: dilate as u8,
-        level: out.level,
-        graded_collapses: out.graded_collapses,
-        components: out.components,
-        dropped_components: &out.dropped_components,
-        quality: &quality,
-        provenance: crate::report::Provenance::new(parameters, started),
-    })?;
-    let mesh = mesh_tuple(py, &CellMesh::from(&out.mesh))?;
+    let report = run.report(name, &settings, Provenance::python(parameters, started));
+    let json = serde_json::to_string_pretty(&report).map_err(crate::error)?;
+    let mesh = mesh_tuple(py, &CellMesh::from(&run.mesh.mesh))?;
     PyTuple::new(py, [mesh.into_any(), json.into_pyobject(py)?.into_any()])
 }

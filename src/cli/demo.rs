@@ -165,7 +165,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
 
     let mut infos = Vec::new();
     for (p, what) in &written {
-        let (json, valid) = super::info::info_json(p)?;
+        let (json, valid) = crate::app::mesh::info::info_json(p)?;
         infos.push(format!("\"{}\": {json}", file_name(p)));
         println!(
             "wrote {} ({what}){}",

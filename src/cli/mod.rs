@@ -3,20 +3,18 @@
 //! batch subjects and cohort tables).
 
 pub mod cohort;
-mod convert;
 pub mod deform;
 mod demo;
 mod demo_cohort;
-mod info;
 pub mod mesh;
 pub mod mitral;
 pub mod placenta;
-mod pushback;
-mod repair;
 pub mod ventricle;
 
 mod choice;
 mod progress;
+
+use mesh::{convert, info, pushback, repair};
 
 pub use crate::app::AppError;
 pub(crate) use crate::app::error::{at, positive, shown};

@@ -37,6 +37,7 @@ pub mod errors;
 pub mod inputs;
 pub mod lambda_sweep;
 pub mod memory;
+pub mod pushback;
 pub mod report;
 pub mod run;
 pub mod seg;

@@ -1,5 +1,9 @@
-//! `unfold info FILE [--json]`: what a mesh or image contains, and whether
-//! it is valid.
+//! What `unfold info` reports about a file: a mesh's size, cell types,
+//! bounding box, data arrays, topology (components, boundary loops, a tet
+//! mesh's boundary surface), area or volume and validity problems; an
+//! image's grid, affine, data type and value range. The typed reports
+//! ([`MeshInfo`], [`ImageInfo`]) and their JSON (`info --json`, the demo's
+//! `info.json`).
 //!
 //! An image is read header first ([`crate::io::read_image_header`] fields)
 //! and its values are streamed once for the range
@@ -7,7 +11,7 @@
 //! the image's size, and a `.nii.gz` is never inflated past what its header
 //! declares.
 
-use super::{AppError, printable};
+use crate::app::AppError;
 use crate::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
 use crate::mesh::geometry::{bounding_box, total_area, total_volume};
 use crate::mesh::topology::{
@@ -15,91 +19,140 @@ use crate::mesh::topology::{
 };
 use crate::mesh::validate::{ValidationOptions, check_tet_mesh, check_tri_mesh};
 use crate::mesh::{CellMesh, Field, MeshError};
-use clap::Args;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-
-/// Arguments of `unfold info`.
-#[derive(Debug, Args)]
-pub struct InfoArgs {
-    /// A mesh (.vtk .vtu .vtp .ply .obj .stl .off .mesh .msh) or image (.nii .nii.gz
-    /// .nrrd .seg.nrrd .nhdr).
-    file: PathBuf,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    json: bool,
-    /// Exit with an error when the mesh has validity problems.
-    #[arg(long)]
-    strict: bool,
-}
+use std::path::Path;
 
 /// Summary of one data array.
 #[derive(Debug, Serialize)]
 pub struct ArrayInfo {
-    name: String,
-    components: usize,
+    /// The array's name.
+    pub name: String,
+    /// Components per point or cell.
+    pub components: usize,
+    /// The stored value type (`float64`, `int32`, ...).
     #[serde(rename = "type")]
-    value_type: &'static str,
-    min: Option<f64>,
-    max: Option<f64>,
+    pub value_type: &'static str,
+    /// The smallest finite value (none: no finite value).
+    pub min: Option<f64>,
+    /// The largest finite value (none: no finite value).
+    pub max: Option<f64>,
 }
 
 /// One kind of validity problem.
 #[derive(Debug, Serialize)]
 pub struct ProblemInfo {
-    kind: &'static str,
-    count: usize,
-    first: String,
+    /// The problem's kind ([`MeshError::kind`]).
+    pub kind: &'static str,
+    /// How many times it occurs.
+    pub count: usize,
+    /// The first occurrence, as a message.
+    pub first: String,
 }
 
 /// The boundary surface of a tet mesh.
 #[derive(Debug, Serialize)]
 pub struct BoundaryInfo {
-    vertices: usize,
-    triangles: usize,
-    components: usize,
-    euler_characteristic: i64,
+    /// Vertices of the boundary surface.
+    pub vertices: usize,
+    /// Its triangles.
+    pub triangles: usize,
+    /// Its connected components.
+    pub components: usize,
+    /// Its Euler characteristic `V - E + F`.
+    pub euler_characteristic: i64,
 }
 
 /// What `info` reports about a mesh.
 #[derive(Debug, Serialize)]
 pub struct MeshInfo {
-    file: String,
-    kind: &'static str,
-    mesh_type: &'static str,
-    points: usize,
-    cells: usize,
-    cell_types: BTreeMap<String, usize>,
-    bounding_box: Option<[[f64; 3]; 2]>,
+    /// The file, as given.
+    pub file: String,
+    /// `mesh`.
+    pub kind: &'static str,
+    /// `tetrahedral`, `surface`, `lines`, `points` or `mixed`.
+    pub mesh_type: &'static str,
+    /// Number of points.
+    pub points: usize,
+    /// Number of cells.
+    pub cells: usize,
+    /// Cells per cell type.
+    pub cell_types: BTreeMap<String, usize>,
+    /// `[min, max]` corners of the points' bounding box (none: no points).
+    pub bounding_box: Option<[[f64; 3]; 2]>,
     /// When the mesh is smaller than any organ (coordinates read as mm):
     /// [`crate::app::run::units::note`].
     #[serde(skip_serializing_if = "Option::is_none")]
-    units_note: Option<String>,
-    point_arrays: Vec<ArrayInfo>,
-    cell_arrays: Vec<ArrayInfo>,
-    components: Option<usize>,
-    boundary_loops: Option<Vec<usize>>,
-    boundary_surface: Option<BoundaryInfo>,
-    area_mm2: Option<f64>,
-    volume_mm3: Option<f64>,
-    valid: bool,
-    problems: Vec<ProblemInfo>,
+    pub units_note: Option<String>,
+    /// The point data arrays.
+    pub point_arrays: Vec<ArrayInfo>,
+    /// The cell data arrays.
+    pub cell_arrays: Vec<ArrayInfo>,
+    /// Connected components (tet and surface meshes).
+    pub components: Option<usize>,
+    /// Vertices of each boundary loop (surface meshes).
+    pub boundary_loops: Option<Vec<usize>>,
+    /// The boundary surface (tet meshes).
+    pub boundary_surface: Option<BoundaryInfo>,
+    /// Total area, mm^2 (surface meshes).
+    pub area_mm2: Option<f64>,
+    /// Total volume, mm^3 (tet meshes).
+    pub volume_mm3: Option<f64>,
+    /// Whether no validity problem was found.
+    pub valid: bool,
+    /// The validity problems, one per kind.
+    pub problems: Vec<ProblemInfo>,
 }
 
 /// What `info` reports about an image.
 #[derive(Debug, Serialize)]
 pub struct ImageInfo {
-    file: String,
-    kind: &'static str,
-    dims: [usize; 4],
-    spacing_mm: [f64; 3],
-    affine: [[f64; 4]; 4],
-    affine_source: String,
-    datatype: String,
-    value_range: Option<[f64; 2]>,
+    /// The file, as given.
+    pub file: String,
+    /// `image`.
+    pub kind: &'static str,
+    /// Voxels along i, j, k and frames.
+    pub dims: [usize; 4],
+    /// Voxel spacing, mm.
+    pub spacing_mm: [f64; 3],
+    /// The voxel-to-world (RAS) affine, rows.
+    pub affine: [[f64; 4]; 4],
+    /// Where the affine came from (`sform`, `qform`, ...).
+    pub affine_source: String,
+    /// The stored data type, lower case.
+    pub datatype: String,
+    /// `[min, max]` of the finite values (none: no finite value).
+    pub value_range: Option<[f64; 2]>,
 }
 
+/// What `info` reports about a file: a mesh or an image.
+#[derive(Debug)]
+pub enum Info {
+    /// A mesh file.
+    Mesh(MeshInfo),
+    /// An image file.
+    Image(ImageInfo),
+}
+
+impl MeshInfo {
+    /// `info --strict`: an error naming the first validity problem, if
+    /// any.
+    ///
+    /// # Errors
+    /// [`AppError::Invalid`] when the mesh has validity problems.
+    pub fn strict(&self) -> Result<(), AppError> {
+        match self.problems.first() {
+            Some(p) => Err(AppError::Invalid {
+                path: self.file.clone(),
+                count: self.problems.len(),
+                first: p.first.clone(),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The summary of one data array: its finite values' range.
 fn array_info(f: &Field) -> ArrayInfo {
     let v = f.values().to_f64();
     let finite = v.iter().copied().filter(|x| x.is_finite());
@@ -233,105 +286,30 @@ pub fn image_info(path: &Path, header: &ImageHeader, values: &ValueSummary) -> I
 }
 
 /// Reads an image's header and streams its values once (bounded memory).
-fn read_image_info(path: &Path) -> Result<ImageInfo, AppError> {
+///
+/// # Errors
+/// Reading the image.
+pub fn read_image_info(path: &Path) -> Result<ImageInfo, AppError> {
     let (header, values) = image_value_summary(path)?;
     Ok(image_info(path, &header, &values))
 }
 
-fn print_mesh(i: &MeshInfo) {
-    println!("{}: {} mesh", printable(&i.file), i.mesh_type);
-    println!("  points: {}", i.points);
-    let types: Vec<String> = i
-        .cell_types
-        .iter()
-        .map(|(t, n)| format!("{n} {t}"))
-        .collect();
-    println!("  cells: {} ({})", i.cells, types.join(", "));
-    if let Some([lo, hi]) = i.bounding_box {
-        println!(
-            "  bounding box: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}] (size {:.4} x {:.4} x {:.4})",
-            lo[0],
-            lo[1],
-            lo[2],
-            hi[0],
-            hi[1],
-            hi[2],
-            hi[0] - lo[0],
-            hi[1] - lo[1],
-            hi[2] - lo[2]
-        );
-    }
-    if let Some(n) = &i.units_note {
-        println!("  {}", printable(n));
-    }
-    for (what, arrays) in [("point", &i.point_arrays), ("cell", &i.cell_arrays)] {
-        for a in arrays {
-            let range = match (a.min, a.max) {
-                (Some(lo), Some(hi)) => format!(", range [{lo}, {hi}]"),
-                _ => String::new(),
-            };
-            println!(
-                "  {what} array '{}': {} x {}{range}",
-                printable(&a.name),
-                a.components,
-                a.value_type
-            );
-        }
-    }
-    if let Some(c) = i.components {
-        println!("  connected components: {c}");
-    }
-    if let Some(ls) = &i.boundary_loops {
-        println!("  boundary loops: {} {:?}", ls.len(), ls);
-    }
-    if let Some(b) = &i.boundary_surface {
-        println!(
-            "  boundary surface: {} vertices, {} triangles, {} component(s), Euler characteristic {}",
-            b.vertices, b.triangles, b.components, b.euler_characteristic
-        );
-    }
-    if let Some(a) = i.area_mm2 {
-        println!("  area: {a:.6} mm^2");
-    }
-    if let Some(v) = i.volume_mm3 {
-        println!("  volume: {v:.6} mm^3");
-    }
-    if i.valid {
-        println!("  valid: yes");
-    } else {
-        println!("  valid: no");
-        for p in &i.problems {
-            println!(
-                "  problem {} (x{}): {}",
-                p.kind,
-                p.count,
-                printable(&p.first)
-            );
-        }
+/// The report of the file at `path`, a mesh or an image by its
+/// extension.
+///
+/// # Errors
+/// An unknown extension, reading the file.
+pub fn info(path: &Path) -> Result<Info, AppError> {
+    match FileKind::from_path(path)? {
+        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => Ok(Info::Image(read_image_info(path)?)),
+        FileKind::Mesh(_) => Ok(Info::Mesh(mesh_info(path, &read_mesh(path)?))),
     }
 }
 
-fn print_image(i: &ImageInfo) {
-    println!("{}: image", printable(&i.file));
-    println!("  dims: {:?}", i.dims);
-    println!(
-        "  spacing: {:.6} x {:.6} x {:.6} mm",
-        i.spacing_mm[0], i.spacing_mm[1], i.spacing_mm[2]
-    );
-    println!("  affine ({}):", i.affine_source);
-    for r in &i.affine {
-        println!(
-            "    [{:12.6} {:12.6} {:12.6} {:12.6}]",
-            r[0], r[1], r[2], r[3]
-        );
-    }
-    println!("  data type: {}", i.datatype);
-    if let Some([lo, hi]) = i.value_range {
-        println!("  value range: [{lo}, {hi}]");
-    }
-}
-
-fn to_json<T: Serialize>(v: &T) -> String {
+/// `v` as indented JSON, safe on a terminal: besides the C0 controls
+/// `serde_json` escapes, DEL and the C1 controls (U+007F..U+009F) inside
+/// strings are written `\u00XX`.
+pub fn to_json<T: Serialize>(v: &T) -> String {
     // Serializing plain structs of numbers and strings cannot fail.
     let text =
         serde_json::to_string_pretty(v).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
@@ -352,47 +330,15 @@ fn to_json<T: Serialize>(v: &T) -> String {
         .collect()
 }
 
-/// The report of `path` as JSON (used by `demo` as well).
+/// The report of `path` as JSON ([`to_json`]) and whether the file is
+/// valid (an image always is): `info --json`'s text and the demo's
+/// `info.json` entries.
+///
+/// # Errors
+/// [`info`]'s.
 pub fn info_json(path: &Path) -> Result<(String, bool), AppError> {
-    match FileKind::from_path(path)? {
-        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
-            Ok((to_json(&read_image_info(path)?), true))
-        }
-        FileKind::Mesh(_) => {
-            let i = mesh_info(path, &read_mesh(path)?);
-            Ok((to_json(&i), i.valid))
-        }
-    }
-}
-
-/// Runs `unfold info`.
-pub fn run(a: &InfoArgs) -> Result<(), AppError> {
-    let path = a.file.as_path();
-    match FileKind::from_path(path)? {
-        FileKind::Nifti { .. } | FileKind::Nrrd { .. } => {
-            let i = read_image_info(path)?;
-            if a.json {
-                println!("{}", to_json(&i));
-            } else {
-                print_image(&i);
-            }
-            Ok(())
-        }
-        FileKind::Mesh(_) => {
-            let i = mesh_info(path, &read_mesh(path)?);
-            if a.json {
-                println!("{}", to_json(&i));
-            } else {
-                print_mesh(&i);
-            }
-            match (a.strict, i.problems.first()) {
-                (true, Some(p)) => Err(AppError::Invalid {
-                    path: i.file.clone(),
-                    count: i.problems.len(),
-                    first: p.first.clone(),
-                }),
-                _ => Ok(()),
-            }
-        }
+    match info(path)? {
+        Info::Image(i) => Ok((to_json(&i), true)),
+        Info::Mesh(i) => Ok((to_json(&i), i.valid)),
     }
 }

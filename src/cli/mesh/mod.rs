@@ -1,18 +1,24 @@
-//! `unfold mesh MASK -o MESH`: a tet mesh of a segmentation
-//! ([`crate::mesh::mesher`]: optional dilation, Gaussian smoothing, a
-//! level set meshed by isosurface stuffing in world coordinates).
+//! The commands about files and meshes: `unfold mesh MASK -o MESH` (here:
+//! a tet mesh of a segmentation, [`crate::app::mesh::segmentation`]),
+//! [`repair`], [`convert`], [`info`] and the placenta's [`pushback`]; each
+//! turns its flags into the application's settings and files, runs it and
+//! prints.
 //!
-//! The mesh file's format follows its extension (`.vtu`, `.vtk`, `.mesh`,
-//! `.msh`); it holds the tets only. The largest connected component is kept
-//! (with a warning naming the others' sizes) unless `--keep-all-components`.
+//! `unfold mesh`'s mesh file's format follows its extension (`.vtu`,
+//! `.vtk`, `.mesh`, `.msh`); it holds the tets only. The largest connected
+//! component is kept (with a warning naming the others' sizes) unless
+//! `--keep-all-components`.
+
+pub(crate) mod convert;
+pub(crate) mod info;
+pub(crate) mod pushback;
+pub(crate) mod repair;
 
 use super::progress::Progress;
-use super::{AppError, at};
-use crate::app::mesh::mask::{MaskSettings, describe};
+use crate::app::AppError;
+use crate::app::mesh::mask::MaskSettings;
+use crate::app::mesh::segmentation::{self, Files, Settings};
 use crate::app::run::StagedOutputs;
-use crate::io::{WriteOptions, write_mesh};
-use crate::mesh::CellMesh;
-use crate::mesh::mesher::MeshQuality;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -97,34 +103,37 @@ pub struct MeshArgs {
     keep_all_components: bool,
 }
 
+impl MeshArgs {
+    /// The settings of the flags.
+    fn settings(&self) -> Settings {
+        Settings {
+            mask: self.how.settings(),
+            keep_all_components: self.keep_all_components,
+        }
+    }
+
+    /// The files of the flags.
+    fn files(&self) -> Files {
+        Files {
+            mask: self.mask.clone(),
+            output: self.output.clone(),
+        }
+    }
+}
+
 /// Runs `unfold mesh`.
 pub fn run(a: &MeshArgs) -> Result<(), AppError> {
-    if super::canonical(&a.mask) == super::canonical(&a.output) {
-        return Err(at(
-            &a.output,
-            "refusing to overwrite the input; choose another output path",
-        ));
-    }
-    let how = a.how.settings();
-    how.options(a.keep_all_components)?;
+    let settings = a.settings();
+    let files = a.files();
+    files.check()?;
+    settings.validate()?;
     // The output checked (and staged) before the mask is read.
-    let mut staged = StagedOutputs::new([&a.mask]);
-    let target = staged.file(&a.output)?;
-    let mask = how.read_mask(&a.mask)?;
-    let out = how.mesh(
-        &a.mask,
-        &mask,
-        a.keep_all_components,
-        &mut Progress::new(false),
-    )?;
-    let q = MeshQuality::of(&out.mesh)?;
-    write_mesh(
-        &target,
-        &CellMesh::from(&out.mesh),
-        &WriteOptions::default(),
-    )
-    .map_err(|e| staged.shown_error(e))?;
+    let mut staged = StagedOutputs::new([&files.mask]);
+    let target = staged.file(&files.output)?;
+    let mask = files.read(&settings)?;
+    let run = segmentation::run(&settings, &files.mask, &mask, &mut Progress::new(false))?;
+    segmentation::write(&run, &target, &staged)?;
     staged.commit()?;
-    println!("{}: {}", a.output.display(), describe(&out, &q));
+    println!("{}: {}", a.output.display(), run.describe());
     Ok(())
 }
