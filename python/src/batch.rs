@@ -45,9 +45,7 @@ impl Plan {
 /// Reads and checks a manifest (every row, before anything runs).
 #[pyfunction]
 pub(crate) fn plan(py: Python<'_>, manifest: PathBuf) -> PyResult<Plan> {
-    let plan = py
-        .detach(|| batch::plan(&manifest, &unfold::cli::cohort::organ_columns))
-        .map_err(crate::error)?;
+    let plan = py.detach(|| batch::plan(&manifest)).map_err(crate::error)?;
     Ok(Plan { plan })
 }
 

@@ -15,7 +15,6 @@ mod inputs;
 mod mitral;
 mod placenta;
 mod progress;
-mod report;
 mod shapes;
 mod template;
 mod tet_mesh;

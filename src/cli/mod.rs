@@ -17,7 +17,7 @@ mod progress;
 use mesh::{convert, info, pushback, repair};
 
 pub use crate::app::AppError;
-pub(crate) use crate::app::error::{at, positive, shown};
+pub(crate) use crate::app::error::shown;
 pub(crate) use crate::app::names::stop_name;
 pub use crate::app::run::files::{canonical, ensure_dir, read_image_checked, write_figures};
 pub use crate::app::run::printable::printable;

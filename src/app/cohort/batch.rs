@@ -26,7 +26,7 @@
 //! loop over them.
 
 use super::finish::{Counts, finish, prepare_output};
-use super::manifest::{OrganColumns, plan};
+use super::manifest::plan;
 use super::subject::{Ended, Program, Subject, run_subject};
 use crate::app::AppError;
 use crate::app::observer::Observer;
@@ -57,10 +57,9 @@ pub fn run_manifest(
     manifest: &Path,
     out: &Path,
     jobs: Option<usize>,
-    columns: &dyn Fn(&str) -> Option<OrganColumns>,
     observer: &mut dyn BatchObserver,
 ) -> Result<(), AppError> {
-    let plan = plan(manifest, columns)?;
+    let plan = plan(manifest)?;
     let subjects = &plan.subjects;
     let jobs = match jobs {
         Some(0) => return Err(AppError::Usage("--jobs must be at least 1".into())),

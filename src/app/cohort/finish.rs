@@ -118,3 +118,28 @@ fn subjects_table(subjects: &[Subject]) -> Vec<SubjectRow> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::cohort::manifest::plan;
+    use crate::app::observer::Quiet;
+
+    #[test]
+    fn finish_refuses_unplanned_or_repeated_ids() {
+        let d = tempfile::tempdir().unwrap();
+        let m = d.path().join("m.csv");
+        std::fs::write(&m, "id,organ,input\na,placenta,x.vtu\n").unwrap();
+        let plan = plan(&m).unwrap();
+        let a = Ended::skipped(&plan.subjects[0]);
+        let mut b = a.clone();
+        b.id = "b".into();
+        for ended in [vec![a.clone(), a.clone()], vec![b]] {
+            let e = finish(d.path(), &plan, &ended, &mut Quiet).unwrap_err();
+            assert!(e.to_string().contains("not in the manifest"), "{e}");
+        }
+        let counts = finish(d.path(), &plan, &[a], &mut Quiet).unwrap();
+        assert_eq!((counts.total, counts.skipped, counts.failed), (1, 1, 0));
+        assert!(d.path().join("failures.csv").is_file());
+    }
+}

@@ -15,6 +15,7 @@
 //!
 //! Each row becomes the command line of the subject's own process.
 
+use super::columns::organ_columns;
 use super::subject::{Subject, valid_id};
 use crate::app::error::{AppError, at};
 use crate::app::run::printable::printable;
@@ -40,10 +41,10 @@ pub struct OrganColumns {
 pub const ORGANS: [&str; 3] = ["placenta", "ventricle", "mitral"];
 
 /// Every column any organ takes (a column named so is not a covariate).
-fn all_option_names(columns: &dyn Fn(&str) -> Option<OrganColumns>) -> HashSet<String> {
+fn all_option_names() -> HashSet<String> {
     let mut names = HashSet::new();
     for organ in ORGANS {
-        if let Some(k) = columns(organ) {
+        if let Some(k) = organ_columns(organ) {
             names.extend(k.valued.into_keys());
             names.extend(k.switches);
         }
@@ -98,16 +99,13 @@ fn header_hint(header: &[String], needed: &str) -> String {
 }
 
 /// Reads the manifest into subjects, every row checked before anything
-/// runs (the module documentation says what a row holds); `columns` says
-/// how each organ takes the columns.
+/// runs (the module documentation says what a row holds; each organ takes
+/// its columns as [`organ_columns`] says).
 ///
 /// # Errors
 /// The manifest cannot be read, or a row is unusable (the message names
 /// the row and the cell).
-pub fn plan(
-    manifest: &Path,
-    columns: &dyn Fn(&str) -> Option<OrganColumns>,
-) -> Result<Plan, AppError> {
+pub fn plan(manifest: &Path) -> Result<Plan, AppError> {
     let base = match manifest.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -140,7 +138,7 @@ pub fn plan(
             return Err(at(manifest, format!("the column '{h}' appears twice")));
         }
     }
-    let options = all_option_names(columns);
+    let options = all_option_names();
     let covariate_names: Vec<String> = header
         .iter()
         .filter(|h| !matches!(h.as_str(), "id" | "organ") && !options.contains(*h))
@@ -178,7 +176,7 @@ pub fn plan(
             ));
         }
         let organ = cell("organ").to_string();
-        let kinds = columns(&organ)
+        let kinds = organ_columns(&organ)
             .filter(|_| ORGANS.contains(&organ.as_str()))
             .ok_or_else(|| {
                 row_error(

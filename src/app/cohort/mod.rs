@@ -7,6 +7,7 @@
 //! ([`report_page`]).
 
 pub mod batch;
+pub mod columns;
 pub mod figures;
 pub mod finish;
 pub mod images;
@@ -19,6 +20,7 @@ pub mod subject;
 pub mod table;
 
 pub use batch::{BatchObserver, run_manifest};
+pub use columns::organ_columns;
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};
 pub use manifest::{OrganColumns, Plan, plan};

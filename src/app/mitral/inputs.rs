@@ -15,6 +15,7 @@
 use super::series::steps::series_steps;
 use crate::app::error::{AppError, at, organ};
 use crate::app::run::StagedOutputs;
+use crate::app::run::columns::Column;
 use crate::app::run::files::canonical;
 use crate::io::read_mesh;
 use crate::mesh::nalgebra::Point3;
@@ -46,6 +47,15 @@ pub struct Files {
     /// The output directory.
     pub output: PathBuf,
 }
+
+/// The files a mitral run takes by name (beside its [`super::Settings`]);
+/// it takes no positional input.
+pub const FILE_COLUMNS: &[Column] = &[
+    Column::path("anterior"),
+    Column::path("posterior"),
+    Column::path("annulus"),
+    Column::path("series"),
+];
 
 /// What [`Files::check`] found to run.
 #[derive(Debug, Clone)]

@@ -9,6 +9,7 @@ use super::settings::{DEFAULT_VOXEL_MM, Settings};
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
 use crate::app::run::StagedOutputs;
+use crate::app::run::columns::Column;
 use crate::app::run::files::{canonical, read_image_checked};
 use crate::app::run::frame::mesh_frame;
 use crate::io::{Frame, NiftiImage, WriteOptions, read_mesh, write_mesh};
@@ -39,6 +40,14 @@ pub struct Files {
     /// The output directory.
     pub output: PathBuf,
 }
+
+/// The files a placenta run takes by name (beside its [`super::Settings`]):
+/// the mesh is the positional `input`.
+pub const FILE_COLUMNS: &[Column] = &[
+    Column::path("seg"),
+    Column::path("image").repeated(),
+    Column::path("displacement"),
+];
 
 /// An image to pull into the template.
 #[derive(Debug, Clone)]

@@ -5,6 +5,7 @@
 //! frame of mesh files ([`frame`]), and the files read and written beside
 //! the meshes ([`files`]).
 
+pub mod columns;
 pub mod files;
 pub mod frame;
 mod manifest;

@@ -7,6 +7,7 @@ use super::landmarks::HeartLandmarks;
 use super::settings::Settings;
 use crate::app::error::{AppError, about, at, positive};
 use crate::app::observer::Observer;
+use crate::app::run::columns::Column;
 use crate::app::run::files::canonical;
 use crate::app::run::frame::{MeshFrame, mesh_frame, to_ras};
 use crate::io::{read_mesh, read_tri_mesh};
@@ -47,6 +48,24 @@ pub struct Files {
     /// The output directory.
     pub output: PathBuf,
 }
+
+/// The files and landmarks a ventricle run takes by name (beside its
+/// [`super::Settings`]): the anatomy is the positional `input`.
+pub const FILE_COLUMNS: &[Column] = &[
+    Column::path("surface"),
+    Column::value("anterior"),
+    Column::value("inferior"),
+    Column::value("rv-landmarks").repeated(),
+    Column::value("apex"),
+    Column::path("landmarks"),
+    Column::value("rim-near"),
+    Column::path("to-surface"),
+    Column::value("to-anterior"),
+    Column::value("to-inferior"),
+    Column::value("to-apex"),
+    Column::path("to-landmarks"),
+    Column::value("to-rim-near"),
+];
 
 impl Files {
     /// The input files, in the order the outputs are checked against
