@@ -3,9 +3,24 @@
 //! ([`crate::app::placenta::inputs::FILE_COLUMNS`] and the others'), so a
 //! manifest maps its columns onto the settings' fields by name.
 
-use super::manifest::OrganColumns;
 use crate::app::run::columns::{Column, ColumnKind, columns_of};
 use crate::app::{mitral, placenta, ventricle};
+use std::collections::{BTreeMap, HashSet};
+
+/// How an organ's run takes the columns of a manifest: each column is one
+/// of its settings or files, by name (the flag's name without the dashes).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct OrganColumns {
+    /// Columns taking a value (true: a file path).
+    pub valued: BTreeMap<String, bool>,
+    /// Columns that are switches.
+    pub switches: HashSet<String>,
+    /// Columns that may hold several values, `;`-separated.
+    pub repeated: HashSet<String>,
+    /// Whether the positional input (`input`) is a path; `None`: the organ
+    /// takes none.
+    pub input: Option<bool>,
+}
 
 /// How `organ` (`placenta`, `ventricle` or `mitral`) takes a manifest's
 /// columns; `None` for another name.

@@ -3,7 +3,8 @@
 use super::manifest::Plan;
 use super::subject::Ended;
 use super::subject::Subject;
-use super::table::{SubjectRow, write_cohort};
+use super::subject::SubjectRow;
+use super::table::write_cohort;
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
 use crate::app::run::files::ensure_dir;

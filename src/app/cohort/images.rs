@@ -25,7 +25,7 @@
 //! `OUT/cohort/z/<id>_<name>.nii.gz`. A subject whose image is on another
 //! grid (a run without the common `--grid`) is left out and named.
 
-use super::table::SubjectRow;
+use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
 use crate::app::run::files::{ensure_dir, read_image_checked};
 use crate::io::{NiftiImage, read_tet_mesh, write_image};

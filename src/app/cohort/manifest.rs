@@ -22,21 +22,6 @@ use crate::app::run::printable::printable;
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
 
-/// How an organ's run takes the columns of a manifest: each column is one
-/// of its settings or files, by name (the flag's name without the dashes).
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct OrganColumns {
-    /// Columns taking a value (true: a file path).
-    pub valued: BTreeMap<String, bool>,
-    /// Columns that are switches.
-    pub switches: HashSet<String>,
-    /// Columns that may hold several values, `;`-separated.
-    pub repeated: HashSet<String>,
-    /// Whether the positional input (`input`) is a path; `None`: the organ
-    /// takes none.
-    pub input: Option<bool>,
-}
-
 /// The organs a manifest row may name.
 pub const ORGANS: [&str; 3] = ["placenta", "ventricle", "mitral"];
 

@@ -9,7 +9,7 @@
 //! its `report.json` (`step` empty, `anterior_file` empty; the energies
 //! are its `distortion.final`, the quantities a series writes).
 
-use super::table::SubjectRow;
+use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
 use crate::app::mitral::SERIES_COLUMNS;
 use crate::app::run::files::ensure_dir;

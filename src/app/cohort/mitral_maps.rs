@@ -42,7 +42,7 @@
 //! statistics: nibabel, ITK, 3D Slicer and ParaView read it, it holds
 //! NaN, and an image is the natural form of a regular grid.
 
-use super::table::SubjectRow;
+use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
 use crate::app::run::files::ensure_dir;

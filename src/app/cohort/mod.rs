@@ -15,14 +15,17 @@ pub mod manifest;
 pub mod mitral;
 pub mod mitral_maps;
 pub mod report_page;
+pub mod scalars;
 pub mod segments;
 pub mod subject;
 pub mod table;
 
 pub use batch::{BatchObserver, run_manifest};
-pub use columns::organ_columns;
+pub use columns::{OrganColumns, organ_columns};
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};
-pub use manifest::{OrganColumns, Plan, plan};
-pub use subject::{Ended, Program, STATUSES, Subject, place_subject, recorded_hash, run_subject};
-pub use table::{SubjectRow, gather};
+pub use manifest::{Plan, plan};
+pub use subject::{
+    Ended, Program, STATUSES, Subject, SubjectRow, place_subject, recorded_hash, run_subject,
+};
+pub use table::gather;

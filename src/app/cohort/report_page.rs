@@ -13,7 +13,8 @@
 //! anywhere; every text read from a file is HTML-escaped. The page is the
 //! same for the same outputs apart from its timestamp.
 
-use super::table::{SubjectRow, flatten};
+use super::scalars::flatten;
+use super::subject::SubjectRow;
 use crate::app::AppError;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

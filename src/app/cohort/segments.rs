@@ -13,7 +13,7 @@
 //! deviation `s` (empty where the others are fewer than two or do not
 //! vary).
 
-use super::table::SubjectRow;
+use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
 use crate::app::run::files::ensure_dir;
 use crate::app::ventricle::aha_segments::heart_segments;

@@ -39,6 +39,17 @@ impl Subject {
     }
 }
 
+/// A subject as the batch ran it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubjectRow {
+    /// Its id (`OUT/<id>/`).
+    pub id: String,
+    /// Its organ.
+    pub organ: String,
+    /// Covariate values by column.
+    pub covariates: BTreeMap<String, String>,
+}
+
 /// Whether a subject id is safe as a directory name of `OUT` (not `logs`
 /// or `cohort`, which hold the logs and the cohort statistics).
 pub fn valid_id(id: &str) -> bool {

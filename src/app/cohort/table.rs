@@ -22,51 +22,14 @@
 //! ([`super::report_page`]).
 
 use super::figures::PlotSpec;
+use super::scalars::flatten;
+use super::subject::SubjectRow;
 use super::subject::valid_id;
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
 use crate::app::run::printable::printable;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// A subject as the batch ran it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SubjectRow {
-    /// Its id (`OUT/<id>/`).
-    pub id: String,
-    /// Its organ.
-    pub organ: String,
-    /// Covariate values by column.
-    pub covariates: BTreeMap<String, String>,
-}
-
-/// The scalars of a JSON value, keys joined by dots (numbers as written,
-/// booleans as 0 and 1; at the top level the `provenance` section is left
-/// out).
-pub fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, String>) {
-    match v {
-        serde_json::Value::Number(n) => {
-            out.insert(prefix.to_string(), n.to_string());
-        }
-        serde_json::Value::Bool(b) => {
-            out.insert(prefix.to_string(), u8::from(*b).to_string());
-        }
-        serde_json::Value::Object(map) => {
-            for (k, v) in map {
-                if prefix.is_empty() && k == "provenance" {
-                    continue;
-                }
-                let key = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                flatten(&key, v, out);
-            }
-        }
-        _ => {}
-    }
-}
 
 /// Writes `OUT/subjects.csv` and `OUT/cohort.csv` for `subjects`, the
 /// statistics and the default cohort figures.

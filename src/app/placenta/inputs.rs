@@ -283,9 +283,10 @@ pub fn read(
             image: read_image_checked(p, 0.0)?,
         });
     }
+    let spacings: Vec<[f64; 3]> = images.iter().map(|i| i.image.volume.spacing()).collect();
     super::memory::check_memory(
         &prepared.mesh,
-        &images,
+        &spacings,
         settings.grid.as_ref(),
         files.displacement.is_some(),
     )?;

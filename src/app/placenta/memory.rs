@@ -1,7 +1,6 @@
 //! The memory a placenta run is predicted to take, checked against the
 //! budget before the flattening allocates.
 
-use super::inputs::ImageInput;
 use crate::app::AppError;
 use crate::app::run::memory;
 
@@ -16,16 +15,13 @@ use crate::app::run::memory;
 /// [`AppError::Memory`] saying what to change.
 pub fn check_memory(
     mesh: &crate::mesh::TetMesh,
-    images: &[ImageInput],
+    image_spacings: &[[f64; 3]],
     grid: Option<&[f64; 6]>,
     displacement: bool,
 ) -> Result<(), AppError> {
-    let voxel = images
-        .iter()
-        .map(|i| i.image.volume.spacing())
-        .fold([f64::INFINITY; 3], |m, s| {
-            std::array::from_fn(|a| m[a].min(s[a]))
-        });
+    let voxel = image_spacings.iter().fold([f64::INFINITY; 3], |m, s| {
+        std::array::from_fn(|a| m[a].min(s[a]))
+    });
     let voxel = if voxel.iter().all(|x| x.is_finite() && *x > 0.0) {
         voxel
     } else {
@@ -37,7 +33,7 @@ pub fn check_memory(
             .product(),
         None => 4.0 * crate::mesh::geometry::total_volume(mesh) / (voxel[0] * voxel[1] * voxel[2]),
     };
-    let tables = images.len() + usize::from(displacement);
+    let tables = image_spacings.len() + usize::from(displacement);
     let estimate = crate::organs::placenta::memory::estimate_memory(mesh, template_voxels, tables)
         .map_err(|e| AppError::Usage(e.to_string()))?;
     let hint = match estimate.largest() {
