@@ -24,7 +24,7 @@ type Leaflet<'py> = (
 #[pyfunction]
 #[pyo3(signature = (
     anterior, posterior, annulus=None, *, annulus_mode="landmark", init="auto", relax="sd",
-    iterations=5, step_scale=None, coaptation_mm=2.0, tolerance_mm=None,
+    energy="symmetric-dirichlet", iterations=5, step_scale=None, coaptation_mm=2.0, tolerance_mm=None,
     cut_posteromedial=false, name="valve"
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -36,6 +36,7 @@ pub(crate) fn mitral<'py>(
     annulus_mode: &str,
     init: &str,
     relax: &str,
+    energy: &str,
     iterations: i64,
     step_scale: Option<f64>,
     coaptation_mm: f64,
@@ -53,6 +54,7 @@ pub(crate) fn mitral<'py>(
         annulus_mode: choice("--annulus-mode", annulus_mode)?,
         init: choice("--init", init)?,
         relax: choice("--relax", relax)?,
+        energy: choice("--energy", energy)?,
         iterations,
         step_scale,
         coaptation_mm,
@@ -92,12 +94,13 @@ pub(crate) fn mitral<'py>(
     };
     // The settings as the report has always named them.
     let parameters = format!(
-        "MitralSettings {{ annulus_mode: {:?}, init: {:?}, relax: {:?}, iterations: {:?}, \
-         step_scale: {:?}, coaptation_mm: {:?}, tolerance_mm: {:?}, cut_posteromedial: {:?} }}, \
+        "MitralSettings {{ annulus_mode: {:?}, init: {:?}, relax: {:?}, energy: {:?}, \
+         iterations: {:?}, step_scale: {:?}, coaptation_mm: {:?}, tolerance_mm: {:?}, cut_posteromedial: {:?} }}, \
          annulus given: {}",
         settings.annulus_mode,
         settings.init,
         settings.relax,
+        settings.energy,
         settings.iterations,
         settings.step_scale,
         settings.coaptation_mm,

@@ -63,7 +63,7 @@ type ImageArrays<'py> = (
 #[pyfunction]
 #[pyo3(signature = (
     points, tets, *, template=None, lam=1.0, margin_mm=None, gamma=20.0, rings=3, voxel_mm=3.0, fix_h=None,
-    solver="newton", tol=1e-4, max_iterations=None, name="mesh", progress=None,
+    solver="newton", energy="symmetric-dirichlet", tol=1e-4, max_iterations=None, name="mesh", progress=None,
     images=Vec::new(), interp="linear", spacing_mm=None, frame_check=true
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -79,6 +79,7 @@ pub(crate) fn placenta<'py>(
     voxel_mm: f64,
     fix_h: Option<f64>,
     solver: &str,
+    energy: &str,
     tol: f64,
     max_iterations: Option<i64>,
     name: &str,
@@ -91,6 +92,7 @@ pub(crate) fn placenta<'py>(
     let started = unfold::app::run::provenance::now();
     let settings = Settings {
         solver: choice("--solver", solver)?,
+        energy: choice("--energy", energy)?,
         lambda: lam,
         fix_h,
         margin_mm,
@@ -126,7 +128,7 @@ pub(crate) fn placenta<'py>(
     let parameters = format!(
         "template={template_name:?}, lam={lam}, margin_mm={margin_mm:?}, gamma={gamma}, rings={rings}, \
          voxel_mm={voxel_mm}, fix_h={fix_h:?}, \
-         solver={solver:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
+         solver={solver:?}, energy={energy:?}, tol={tol}, max_iterations={max_iterations:?}, interp={interp:?}, \
          spacing_mm={spacing_mm:?}, frame_check={frame_check}"
     );
     let images = images

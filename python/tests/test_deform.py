@@ -99,7 +99,7 @@ def test_an_inverted_tet_raises_the_cli_message(problem, unfold_bin, tmp_path):
 @pytest.mark.parametrize("kwargs, message", [
     ({"weight": -1.0}, "--weight must be a finite positive number, got -1"),
     ({"tol": float("nan")}, "--tol must be a finite positive number, got NaN"),
-    ({"energy": "rigid"}, "--energy must be one of symmetric-dirichlet, arap, got 'rigid'"),
+    ({"energy": "rigid"}, "--energy must be one of symmetric-dirichlet, mips, arap, area-ratio, got 'rigid'"),
     ({"solver": "lbfgs"}, "--solver must be one of newton, gd, got 'lbfgs'"),
     ({"max_iterations": -1}, "--max-iterations must not be negative, got -1"),
 ])

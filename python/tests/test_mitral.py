@@ -65,6 +65,15 @@ def test_tuple_leaflets_and_settings(valve):
     np.testing.assert_array_equal(r.cells["triangle"].max() + 1, len(r.points))
 
 
+def test_the_energy_equals_the_cli(valve, unfold_bin, tmp_path):
+    cli(unfold_bin, "mitral", *write_valve(tmp_path, valve), "-o", tmp_path / "out",
+        "--energy", "mips", "--no-figures")
+    result = unfold.mitral(valve.anterior, valve.posterior, valve.annulus, energy="mips")
+    assert_mesh_equal(meshio.read(tmp_path / "out" / "valve2d.vtu"), result.points, result.cells,
+                      result.arrays)
+    assert result.report["pieces"]["energy"] == "mips"
+
+
 def test_bad_coaptation_raises_the_cli_message(valve, unfold_bin, tmp_path):
     out = cli(unfold_bin, "mitral", *write_valve(tmp_path, valve), "-o", tmp_path / "o",
               "--coaptation-mm=-1", ok=False)
@@ -77,6 +86,9 @@ def test_bad_coaptation_raises_the_cli_message(valve, unfold_bin, tmp_path):
 def test_bad_inputs(valve):
     with pytest.raises(unfold.UnfoldError, match="--relax must be one of spring, sd, got 'x'"):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus, relax="x")
+    with pytest.raises(unfold.UnfoldError, match="--energy must be one of symmetric-dirichlet, mips, "
+                       "arap, area-ratio, got 'x'"):
+        unfold.mitral(valve.anterior, valve.posterior, valve.annulus, energy="x")
     with pytest.raises(unfold.UnfoldError, match="--iterations must be a whole number >= 0, got -2"):
         unfold.mitral(valve.anterior, valve.posterior, valve.annulus, iterations=-2)
     with pytest.raises(unfold.UnfoldError, match="annulus must have shape"):

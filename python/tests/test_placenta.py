@@ -117,6 +117,8 @@ def test_bad_settings_raise_the_cli_message(slab, unfold_bin, tmp_path, kwargs, 
 @pytest.mark.parametrize("kwargs, message", [
     ({"template": "cube"}, "--template must be one of planes, ellipsoid, single-plane, got 'cube'"),
     ({"solver": "lbfgs"}, "--solver must be one of newton, gd, got 'lbfgs'"),
+    ({"energy": "dirichlet"},
+     "--energy must be one of symmetric-dirichlet, mips, arap, area-ratio, got 'dirichlet'"),
     ({"interp": "cubic"}, "--interp must be one of linear, nearest, got 'cubic'"),
     ({"max_iterations": -3}, "--max-iterations must not be negative, got -3"),
 ])
@@ -124,6 +126,16 @@ def test_bad_choices(slab, kwargs, message):
     with pytest.raises(unfold.UnfoldError) as e:
         unfold.placenta(slab.points, slab.cells["tetra"], **kwargs)
     assert str(e.value) == message
+
+
+def test_the_energy_equals_the_cli(slab, unfold_bin, tmp_path):
+    unfold.write_mesh(tmp_path / "slab.vtu", slab)
+    subprocess.run([unfold_bin, "placenta", str(tmp_path / "slab.vtu"), "-o", str(tmp_path / "out"),
+                    "--energy", "arap", "--no-figures"], check=True, capture_output=True)
+    result = unfold.placenta(slab.points, slab.cells["tetra"], energy="arap")
+    cli = meshio.read(tmp_path / "out" / "flattened.vtu")
+    np.testing.assert_allclose(result.points, cli.points, rtol=0, atol=1e-12)
+    assert result.report["pieces"]["energy"] == "arap"
 
 
 def test_bad_indices(slab):

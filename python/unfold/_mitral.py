@@ -53,6 +53,7 @@ def mitral(
     annulus_mode: str = "landmark",
     init: str = "auto",
     relax: str = "sd",
+    energy: str = "symmetric-dirichlet",
     iterations: int = 5,
     step_scale: Optional[float] = None,
     coaptation_mm: float = 2.0,
@@ -78,6 +79,9 @@ def mitral(
         annulus_mode: "landmark" (default), "least-squares" or "straight".
         init: "auto" (default), "longitudes" or "tutte".
         relax: "sd" (default) or "spring".
+        energy: the distortion energy D of the "sd" relaxation
+            (``--energy``): "symmetric-dirichlet" (default), "mips", "arap"
+            or "area-ratio".
         iterations: spring relaxation steps (``--iterations``).
         step_scale: spring step scale (None: the library's).
         coaptation_mm: coaptation threshold, mm.
@@ -100,6 +104,7 @@ def mitral(
         annulus_mode=annulus_mode,
         init=init,
         relax=relax,
+        energy=energy,
         iterations=int(iterations),
         step_scale=None if step_scale is None else float(step_scale),
         coaptation_mm=float(coaptation_mm),

@@ -59,6 +59,7 @@ def placenta(
     fix_h: Optional[float] = None,
     voxel_mm: float = 3.0,
     solver: str = "newton",
+    energy: str = "symmetric-dirichlet",
     tol: float = 1e-4,
     max_iterations: Optional[int] = None,
     name: str = "mesh",
@@ -71,7 +72,7 @@ def placenta(
 
     Minimizes ``phi(X, theta) = sum_m A_m T(x_m, theta) + lam sum_k V_k D(J_k)``
     (template term over the fetal, maternal and margin boundary vertices plus
-    the symmetric Dirichlet distortion), flip-free, with the command line's
+    the distortion, symmetric Dirichlet unless ``energy`` says otherwise), flip-free, with the command line's
     defaults. The GIL is released while the Rust code runs.
 
     Args:
@@ -91,6 +92,8 @@ def placenta(
             ``--rings`` (the parcellation's affinity). fix_h: ``--fix-h``, the
             half thickness h held at this value (planes, single-plane).
         solver: "newton" (default) or "gd". tol: ``--tol``.
+        energy: the distortion energy D (``--energy``):
+            "symmetric-dirichlet" (default), "mips", "arap" or "area-ratio".
         max_iterations: ``--max-iterations`` (None: the solver's default).
         name: what messages and ``report["mesh"]`` call the mesh.
         progress: called as ``progress(stage, iteration, value)`` with the GIL
@@ -143,6 +146,7 @@ def placenta(
         fix_h=None if fix_h is None else float(fix_h),
         voxel_mm=float(voxel_mm),
         solver=solver,
+        energy=energy,
         tol=float(tol),
         max_iterations=max_iterations,
         name=name,

@@ -5,6 +5,7 @@
 
 use crate::app::error::{AppError, positive};
 use crate::organs::mitral::{AnnulusMode, Config, InitMode, LeafletLayout, Pipeline, RelaxMode};
+use crate::param::energy::EnergyKind;
 use serde::{Deserialize, Serialize};
 
 /// A mitral run's settings; the names are the command line's flags
@@ -18,6 +19,8 @@ pub struct Settings {
     pub init: InitMode,
     /// The relaxation.
     pub relax: RelaxMode,
+    /// The distortion energy `D` of the flip-free relaxation (`sd`).
+    pub energy: EnergyKind,
     /// Spring relaxation: the number of explicit steps.
     pub iterations: usize,
     /// Spring relaxation: the step scale (none: the library's).
@@ -42,6 +45,7 @@ impl Default for Settings {
             annulus_mode: AnnulusMode::Landmark,
             init: InitMode::Auto,
             relax: RelaxMode::Sd,
+            energy: EnergyKind::SymmetricDirichlet,
             iterations: 5,
             step_scale: None,
             coaptation_mm: 2.0,
@@ -54,13 +58,17 @@ impl Default for Settings {
 
 impl Settings {
     /// The pipeline of the settings, every setting checked: the layout
-    /// mode as the initializer, the published pieces otherwise.
+    /// mode as the initializer, the energy of the settings, the published
+    /// pieces otherwise.
     ///
     /// # Errors
     /// [`AppError::Usage`] naming the flag out of range.
     pub fn pipeline(&self) -> Result<Pipeline, AppError> {
         let init = LeafletLayout { mode: self.init };
-        Ok(Pipeline::new().initializer(init).config(self.config()?))
+        Ok(Pipeline::new()
+            .initializer(init)
+            .energy(self.energy.build())
+            .config(self.config()?))
     }
 
     /// The pipeline's configuration, every value checked with its flag's

@@ -10,6 +10,7 @@ use crate::organs::placenta::parcellation::{DEFAULT_MARGIN_VOXELS, ParcellationC
 use crate::organs::placenta::{
     Config, GridBox, Held, Interpolation, Pipeline, PlacentaTemplate, TemplateKind,
 };
+use crate::param::energy::EnergyKind;
 use crate::param::solver::SolverKind;
 use serde::{Deserialize, Serialize};
 
@@ -22,6 +23,8 @@ pub struct Settings {
     pub template: TemplateKind,
     /// The optimizer.
     pub solver: SolverKind,
+    /// The distortion energy `D`.
+    pub energy: EnergyKind,
     /// Weight lambda of the distortion term.
     pub lambda: f64,
     /// Also flatten with each of these weights (the trade-off curve).
@@ -66,12 +69,14 @@ pub struct Settings {
 }
 
 impl Default for Settings {
-    /// The published method: planes, projected Newton, lambda 1, gamma 20,
+    /// The published method: planes, projected Newton, symmetric Dirichlet,
+    /// lambda 1, gamma 20,
     /// 3-rings, gradient tolerance 1e-4, linear interpolation.
     fn default() -> Self {
         Settings {
             template: TemplateKind::Planes,
             solver: SolverKind::Newton,
+            energy: EnergyKind::SymmetricDirichlet,
             lambda: 1.0,
             lambda_sweep: Vec::new(),
             fix_h: None,
@@ -188,8 +193,8 @@ impl Settings {
         Ok(config)
     }
 
-    /// The pipeline: the template (held at `fix_h`) and solver of the
-    /// settings, the published pieces otherwise, and `config`.
+    /// The pipeline: the template (held at `fix_h`), solver and energy of
+    /// the settings, the published pieces otherwise, and `config`.
     ///
     /// # Errors
     /// [`hold_half_thickness`]'s.
@@ -210,6 +215,7 @@ impl Settings {
         Ok(Pipeline::new()
             .template(hold_half_thickness(template, self.fix_h)?)
             .solver(self.solver.build())
+            .energy(self.energy.build())
             .config(config))
     }
 }

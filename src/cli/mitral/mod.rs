@@ -12,6 +12,7 @@ use crate::app::error::shown;
 use crate::app::mitral::{self, Files, Job, Outputs, Settings, series};
 use crate::app::run::StagedOutputs;
 use crate::organs::mitral::{AnnulusMode, InitMode, RelaxMode};
+use crate::param::energy::EnergyKind;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -55,6 +56,10 @@ pub struct MitralArgs {
     /// Relaxation.
     #[arg(long, value_parser = named::<RelaxMode>(), default_value = "sd")]
     relax: RelaxMode,
+    /// Distortion energy D of the flip-free relaxation (ALGORITHMS 1.2):
+    /// symmetric-dirichlet (the default), mips, arap or area-ratio.
+    #[arg(long, value_parser = named::<EnergyKind>(), default_value = "symmetric-dirichlet")]
+    energy: EnergyKind,
     /// Spring relaxation: number of explicit steps.
     #[arg(long, value_name = "N", default_value_t = 5)]
     iterations: usize,
@@ -79,6 +84,7 @@ impl MitralArgs {
             annulus_mode: self.annulus_mode,
             init: self.init,
             relax: self.relax,
+            energy: self.energy,
             iterations: self.iterations,
             step_scale: self.step_scale,
             coaptation_mm: self.coaptation_mm,

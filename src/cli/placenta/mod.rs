@@ -13,6 +13,7 @@ use crate::app::placenta::{self, Files, Outputs, Settings};
 use crate::app::run::StagedOutputs;
 use crate::app::run::frame::MeshFrame;
 use crate::organs::placenta::{Interpolation, TemplateKind};
+use crate::param::energy::EnergyKind;
 use crate::param::solver::SolverKind;
 use clap::Args;
 use std::path::PathBuf;
@@ -117,6 +118,10 @@ pub struct PlacentaArgs {
     /// Optimizer.
     #[arg(long, value_parser = named::<SolverKind>(), default_value = "newton")]
     solver: SolverKind,
+    /// Distortion energy D (ALGORITHMS 1.2): symmetric-dirichlet (the
+    /// published method, a barrier against flips), mips, arap or area-ratio.
+    #[arg(long, value_parser = named::<EnergyKind>(), default_value = "symmetric-dirichlet")]
+    energy: EnergyKind,
     /// A 3D or 4D image (.nii .nii.gz .nrrd .seg.nrrd .nhdr) in the mesh's
     /// scanner frame to pull into the template; written as
     /// DIR/<name>_flat.nii.gz. Repeatable.
@@ -181,6 +186,7 @@ impl PlacentaArgs {
         Settings {
             template: self.template,
             solver: self.solver,
+            energy: self.energy,
             lambda: self.lambda,
             lambda_sweep: self.lambda_sweep.clone(),
             fix_h: self.fix_h,
