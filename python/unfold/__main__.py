@@ -1,6 +1,6 @@
 """``python -m unfold ARGS``: the ``unfold`` command line.
 
-The same program as the ``unfold`` binary (``unfold::cli::main``): the same
+The same program as the ``unfold`` binary (``unfold::program``): the same
 subcommands, outputs, one-line errors and exit codes (0 done, 1 failed, 2 a
 usage error, 3 outputs written but the solver did not converge). It is how
 :func:`unfold.dask.run_cohort` runs a subject on a worker without the binary
