@@ -297,6 +297,29 @@ mod tests {
         }
     }
 
+    /// The case proptest found: free edges 0.5 mm apart, the tolerance,
+    /// meet in a third place; the widest ring is still the annulus.
+    #[test]
+    fn a_closed_valve_s_free_edges_meeting_leave_the_ring() {
+        for gap in [0.3, 0.5, 0.7, 1.0] {
+            let v = mitral_valve(&ValveParams {
+                coaptation_gap: gap,
+                commissure_gap: 8.0,
+                saddle_height: 0.0,
+                billow: 0.0,
+                annulus_segments: 24,
+                depth_segments: 6,
+                pose: Pose::new([0.0, 30.0, 0.0], [10.0, -20.0, 5.0]),
+                ..ValveParams::default()
+            })
+            .unwrap();
+            let f = annulus_from_leaflets(&v.anterior, &v.posterior, 0.5).unwrap();
+            assert_eq!(f.ring.len(), v.annulus.len(), "gap {gap}: {:?}", f.places);
+            let h = hausdorff(&f.ring, &v.annulus);
+            assert!(h <= 1e-9, "gap {gap}: {h} ({:?})", f.places);
+        }
+    }
+
     #[test]
     fn vector_area_of_a_unit_square_is_its_normal() {
         let sq = [
@@ -358,7 +381,9 @@ mod tests {
         /// Whatever the valve's shape, pose and state (open or closed), and
         /// with the posterior leaflet's commissure points moved off the
         /// anterior's by less than the tolerance, the found ring is the
-        /// given one up to that move.
+        /// given one up to that move. Free edges closer than the tolerance
+        /// (a coaptation gap near it) meet too, in more places than the two
+        /// commissures; the ring is found all the same (step 4).
         #[test]
         fn the_found_ring_is_the_given_one(
             gap in 0.5f64..8.0,
@@ -386,7 +411,11 @@ mod tests {
                 post.positions[m as usize].x += shift;
             }
             let f = annulus_from_leaflets(&v.anterior, &post, 0.5).unwrap();
-            prop_assert_eq!(f.places, [2, 2]);
+            if gap > 1.0 {
+                prop_assert_eq!(f.places, [2, 2]);
+            } else {
+                prop_assert!(f.places.iter().all(|&p| p >= 2), "{:?}", f.places);
+            }
             prop_assert_eq!(f.ring.len(), v.annulus.len());
             let h = hausdorff(&f.ring, &v.annulus);
             prop_assert!(h <= 0.5 * shift + 1e-9, "{} > {}", h, 0.5 * shift);
