@@ -73,6 +73,23 @@ pub enum AppError {
     /// A stage would take more memory than the run may use.
     #[error(transparent)]
     Memory(Box<MemoryRefusal>),
+    /// A subject's report exists but does not read as this unfold's report
+    /// of its organ (a renamed, missing or retyped field: written by
+    /// another version, or edited). The cohort stops rather than leave its
+    /// values out; `unfold batch` runs such a subject again.
+    #[error(
+        "{path}: not a {organ} report of this unfold ({message}); rerun the subject with this \
+         unfold: `unfold batch MANIFEST -o OUT` runs again every subject whose report it cannot \
+         read (or delete the subject's folder and rerun its command)"
+    )]
+    Report {
+        /// The report file.
+        path: String,
+        /// The subject's organ.
+        organ: String,
+        /// What serde says (the field, line and column).
+        message: String,
+    },
     /// An organ command failed on an input smaller than any organ
     /// ([`super::run::units::SMALLEST_ORGAN_MM`] across), probably not in millimetres.
     #[error(

@@ -10,7 +10,8 @@
 //! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
 //! - [`geodesic`]: Dijkstra along edges.
 //! - [`spatial`]: point location and closest points (BVH).
-//! - [`stats`]: [`stats::Summary`] (mean, sample std, percentiles).
+//! - [`stats`]: [`stats::Summary`] (mean, sample std, percentiles);
+//!   [`nan_as_null`]: reading back a report's numbers written as `null`.
 //! - [`Volume`]: 3D / 4D images with their voxel-to-world affine; [`mask`]
 //!   operations and [`mesher`]: tet meshes of segmentations by isosurface
 //!   [`stuffing`].
@@ -33,6 +34,7 @@ pub mod mask;
 pub mod mask_selection;
 pub mod memory;
 pub mod mesher;
+pub mod nan_as_null;
 pub mod raster;
 pub mod reindex;
 pub mod repair;

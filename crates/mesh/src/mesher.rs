@@ -47,7 +47,7 @@ use crate::spatial::ClosestPointQuery;
 use crate::stuffing::{Implicit, Stuffed, stuff};
 use crate::{MeshError, TetMesh, Volume, mask};
 use nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3, Vector4};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use crate::mask_selection::{MaskSelection, mask_from_image};
 
@@ -114,7 +114,8 @@ pub fn cube_side_for_cubes(mask: &Volume<bool>, cubes: f64) -> Option<f64> {
 }
 
 /// Size and quality figures of a tet mesh.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MeshQuality {
     /// Vertices.
     pub vertices: usize,
@@ -123,10 +124,13 @@ pub struct MeshQuality {
     /// Boundary triangles.
     pub boundary_triangles: usize,
     /// Total volume, mm^3.
+    #[serde(with = "crate::nan_as_null")]
     pub volume_mm3: f64,
     /// Smallest dihedral angle, degrees.
+    #[serde(with = "crate::nan_as_null")]
     pub min_dihedral_deg: f64,
     /// Largest dihedral angle, degrees.
+    #[serde(with = "crate::nan_as_null")]
     pub max_dihedral_deg: f64,
 }
 

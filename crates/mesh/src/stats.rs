@@ -12,7 +12,7 @@
 //! placenta's distortion summaries; the population one (`n` in the
 //! denominator) is `std * sqrt((n - 1) / n)` up to rounding.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Mean, standard deviation, extremes and percentiles of a set of values
 /// (ALGORITHMS 2.6 "mean, std and percentiles").
@@ -27,25 +27,35 @@ use serde::Serialize;
 ///   is at rank `r = p/100 (n - 1)`, i.e.
 ///   `v_floor(r) + (r - floor r)(v_ceil(r) - v_floor(r))` (NumPy's default
 ///   `linear` method, R's type 7; `p50` is the usual median).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Summary {
     /// Arithmetic mean.
+    #[serde(with = "crate::nan_as_null")]
     pub mean: f64,
     /// Sample standard deviation (`n - 1` in the denominator).
+    #[serde(with = "crate::nan_as_null")]
     pub std: f64,
     /// Smallest value.
+    #[serde(with = "crate::nan_as_null")]
     pub min: f64,
     /// Largest value.
+    #[serde(with = "crate::nan_as_null")]
     pub max: f64,
     /// 5th percentile.
+    #[serde(with = "crate::nan_as_null")]
     pub p5: f64,
     /// 25th percentile (first quartile).
+    #[serde(with = "crate::nan_as_null")]
     pub p25: f64,
     /// 50th percentile (median).
+    #[serde(with = "crate::nan_as_null")]
     pub p50: f64,
     /// 75th percentile (third quartile).
+    #[serde(with = "crate::nan_as_null")]
     pub p75: f64,
     /// 95th percentile.
+    #[serde(with = "crate::nan_as_null")]
     pub p95: f64,
 }
 

@@ -29,7 +29,8 @@ use crate::metrics::{folded_count, inverted_count, min_det_j};
 use crate::solver::{Executor, Observer, ProjectedNewton, Solver, StopReason, Stopping};
 use crate::template::PointTargets;
 use crate::{DistortionEnergy, Objective, ParamError, ParamMesh, TemplateTerm};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::time::Instant;
 use unfold_mesh::TetMesh;
 use unfold_mesh::nalgebra::Point3;
@@ -61,17 +62,22 @@ impl Default for Deform {
 }
 
 /// What [`Deform::run`] reports (`OUT.report.json` of `unfold deform`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DeformReport {
     /// `distortion + target_term` at the result.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub objective: f64,
     /// `sum_k V_k D(J_k)` (volume weights summing to 1).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub distortion: f64,
     /// `W sum_b |x_b - t_b|^2`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub target_term: f64,
     /// Iterations taken.
     pub iterations: usize,
     /// Wall-clock seconds: rest data, objective set-up and the solve.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
     /// Whether the solver met its convergence test.
     pub converged: bool,
@@ -81,30 +87,36 @@ pub struct DeformReport {
     /// ([`crate::metrics::folded_count`]; 0 for an injective map).
     pub folded_faces: usize,
     /// The solver's name.
-    pub solver: &'static str,
+    pub solver: Cow<'static, str>,
     /// The distortion energy's name.
-    pub energy: &'static str,
+    pub energy: Cow<'static, str>,
     /// The initializer's name.
-    pub initializer: &'static str,
+    pub initializer: Cow<'static, str>,
     /// The line search's name.
-    pub line_search: &'static str,
+    pub line_search: Cow<'static, str>,
     /// W.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub weight: f64,
     /// Number of target vertices.
     pub targets: usize,
     /// The gradient tolerance.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub tol: f64,
     /// The iteration limit.
     pub max_iterations: usize,
     /// Why the solver stopped.
     pub stop_reason: StopReason,
     /// `|grad|_F` at the result.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub grad_norm: f64,
     /// Smallest `det J` at the result.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub min_det_j: f64,
     /// Largest distance of a target vertex from its target.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub target_error_max: f64,
     /// Root mean square distance of the target vertices from their targets.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub target_error_rms: f64,
 }
 
@@ -257,10 +269,10 @@ impl Deform {
             converged: solved.converged,
             inverted_tets: inverted_count(&rest, &x),
             folded_faces: folded_count(&rest, &x),
-            solver: self.solver.name(),
-            energy: self.energy.name(),
-            initializer: self.initializer.name(),
-            line_search: line_search.name(),
+            solver: self.solver.name().into(),
+            energy: self.energy.name().into(),
+            initializer: self.initializer.name().into(),
+            line_search: line_search.name().into(),
             weight: self.weight,
             targets: targets.len(),
             tol: stopping.grad_tol,

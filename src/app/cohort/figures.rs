@@ -25,6 +25,7 @@
 //! is skipped, and a line says so. PNGs of an earlier run that this run did
 //! not draw are removed, so that the index lists exactly the PNGs present.
 
+use super::reports::{SubjectReport, subject_report};
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
 use crate::app::run::files::{read_image_checked, write_figures};
@@ -336,11 +337,10 @@ fn distortion(
             continue;
         };
         let id = r.get("id").cloned().unwrap_or_default();
-        let template = std::fs::read_to_string(out.join(&id).join("report.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-            .and_then(|v| v["template"].as_str().map(str::to_string))
-            .unwrap_or_else(|| "unknown".to_string());
+        let template = match subject_report(&out.join(&id), "placenta")? {
+            Some(SubjectReport::Placenta(r)) => r.report.template.to_string(),
+            _ => "unknown".to_string(),
+        };
         subjects.push(SubjectDistortion {
             template,
             log2_det_j: dj,
@@ -623,7 +623,8 @@ fn energies(
 ///
 /// # Errors
 /// A `--plot` naming a column `cohort.csv` lacks or a covariate that is not
-/// numeric (the message lists the columns); reading the tables or images;
+/// numeric (the message lists the columns); reading the tables, images or a
+/// placenta's report ([`AppError::Report`]);
 /// drawing or writing a figure.
 pub fn cohort_figures(
     out: &Path,

@@ -9,9 +9,10 @@
 //! its `report.json` (`step` empty, `anterior_file` empty; the energies
 //! are its `distortion.final`, the quantities a series writes).
 
+use super::reports::{SubjectReport, subject_report};
 use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
-use crate::app::mitral::SERIES_COLUMNS;
+use crate::app::mitral::{MitralReport, SERIES_COLUMNS};
 use crate::app::run::files::ensure_dir;
 use std::path::{Path, PathBuf};
 
@@ -20,26 +21,36 @@ use std::path::{Path, PathBuf};
 /// per-step table keeps them).
 const COLUMNS: &[&str] = SERIES_COLUMNS.split_at(14).0.split_at(1).1;
 
+/// A number as the report writes it (`serde_json`'s text; empty for a
+/// non-finite value, which the report writes as `null`).
+fn num(x: f64) -> String {
+    serde_json::Number::from_f64(x)
+        .map(|n| n.to_string())
+        .unwrap_or_default()
+}
+
 /// A single valve's row from its report, in [`COLUMNS`] order.
-fn report_row(report: &serde_json::Value) -> Vec<String> {
-    let num = |v: &serde_json::Value| match v {
-        serde_json::Value::Number(n) => n.to_string(),
-        _ => String::new(),
-    };
+fn report_row(report: &MitralReport) -> Vec<String> {
+    let r = &report.report;
     COLUMNS
         .iter()
         .map(|c| match *c {
-            "anterior_file" => String::new(),
-            "anterior_area_mm2" => num(&report["leaflet_area_mm2"]["anterior"]),
-            "posterior_area_mm2" => num(&report["leaflet_area_mm2"]["posterior"]),
-            "coaptation_vertices" => num(&report["coaptation_vertices"]["within"]),
-            "seconds" => num(&report["seconds"]),
+            "annulus_length_mm" => num(r.annulus_length_mm),
+            "u_extent_mm" => num(r.u_extent_mm),
+            "anterior_area_mm2" => num(r.leaflet_area_mm2.anterior),
+            "posterior_area_mm2" => num(r.leaflet_area_mm2.posterior),
+            "saddle_horn_height_mm" => num(r.saddle_horn_height_mm),
+            "area_above_plane_mm2" => num(r.area_above_plane_mm2),
+            "coaptation_vertices" => r.coaptation_vertices.within.to_string(),
             // The same quantities as a series' columns (`unfold mitral`
             // writes `distortion.final` there).
-            "angle_energy" => num(&report["distortion"]["final"]["angle"]),
-            "area_energy" => num(&report["distortion"]["final"]["area"]),
-            "length_energy" => num(&report["distortion"]["final"]["length"]),
-            c => num(&report[c]),
+            "angle_energy" => num(r.distortion.r#final.angle),
+            "area_energy" => num(r.distortion.r#final.area),
+            "length_energy" => num(r.distortion.r#final.length),
+            "flipped_triangles" => r.flipped_triangles.to_string(),
+            "seconds" => num(r.seconds),
+            // `anterior_file`: a single valve has no step files
+            _ => String::new(),
         })
         .collect()
 }
@@ -48,7 +59,8 @@ fn report_row(report: &serde_json::Value) -> Vec<String> {
 /// without a mitral subject with outputs).
 ///
 /// # Errors
-/// Reading a subject's `series.csv`, writing the table.
+/// Reading a subject's `series.csv` or its report (one that exists but
+/// does not read as a valve's: [`AppError::Report`]), writing the table.
 pub fn mitral_measurements(
     out: &Path,
     subjects: &[SubjectRow],
@@ -79,10 +91,7 @@ pub fn mitral_measurements(
                 row.extend(COLUMNS.iter().map(|c| get(c)));
                 rows.push(row);
             }
-        } else if let Some(report) = std::fs::read_to_string(dir.join("report.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        {
+        } else if let Some(SubjectReport::Mitral(report)) = subject_report(&dir, &s.organ)? {
             let mut row = vec![s.id.clone(), String::new()];
             row.extend(report_row(&report));
             rows.push(row);

@@ -42,8 +42,10 @@
 //! statistics: nibabel, ITK, 3D Slicer and ParaView read it, it holds
 //! NaN, and an image is the natural form of a regular grid.
 
+use super::reports::{SubjectReport, subject_report};
 use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
+use crate::app::mitral::MitralReport;
 use crate::app::observer::Observer;
 use crate::app::run::files::ensure_dir;
 use crate::io::{NiftiImage, read_mesh, write_image};
@@ -138,14 +140,12 @@ fn scalar_arrays(fields: &Fields, tuples: usize) -> Vec<(String, Vec<f64>)> {
 /// its area outside the grid.
 type Sampled = (Vec<(String, Vec<Option<f64>>)>, f64);
 
-/// Reads, normalises and rasterises one map (module doc); the reason when
-/// it cannot be used.
-fn sample(dir: &Path) -> Result<Sampled, String> {
-    let report: serde_json::Value = std::fs::read_to_string(dir.join("report.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok())
-        .ok_or("no readable report.json next to valve2d.vtu")?;
-    let extent = report["u_extent_mm"].as_f64().unwrap_or(f64::NAN);
+/// Reads, normalises and rasterises one map (module doc) with its
+/// `report` (none: the map has no report); the reason when it cannot be
+/// used.
+fn sample(dir: &Path, report: Option<&MitralReport>) -> Result<Sampled, String> {
+    let report = report.ok_or("no readable report.json next to valve2d.vtu")?;
+    let extent = report.report.u_extent_mm;
     if !(extent.is_finite() && extent > 0.0) {
         return Err(format!(
             "its report's u_extent_mm is {extent}, not a length > 0 to normalise by"
@@ -231,14 +231,19 @@ impl MitralMaps {
 /// mitral subjects' flat maps (module doc).
 ///
 /// # Errors
-/// Writing an image.
+/// Writing an image; a map's report that exists but does not read as a
+/// valve's ([`AppError::Report`]).
 pub fn mitral_maps(out: &Path, subjects: &[SubjectRow]) -> Result<MitralMaps, AppError> {
     let g = grid();
     let mut stats: BTreeMap<String, Accumulator> = BTreeMap::new();
     let mut notes = Vec::new();
     let mut used = 0;
     for (label, dir) in maps(out, subjects) {
-        match sample(&dir) {
+        let report = match subject_report(&dir, "mitral")? {
+            Some(SubjectReport::Mitral(r)) => Some(r),
+            _ => None,
+        };
+        match sample(&dir, report.as_deref()) {
             Ok((arrays, outside)) => {
                 used += 1;
                 for (name, r) in arrays {

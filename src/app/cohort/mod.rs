@@ -4,7 +4,7 @@
 //! placentas ([`images`]), the AHA-segment statistics of the ventricles
 //! ([`segments`]), the mitral measurements and mean maps ([`mitral`],
 //! [`mitral_maps`]), the cohort figures ([`figures`]) and the report page
-//! ([`report_page`]).
+//! ([`report_page`]); every subject's report read typed ([`reports`]).
 
 pub mod batch;
 pub mod columns;
@@ -15,6 +15,7 @@ pub mod manifest;
 pub mod mitral;
 pub mod mitral_maps;
 pub mod report_page;
+pub mod reports;
 pub mod scalars;
 pub mod segments;
 pub mod subject;
@@ -25,6 +26,7 @@ pub use columns::{OrganColumns, organ_columns};
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};
 pub use manifest::{Plan, plan};
+pub use reports::{SubjectReport, read_report};
 pub use subject::{
     Ended, Program, STATUSES, Subject, SubjectRow, place_subject, recorded_hash, run_subject,
 };

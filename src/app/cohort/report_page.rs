@@ -13,9 +13,11 @@
 //! anywhere; every text read from a file is HTML-escaped. The page is the
 //! same for the same outputs apart from its timestamp.
 
+use super::reports::{REPORT, SubjectReport, subject_report};
 use super::scalars::flatten;
 use super::subject::SubjectRow;
 use crate::app::AppError;
+use crate::app::error::at;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -89,11 +91,6 @@ fn read_csv(path: &Path) -> Option<(Vec<String>, Vec<Vec<String>>)> {
         .map(|rec| rec.iter().map(str::to_string).collect())
         .collect();
     Some((header, rows))
-}
-
-/// A JSON file's value (none when it cannot be read or parsed).
-fn read_json(path: &Path) -> Option<serde_json::Value> {
-    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
 }
 
 /// The PNG files directly in `dir`, sorted by name.
@@ -317,7 +314,8 @@ fn link_if_file(html: &mut String, out: &Path, segments: &[&str], label: &str) {
 /// returns its path.
 ///
 /// # Errors
-/// Writing the page.
+/// Writing the page; a subject's report that exists but does not read as
+/// its organ's ([`AppError::Report`]).
 pub fn write_report(
     out: &Path,
     subjects: &[SubjectRow],
@@ -331,10 +329,10 @@ pub fn write_report(
                 .collect()
         })
         .unwrap_or_default();
-    let reports: Vec<Option<serde_json::Value>> = subjects
+    let reports: Vec<Option<SubjectReport>> = subjects
         .iter()
-        .map(|s| read_json(&out.join(&s.id).join("report.json")))
-        .collect();
+        .map(|s| subject_report(&out.join(&s.id), &s.organ))
+        .collect::<Result<_, _>>()?;
     let statuses: Vec<Status> = subjects
         .iter()
         .zip(&reports)
@@ -342,7 +340,7 @@ pub fn write_report(
             if failures.contains_key(&s.id) {
                 Status::Failed
             } else if let Some(r) = r {
-                if r["converged"] == serde_json::Value::Bool(false) {
+                if r.convergence().is_some_and(|c| !c.converged) {
                     Status::NotConverged
                 } else {
                     Status::Ok
@@ -527,18 +525,22 @@ pub fn write_report(
         link_if_file(&mut h, out, &["logs", &log], &format!("logs/{log}"));
         h.push_str("</p>\n");
         if let Some(r) = report {
-            if let Some(c) = r["converged"].as_bool() {
+            if let Some(c) = r.convergence() {
+                let ok = c.converged;
                 let _ = writeln!(
                     h,
                     "<p>Convergence: <span class=\"{}\">{}</span>, {} iterations, stop \
                      reason {}</p>",
-                    if c { "ok" } else { "warn" },
-                    if c { "converged" } else { "not converged" },
-                    escape(&r["iterations"].to_string()),
-                    escape(r["stop_reason"].as_str().unwrap_or("unknown"))
+                    if ok { "ok" } else { "warn" },
+                    if ok { "converged" } else { "not converged" },
+                    escape(&c.iterations.to_string()),
+                    escape(&c.stop_reason)
                 );
             }
-            let flags = quality_flags(r);
+            let value = r
+                .to_value()
+                .map_err(|e| at(&out.join(&s.id).join(REPORT), e))?;
+            let flags = quality_flags(&value);
             if !flags.is_empty() {
                 h.push_str("<h3>Quality</h3>\n");
                 let rows: Vec<Vec<String>> = flags

@@ -2,7 +2,10 @@
 //! it ended, the run hash its outputs record, and outputs run elsewhere put
 //! in place.
 
+use super::reports::{REPORT, read_any_report};
 use crate::app::error::{AppError, at};
+use crate::app::mitral::series::SERIES_JSON;
+use crate::app::mitral::series::table::SeriesReport;
 use crate::app::run::files::ensure_dir;
 use crate::app::run::printable::printable;
 use crate::app::run::provenance;
@@ -124,13 +127,17 @@ impl Program {
 }
 
 /// The run hash recorded in `dir/report.json`, or for a mitral series
-/// (no report of its own) in `dir/series.json`, if any.
+/// (no report of its own) in `dir/series.json`, if any. A file that does
+/// not read as this unfold's report of an organ (or series table) records
+/// none: the subject is not done, and runs again.
 pub fn recorded_hash(dir: &Path) -> Option<String> {
-    ["report.json", "series.json"].iter().find_map(|f| {
-        let text = std::fs::read_to_string(dir.join(f)).ok()?;
-        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-        v["provenance"]["run_hash"].as_str().map(str::to_string)
-    })
+    let report = || read_any_report(&dir.join(REPORT)).map(|r| r.provenance().run_hash.clone());
+    let series = || {
+        let text = std::fs::read_to_string(dir.join(SERIES_JSON)).ok()?;
+        let series: SeriesReport = serde_json::from_str(&text).ok()?;
+        Some(series.provenance.run_hash)
+    };
+    report().or_else(series)
 }
 
 /// Runs one subject as its own process of `program` into `dir`, its

@@ -22,6 +22,7 @@
 //! ([`super::report_page`]).
 
 use super::figures::PlotSpec;
+use super::reports::{REPORT, subject_report};
 use super::scalars::flatten;
 use super::subject::SubjectRow;
 use super::subject::valid_id;
@@ -35,7 +36,8 @@ use std::path::Path;
 /// statistics and the default cohort figures.
 ///
 /// # Errors
-/// Writing either file.
+/// Writing either file; a subject's report that exists but does not read
+/// as its organ's ([`AppError::Report`]).
 pub fn write_cohort(
     out: &Path,
     subjects: &[SubjectRow],
@@ -48,7 +50,8 @@ pub fn write_cohort(
 /// [`write_cohort`] with the scatter plots `plots` (none: the defaults).
 ///
 /// # Errors
-/// Writing a file; a `plots` entry naming an unknown column.
+/// Writing a file; a `plots` entry naming an unknown column; a subject's
+/// report that does not read as its organ's.
 fn write_cohort_plots(
     out: &Path,
     subjects: &[SubjectRow],
@@ -76,12 +79,12 @@ fn write_cohort_plots(
     let mut rows = Vec::with_capacity(subjects.len());
     let mut keys = std::collections::BTreeSet::new();
     for s in subjects {
-        let report = std::fs::read_to_string(out.join(&s.id).join("report.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let dir = out.join(&s.id);
+        let report = subject_report(&dir, &s.organ)?;
         let mut scalars = BTreeMap::new();
         if let Some(r) = &report {
-            flatten("", r, &mut scalars);
+            let value = r.to_value().map_err(|e| at(&dir.join(REPORT), e))?;
+            flatten("", &value, &mut scalars);
         }
         keys.extend(scalars.keys().cloned());
         let status = match (&report, out.join(&s.id).join("series.csv").is_file()) {
@@ -158,7 +161,8 @@ fn write_cohort_plots(
 ///
 /// # Errors
 /// `OUT/subjects.csv` missing or malformed; writing a file; a `plots`
-/// entry naming an unknown column.
+/// entry naming an unknown column; a subject's report that exists but does
+/// not read as its organ's ([`AppError::Report`]: the cohort stops).
 pub fn gather(
     output: &Path,
     plots: &[PlotSpec],

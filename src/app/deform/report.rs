@@ -4,13 +4,13 @@
 use crate::app::run::provenance::Provenance;
 use crate::mesh::repair::RepairReport;
 use crate::param::DeformReport;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// `OUT.report.json`: `mesh`, `targets_file`, `output`, `repair`, then
 /// every key of the library's [`DeformReport`] (flattened), then
 /// `provenance`. The command line and Python write this one type (Python's
 /// `output` is empty, its provenance has no command line).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DeformRunReport {
     /// The input mesh.
     pub mesh: String,

@@ -3,12 +3,12 @@
 
 use crate::app::run::provenance::Provenance;
 use crate::organs::mitral::Report;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// `report.json`: `inputs`, then every key of the library's [`Report`]
 /// (flattened), then `provenance`. The command line and Python write this
 /// one type (Python's provenance has no command line).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MitralReport {
     /// The inputs' names ([`super::inputs::ValveFiles::label`], or what the caller
     /// calls the valve).

@@ -6,14 +6,15 @@ use super::seg::SegReport;
 use crate::app::run::memory::MemoryReport;
 use crate::app::run::provenance::Provenance;
 use crate::organs::placenta::Report;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// `report.json`: `mesh`, then `segmentation` and `displacement` when
 /// given, then every key of the library's [`Report`] (flattened), then
 /// `memory` and `provenance`. The command line and Python write this one
 /// type (Python's memory section has the prediction only, its provenance
 /// no command line).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PlacentaReport {
     /// The input mesh's name (its path, or what the caller calls it).
     pub mesh: String,
@@ -44,13 +45,15 @@ impl PlacentaReport {
 }
 
 /// `displacement` in `report.json`: the map as an ITK displacement field.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DisplacementReport {
     /// The file written.
     pub path: String,
     /// How to read it.
-    pub convention: &'static str,
+    pub convention: Cow<'static, str>,
     /// Voxel size of the template grid, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub spacing_mm: [f64; 3],
     /// Voxels of the template grid.
     pub dims: [usize; 3],

@@ -10,7 +10,7 @@ use crate::mesh::mask::inside_distance_quantile;
 use crate::mesh::mesher::{MaskMeshOptions, MeshQuality, cube_side_for_cubes};
 use crate::mesh::{MeshError, TetMesh, Volume};
 use crate::organs::placenta::segmentation::{THICKNESS_QUANTILE, from_segmentation};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Lattice cubes the mask holds at `placenta --seg`'s default cube side.
@@ -23,7 +23,7 @@ pub const SEG_CUBES: usize = 5_000;
 
 /// Where `placenta --seg`'s lattice cube side came from (`size_from` in
 /// the report).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SizeFrom {
     /// `--size-mm`.
@@ -78,7 +78,8 @@ pub fn seg_cube_side(
 }
 
 /// `segmentation` in `report.json`: how the mesh was made from a mask.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SegReport {
     /// The mask.
     pub mask: String,
@@ -87,16 +88,20 @@ pub struct SegReport {
     /// Voxels set, and their volume in mm^3.
     pub mask_voxels: usize,
     /// Volume of the voxels set, mm^3.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub mask_volume_mm3: f64,
     /// Lattice cube side, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub size_mm: f64,
     /// Where the cube side came from.
     pub size_from: SizeFrom,
     /// Gaussian smoothing, voxels.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub smooth_voxels: f64,
     /// Box dilations.
     pub dilate: u8,
     /// Level of the smoothed mask meshed.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub level: f64,
     /// Whether the interior was graded (the default; not with `--dense`).
     pub graded: bool,
@@ -106,6 +111,7 @@ pub struct SegReport {
     pub dropped_components: Vec<usize>,
     /// Half thickness: the 95th percentile of the mask's distance
     /// transform, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub half_thickness_mm: f64,
     /// Size and quality of the mesh.
     pub quality: MeshQuality,

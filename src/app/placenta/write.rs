@@ -161,7 +161,8 @@ fn write_displacement(
         path: out.staged.shown(path).display().to_string(),
         convention: "ITK/ANTs displacement field on the template grid: the template \
                      voxel at p (RAS affine) comes from the scanner point p + d(p); \
-                     components in LPS",
+                     components in LPS"
+            .into(),
         spacing_mm: table.grid().spacing,
         dims: table.grid().dims,
         inside_mesh: table.len(),

@@ -14,12 +14,12 @@
 
 use crate::app::AppError;
 use crate::mesh::memory::{MemoryEstimate, format_bytes};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Where the limit comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LimitSource {
     /// `--max-memory`.
@@ -155,7 +155,8 @@ pub fn record(predicted_bytes: f64) {
 }
 
 /// What a report says of memory.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MemoryReport {
     /// The highest predicted peak of the run (resident + a stage's
     /// estimate), bytes.

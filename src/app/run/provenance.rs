@@ -12,13 +12,15 @@
 //! directly in it, sorted by name. Paths are taken as given: the same files
 //! under other names hash differently.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
+use std::borrow::Cow;
 use std::io::Read;
 use std::path::Path;
 
 /// One input file and its content hash.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct InputHash {
     /// The path as given.
     pub path: String,
@@ -29,14 +31,15 @@ pub struct InputHash {
 }
 
 /// What `report.json` says of where the run comes from.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Provenance {
     /// The unfold version.
-    pub unfold_version: &'static str,
+    pub unfold_version: Cow<'static, str>,
     /// `python` for a run from the Python package (none: the command
     /// line).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub interface: Option<&'static str>,
+    pub interface: Option<Cow<'static, str>>,
     /// The command line, as given.
     pub command_line: Vec<String>,
     /// Every option's value after parsing (defaults included).
@@ -60,7 +63,7 @@ pub fn init(command_line: Vec<String>, parameters: &dyn std::fmt::Debug) {
         let started = now();
         let (run_hash, inputs) = run_hash(command_line.get(1..).unwrap_or_default());
         Provenance {
-            unfold_version: env!("CARGO_PKG_VERSION"),
+            unfold_version: env!("CARGO_PKG_VERSION").into(),
             interface: None,
             command_line,
             parameters: format!("{parameters:?}"),
@@ -76,8 +79,8 @@ impl Provenance {
     /// when it `started` ([`now`]); no command line, no input files.
     pub fn python(parameters: String, started: String) -> Self {
         Provenance {
-            unfold_version: env!("CARGO_PKG_VERSION"),
-            interface: Some("python"),
+            unfold_version: env!("CARGO_PKG_VERSION").into(),
+            interface: Some("python".into()),
             command_line: Vec::new(),
             parameters,
             inputs: Vec::new(),
@@ -95,7 +98,7 @@ pub fn now() -> String {
 /// This process's run (recorded by [`init`]; empty before).
 pub fn this_run() -> Provenance {
     THIS_RUN.get().cloned().unwrap_or_else(|| Provenance {
-        unfold_version: env!("CARGO_PKG_VERSION"),
+        unfold_version: env!("CARGO_PKG_VERSION").into(),
         interface: None,
         command_line: std::env::args().collect(),
         parameters: String::new(),

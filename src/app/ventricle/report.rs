@@ -8,14 +8,14 @@ use crate::app::run::provenance::Provenance;
 use crate::organs::ventricle::Report;
 use crate::organs::ventricle::enclosing::EnclosingReport;
 use crate::organs::ventricle::rv_landmarks::FromRv;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// `report.json`: `inputs`, every key of the library's [`Report`]
 /// (flattened), then `transfer`, `sensitivity` and `enclosing_surface`
 /// when given, then `memory` and `provenance`. The command line and Python
 /// write this one type (Python's memory section has the prediction only,
 /// its provenance no command line).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct VentricleReport {
     /// The inputs' names.
     pub inputs: ReportInputs,
@@ -49,7 +49,8 @@ impl VentricleReport {
 }
 
 /// The inputs named in `report.json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ReportInputs {
     /// The anatomy's name.
     pub anatomy: String,
@@ -61,7 +62,8 @@ pub struct ReportInputs {
 }
 
 /// `transfer` in `report.json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TransferReport {
     /// The second heart's enclosing surface.
     pub surface: String,
@@ -69,15 +71,21 @@ pub struct TransferReport {
     pub points: usize,
     /// Distances from its given landmarks to the vertices they snapped to,
     /// mm (anterior, inferior, apex; 0 for a computed apex).
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub landmark_snap_mm: [f64; 3],
     /// Its apex, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub apex_mm: [f64; 3],
     /// Its chart: repair, landmarks and disk map, s.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub disk_seconds: f64,
     /// Its chart: the Laplace field, s.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub laplace_seconds: f64,
     /// The inverse map of every point, s.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub inverse_seconds: f64,
     /// The whole transfer, s.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub seconds: f64,
 }

@@ -42,7 +42,7 @@ use crate::mesh::{CellMesh, Field, TriMesh};
 use crate::organs::ventricle::pipeline::{Summary, displayed};
 use crate::organs::ventricle::{Chart, Config, CylinderPoint, LandmarkPoints, Outcome, Pipeline};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::time::Instant;
 
@@ -202,11 +202,13 @@ fn snapped(chart: &Chart) -> [Point3<f64>; 3] {
 }
 
 /// One perturbation in `report.json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PerturbationReport {
     /// Its name (module doc).
     pub name: String,
     /// How far the snapped anterior, inferior and apex landmarks moved, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub moved_mm: [f64; 3],
     /// `|psi_k^-1(psi(v)) - v|` over the anatomy points, mm.
     pub error_mm: Summary,
@@ -222,9 +224,11 @@ pub struct PerturbationReport {
 }
 
 /// `sensitivity` in `report.json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SensitivityReport {
     /// The displacement asked for, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub displacement_mm: f64,
     /// Each perturbation.
     pub perturbations: Vec<PerturbationReport>,
@@ -238,6 +242,7 @@ pub struct SensitivityReport {
     /// Points some perturbation cannot map (NaN in the arrays).
     pub points_not_mapped: usize,
     /// Seconds for the perturbed charts and maps.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub seconds: f64,
 }
 

@@ -17,7 +17,7 @@ pub(crate) struct Summary {
 }
 
 /// `name value` pairs of template parameters, mm.
-fn params(theta: &std::collections::BTreeMap<&'static str, f64>) -> String {
+fn params(theta: &std::collections::BTreeMap<std::borrow::Cow<'static, str>, f64>) -> String {
     theta
         .iter()
         .map(|(k, v)| format!("{k} {v:.2}"))

@@ -56,7 +56,7 @@ pub(super) fn depth_range(outcome: &Outcome, m: &Meshes<'_>) -> Depths {
             .collect();
         (!z.is_empty()).then(|| z.iter().sum::<f64>() / z.len() as f64)
     };
-    match outcome.report.template {
+    match outcome.report.template.as_ref() {
         "ellipsoid" => {
             if let Some(rz) = good(theta.get("rz")) {
                 return Depths {

@@ -1,11 +1,12 @@
 //! What a repair changed, one count per kind.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt;
 
 /// What [`super::repair_tri_mesh`] / [`super::repair_tet_mesh`] changed, in
 /// the order the steps run (see [`super`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RepairReport {
     /// Vertices merged into a coincident one (welding).
     pub welded_vertices: usize,

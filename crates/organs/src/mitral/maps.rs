@@ -383,11 +383,14 @@ pub fn carpentier_label(leaflet: usize, u_n: f64, v_s: f64, v_bottom: f64) -> i3
 
 /// Leaflet areas, mm^2; serialized as `{"anterior": .., "posterior": ..}`
 /// and indexable by [`ANTERIOR`] / [`POSTERIOR`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PerLeaflet {
     /// The anterior leaflet's value.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub anterior: f64,
     /// The posterior leaflet's value.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub posterior: f64,
 }
 
@@ -508,13 +511,17 @@ pub fn measurements(valve: &PreparedValve, plane: &Plane) -> Measurements {
 /// commissure vertices, which both leaflet meshes have, count once per
 /// leaflet). All are at least 2; `+inf` as soon as one triangle is flipped
 /// (or has a zero-length 2D edge).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DistortionSummary {
     /// `mean_t E_A(t)`, `E_A = A/Â + Â/A`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub area: f64,
     /// `mean_t E_M(t)`, the MIPS energy `s1/s2 + s2/s1`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub angle: f64,
     /// `mean_i E_l(i)` over the vertices in at least one triangle.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub length: f64,
 }
 

@@ -43,6 +43,7 @@ pub use error::{
 };
 
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Point3, Vector3};
 
@@ -280,7 +281,8 @@ impl Config {
 }
 
 /// Mean distortion energies before and after the relaxation.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DistortionReport {
     /// Of the initial layout.
     pub initial: maps::DistortionSummary,
@@ -289,20 +291,26 @@ pub struct DistortionReport {
 }
 
 /// `report.json` of one valve.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Report {
     /// Length of the annulus ring, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub annulus_length_mm: f64,
     /// Extent of the annulus in u, mm (the length in straight mode; shorter
     /// in the plane modes, where part of each segment goes into v).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub u_extent_mm: f64,
     /// Leaflet areas (3D), mm^2.
     pub leaflet_area_mm2: maps::PerLeaflet,
     /// Highest annulus point above the annulus plane, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub saddle_horn_height_mm: f64,
     /// Leaflet area on the atrial side of the annulus plane, mm^2.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub area_above_plane_mm2: f64,
     /// Leaflet area on the ventricular side of the annulus plane, mm^2.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub area_below_plane_mm2: f64,
     /// Mean area, angle and length energies, before and after relaxing.
     pub distortion: DistortionReport,
@@ -321,10 +329,10 @@ pub struct Report {
     /// 0 for an injective map.
     pub overlapping_boundary_edges: usize,
     /// The relaxation ("sd" or "spring").
-    pub relax: &'static str,
+    pub relax: Cow<'static, str>,
     /// The initial layout used per leaflet ("longitudes" or "tutte" for
     /// the default initializer, else the initializer's name).
-    pub init: [&'static str; 2],
+    pub init: [Cow<'static, str>; 2],
     /// The pieces the pipeline was built from.
     pub pieces: Pieces,
     /// The annulus mode.
@@ -337,6 +345,7 @@ pub struct Report {
     /// Vertices per Carpentier segment A1, A2, A3, P1, P2, P3.
     pub carpentier_vertices: [usize; 6],
     /// The commissures (anterolateral, posteromedial), mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub commissures_mm: [[f64; 3]; 2],
     /// The plane the annulus heights `v` of the 2D map are measured from
     /// (point and normal towards the atrium); absent in straight mode.
@@ -351,13 +360,15 @@ pub struct Report {
     /// outputs use the repaired leaflets' vertices.
     pub repair: LeafletRepairs,
     /// Wall-clock seconds of the pipeline (no file I/O).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
     /// Seconds per step.
     pub timings: Timings,
 }
 
 /// The repair of each leaflet ([`Report::repair`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LeafletRepairs {
     /// The anterior leaflet's.
     pub anterior: unfold_mesh::repair::RepairReport,
@@ -366,49 +377,60 @@ pub struct LeafletRepairs {
 }
 
 /// The pieces a run was built from, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Pieces {
     /// The relaxation's distortion energy.
-    pub energy: &'static str,
+    pub energy: Cow<'static, str>,
     /// The initial layout.
-    pub initializer: &'static str,
+    pub initializer: Cow<'static, str>,
     /// The line search.
-    pub line_search: &'static str,
+    pub line_search: Cow<'static, str>,
     /// The solver.
-    pub solver: &'static str,
+    pub solver: Cow<'static, str>,
 }
 
 /// Seconds per step of a run.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Timings {
     /// The input contract.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub contract: f64,
     /// Annulus and initial layouts.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub layout: f64,
     /// Relaxation of both leaflets (with their initial layouts' energies
     /// and, after each leaflet's relaxation, its coaptation distances).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub relax: f64,
     /// The other maps, measurements and output meshes.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub maps: f64,
 }
 
 /// Coaptation counts.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CoaptationCounts {
     /// Within the threshold.
     pub within: usize,
     /// Within twice the threshold (but not the threshold).
     pub near: usize,
     /// The threshold, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub threshold_mm: f64,
 }
 
 /// A plane in the report.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PlaneReport {
     /// A point on the plane, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub point: [f64; 3],
     /// Unit normal towards the atrium.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub normal: [f64; 3],
 }
 

@@ -36,6 +36,7 @@
 use super::RelaxError;
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
@@ -174,10 +175,11 @@ impl SdConfig {
 }
 
 /// What a relaxation did.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RelaxReport {
     /// `"spring"` or `"sd"`.
-    pub method: &'static str,
+    pub method: Cow<'static, str>,
     /// Steps taken: Euler steps ([`spring`]) or Newton iterations
     /// ([`symmetric_dirichlet`]); 0 when every vertex is fixed.
     pub iterations: usize,
@@ -191,6 +193,7 @@ pub struct RelaxReport {
     /// 0 after [`symmetric_dirichlet`].
     pub flipped_triangles: usize,
     /// Wall-clock seconds, input checks included.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
 }
 
@@ -338,7 +341,7 @@ pub fn spring(
         f_max = evaluate(uv, &mut force, &mut shortest);
     }
     Ok(RelaxReport {
-        method: "spring",
+        method: "spring".into(),
         iterations,
         converged: f_max <= tol,
         flipped_triangles: flipped_indices(&twice_signed_areas_2d(uv, &mesh.triangles), sign).len(),
@@ -495,7 +498,7 @@ pub fn minimize(
         .into());
     }
     let done = |iterations: usize, converged: bool| RelaxReport {
-        method: "sd",
+        method: "sd".into(),
         iterations,
         converged,
         flipped_triangles: 0,
@@ -1187,9 +1190,15 @@ mod tests {
         let all = vec![true; c.uv.len()];
         let mut uv = c.uv.clone();
         let r = symmetric_dirichlet(&c.mesh, &mut uv, &all, &SdConfig::default()).unwrap();
-        assert_eq!((r.method, r.iterations, r.converged), ("sd", 0, true));
+        assert_eq!(
+            (r.method.as_ref(), r.iterations, r.converged),
+            ("sd", 0, true)
+        );
         let r = spring(&c.mesh, &mut uv, &all, &SpringConfig::default()).unwrap();
-        assert_eq!((r.method, r.iterations, r.converged), ("spring", 0, true));
+        assert_eq!(
+            (r.method.as_ref(), r.iterations, r.converged),
+            ("spring", 0, true)
+        );
         assert_eq!(r.flipped_triangles, 0);
         assert_eq!(flat(&uv), flat(&c.uv));
     }

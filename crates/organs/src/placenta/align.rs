@@ -14,7 +14,8 @@
 use super::error::PlacentaError;
 use super::side;
 use crate::OrganError;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use unfold_mesh::nalgebra::{Matrix3, Matrix4, Point3, Rotation3, Vector3};
 use unfold_param::initializer::{Constraints, InitialMap, Initializer, PcaTransform};
 use unfold_param::{Elements, ParamError, ParamMesh, RestElements};
@@ -39,17 +40,22 @@ pub struct Alignment {
 }
 
 /// The transform in the report: `x = rotation z + translation`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TransformReport {
     /// `x_template = rotation * z_input + translation` (mm).
-    pub convention: &'static str,
+    pub convention: Cow<'static, str>,
     /// `Q`, row-major.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub rotation: [[f64; 3]; 3],
     /// `t = m - Q c`, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub translation: [f64; 3],
     /// The 4x4 homogeneous matrix `[Q t; 0 1]`, row-major.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub matrix: [[f64; 4]; 4],
     /// The vertex centroid `c` of the input, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub centroid: [f64; 3],
 }
 
@@ -101,7 +107,7 @@ impl Alignment {
         let t = self.translation();
         let c = self.centroid;
         TransformReport {
-            convention: "x_template = rotation * z_input + translation",
+            convention: "x_template = rotation * z_input + translation".into(),
             rotation: std::array::from_fn(|i| std::array::from_fn(|j| q[(i, j)])),
             translation: [t.x, t.y, t.z],
             matrix: std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)])),

@@ -44,7 +44,7 @@ use unfold_mesh::nalgebra::{Point3, Rotation3, Vector3};
 
 /// The rigid motions that leave a template's energy unchanged, as far as
 /// the canonical frame uses them (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TemplateSymmetry {
     /// No motion is known to be a symmetry: the frame is left as is.

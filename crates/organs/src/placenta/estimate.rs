@@ -17,7 +17,8 @@
 use super::error::PlacentaError;
 use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use unfold_mesh::geodesic::EdgeGraph;
 use unfold_mesh::geometry::{bounding_box, total_volume};
 use unfold_mesh::nalgebra::Point3;
@@ -31,22 +32,27 @@ pub const THICKNESS_SAMPLES: usize = 20_000;
 pub const WIDTH_SOURCES: usize = 256;
 
 /// The estimates of ALGORITHMS 2.4.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Estimates {
     /// Half thickness: `h` and `rz`, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub half_thickness_mm: f64,
     /// `ry`, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub ry_mm: f64,
     /// `rx = 3 V / (4 pi ry rz)`, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub rx_mm: f64,
     /// Mesh volume `V`, mm^3.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub volume_mm3: f64,
     /// Interior points whose distances were used (0 when the half
     /// thickness came from the segmentation).
     pub thickness_points: usize,
     /// Where the half thickness came from: `"mesh"` (interior distances)
     /// or `"segmentation"` (the mask's distance transform).
-    pub thickness_from: &'static str,
+    pub thickness_from: Cow<'static, str>,
 }
 
 /// The 95th percentile of the distances from interior points (a
@@ -189,7 +195,7 @@ fn with_thickness(
         rx_mm: 3.0 * volume / (4.0 * std::f64::consts::PI * ry * h),
         volume_mm3: volume,
         thickness_points,
-        thickness_from,
+        thickness_from: thickness_from.into(),
     })
 }
 
@@ -251,7 +257,10 @@ mod tests {
         // keeping the volume
         let s = estimate_with_thickness(&mesh, &b.surface, 3.0).unwrap();
         assert_eq!((s.half_thickness_mm, s.ry_mm), (3.0, e.ry_mm));
-        assert_eq!((s.thickness_from, s.thickness_points), ("segmentation", 0));
+        assert_eq!(
+            (s.thickness_from.as_ref(), s.thickness_points),
+            ("segmentation", 0)
+        );
         let v = 4.0 / 3.0 * std::f64::consts::PI * s.rx_mm * s.ry_mm * 3.0;
         assert!((v - s.volume_mm3).abs() < 1e-9 * s.volume_mm3);
         for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {

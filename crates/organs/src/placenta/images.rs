@@ -176,7 +176,7 @@ pub fn pull_back(
                 name: image.name.to_string(),
                 input: None,
                 output: None,
-                interpolation: interpolation.name(),
+                interpolation: interpolation.name().into(),
                 spacing_mm: grid.spacing,
                 dims: grid.dims,
                 frames: volume.frames(),

@@ -12,7 +12,8 @@
 use super::estimate::Estimates;
 use super::templates::PlacentaTemplate;
 use crate::{OrganError, PipelineObserver};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use unfold_param::{
     DistortionEnergy, Executor, Iteration, LineSearch, Objective, ParamMesh, SolveReport, Solver,
@@ -47,14 +48,17 @@ pub struct Method<'a> {
 }
 
 /// One optimization stage.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct StageReport {
     /// The template of the stage.
-    pub template: &'static str,
+    pub template: Cow<'static, str>,
     /// Template parameters at the start (named).
-    pub theta_initial: BTreeMap<&'static str, f64>,
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub theta_initial: BTreeMap<Cow<'static, str>, f64>,
     /// Template parameters at the end (named).
-    pub theta: BTreeMap<&'static str, f64>,
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub theta: BTreeMap<Cow<'static, str>, f64>,
     /// The solver's report.
     pub solve: SolveReport,
 }
@@ -73,8 +77,12 @@ pub struct Optimized {
 }
 
 /// `name -> value` of template parameters.
-pub(crate) fn named(names: &[&'static str], theta: &[f64]) -> BTreeMap<&'static str, f64> {
-    names.iter().copied().zip(theta.iter().copied()).collect()
+pub(crate) fn named(names: &[&'static str], theta: &[f64]) -> BTreeMap<Cow<'static, str>, f64> {
+    names
+        .iter()
+        .map(|&n| Cow::Borrowed(n))
+        .zip(theta.iter().copied())
+        .collect()
 }
 
 /// The template's starting parameters, checked against its names.
@@ -120,7 +128,7 @@ fn stage(
         .observer(&mut forward)
         .run(&mut objective, x, theta)?;
     Ok(StageReport {
-        template: template.name(),
+        template: template.name().into(),
         theta_initial,
         theta: named(&template.parameter_names(), theta),
         solve,

@@ -145,7 +145,8 @@ pub struct Parcellation {
 }
 
 /// Figures of a parcellation, for the report.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ParcellationSummary {
     /// Fetal vertices (margin excluded).
     pub fetal: usize,
@@ -154,10 +155,13 @@ pub struct ParcellationSummary {
     /// Margin vertices.
     pub margin: usize,
     /// Margin half-width the adaptation started from, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub margin_radius_initial_mm: f64,
     /// Margin half-width used, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub margin_radius_mm: f64,
     /// Fraction of the boundary area in the margin.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub margin_area_fraction: f64,
     /// Whether each side is one connected piece outside the margin.
     pub sides_connected: bool,
@@ -171,6 +175,7 @@ pub struct ParcellationSummary {
     /// Convex-hull vertices of the cluster chosen as fetal.
     pub hull_fetal: usize,
     /// The Fiedler eigenvalue (second-smallest of `L`).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub fiedler_value: f64,
     /// Iterations of the eigensolver.
     pub eigen_iterations: usize,

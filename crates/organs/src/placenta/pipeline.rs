@@ -349,16 +349,20 @@ impl Pipeline {
 
         let s = &parcellation.summary;
         let report = Report {
-            template: template.name(),
+            template: template.name().into(),
             lambda: config.lambda,
-            solver: self.solver.name(),
+            solver: self.solver.name().into(),
             pieces: Pieces {
-                template: template.name(),
-                energy: self.energy.name(),
-                initializer: self.initializer.name(),
-                initializer_details: start_map.details.iter().copied().collect(),
-                line_search: line_search.name(),
-                solver: self.solver.name(),
+                template: template.name().into(),
+                energy: self.energy.name().into(),
+                initializer: self.initializer.name().into(),
+                initializer_details: start_map
+                    .details
+                    .iter()
+                    .map(|&(what, which)| (what.into(), which.into()))
+                    .collect(),
+                line_search: line_search.name().into(),
+                solver: self.solver.name().into(),
             },
             iterations: opt.stages.iter().map(|s| s.solve.iterations).sum(),
             seconds: start.elapsed().as_secs_f64(),
@@ -376,7 +380,7 @@ impl Pipeline {
             overlapping_boundary_faces: eval.overlapping_boundary_faces,
             theta: named(&names, &opt.theta),
             theta_initial: named(&names, &opt.theta_initial),
-            estimates,
+            estimates: estimates.clone(),
             log2_det_j: Summary::of(&eval.log2_det_j),
             log2_edge_ratio: Summary::of(&eval.log2_edge_ratio),
             log2_area_ratio: Summary::of(&eval.log2_area_ratio),

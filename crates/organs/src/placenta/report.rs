@@ -5,13 +5,15 @@ use super::canonical::TemplateSymmetry;
 use super::estimate::Estimates;
 use super::optimize::StageReport;
 use super::parcellation::ParcellationSummary;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use unfold_param::StopReason;
 use unfold_param::metrics::Summary;
 
 /// Boundary vertex counts by side.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BoundaryReport {
     /// Fetal vertices.
     pub fetal: usize,
@@ -24,7 +26,8 @@ pub struct BoundaryReport {
 }
 
 /// The input, as the pipeline saw it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct InputReport {
     /// Vertices.
     pub vertices: usize,
@@ -33,59 +36,77 @@ pub struct InputReport {
     /// Tets whose orientation was repaired.
     pub reoriented_tets: usize,
     /// Volume, mm^3.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub volume_mm3: f64,
 }
 
 /// Seconds per step.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
 pub struct Timings {
     /// Validation and orientation.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub prepare: f64,
     /// Parcellation.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub parcellation: f64,
     /// Alignment and initial estimates.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub initialization: f64,
     /// Optimization (all stages).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub optimization: f64,
     /// Evaluation.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub evaluation: f64,
     /// Pulling the images back (tables and resampling).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub images: f64,
 }
 
 /// `report.json` (ALGORITHMS 2.6).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Report {
     /// The template's name ("planes", "ellipsoid", "single-plane", or a
     /// method developer's).
-    pub template: &'static str,
+    pub template: Cow<'static, str>,
     /// `lambda`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub lambda: f64,
     /// The solver's name ("newton", "gd", ...).
-    pub solver: &'static str,
+    pub solver: Cow<'static, str>,
     /// Every piece the pipeline was built from.
     pub pieces: Pieces,
     /// Iterations, all stages.
     pub iterations: usize,
     /// Wall-clock seconds of the whole pipeline.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
     /// Whether the last stage converged.
     pub converged: bool,
     /// Why the last stage stopped.
     pub stop_reason: StopReason,
     /// Final `phi`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub objective: f64,
     /// Final `|grad phi|_F`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub grad_norm: f64,
     /// `sqrt(sum_m A_m T(x_m, theta))`, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub template_error_mm: f64,
     /// The same in voxels of `voxel_mm`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub template_error_voxels: f64,
     /// The voxel size, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub voxel_mm: f64,
     /// `(sum V_k D(J_k) - 6) / 6 * 100`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub dirichlet_excess_percent: f64,
     /// Smallest `det J`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub min_det_j: f64,
     /// Tets with `det J <= 0` (0 by construction).
     pub inverted_tets: usize,
@@ -96,9 +117,11 @@ pub struct Report {
     /// boundary surface overlapping itself; 0 for an injective map).
     pub overlapping_boundary_faces: usize,
     /// Final template parameters, mm (`h`, or `rx`, `ry`, `rz`).
-    pub theta: BTreeMap<&'static str, f64>,
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub theta: BTreeMap<Cow<'static, str>, f64>,
     /// Initial template parameters (ALGORITHMS 2.4), mm.
-    pub theta_initial: BTreeMap<&'static str, f64>,
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub theta_initial: BTreeMap<Cow<'static, str>, f64>,
     /// The mesh-only estimates behind `theta_initial`.
     pub estimates: Estimates,
     /// Per tet `log2 det J`.
@@ -130,24 +153,26 @@ pub struct Report {
 }
 
 /// The pieces a run was built from, by name.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Pieces {
     /// The template.
-    pub template: &'static str,
+    pub template: Cow<'static, str>,
     /// The distortion energy.
-    pub energy: &'static str,
+    pub energy: Cow<'static, str>,
     /// The initializer.
-    pub initializer: &'static str,
+    pub initializer: Cow<'static, str>,
     /// The choices the initializer reported (`what -> which`).
-    pub initializer_details: BTreeMap<&'static str, &'static str>,
+    pub initializer_details: BTreeMap<Cow<'static, str>, Cow<'static, str>>,
     /// The line search.
-    pub line_search: &'static str,
+    pub line_search: Cow<'static, str>,
     /// The solver.
-    pub solver: &'static str,
+    pub solver: Cow<'static, str>,
 }
 
 /// `canonical_frame` in the report (ALGORITHMS 2.10).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CanonicalReport {
     /// The template's symmetry the motion is drawn from.
     pub symmetry: TemplateSymmetry,
@@ -158,7 +183,8 @@ pub struct CanonicalReport {
 }
 
 /// One entry of `images` in `report.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ImageReport {
     /// The image's name (as given in the input).
     pub name: String,
@@ -171,8 +197,9 @@ pub struct ImageReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub output: Option<String>,
     /// How the image was sampled: "linear" or "nearest".
-    pub interpolation: &'static str,
+    pub interpolation: Cow<'static, str>,
     /// Voxel size of the template grid, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub spacing_mm: [f64; 3],
     /// Voxels along x, y, z of the template grid.
     pub dims: [usize; 3],
@@ -180,6 +207,7 @@ pub struct ImageReport {
     pub frames: usize,
     /// Voxel-to-world affine of the template grid (template frame, mm),
     /// row-major.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub affine: [[f64; 4]; 4],
     /// Template voxels whose centre lies inside the flattened mesh.
     pub inside_mesh: usize,

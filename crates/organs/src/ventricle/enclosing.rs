@@ -65,7 +65,7 @@
 
 use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::time::Instant;
 use thiserror::Error;
@@ -112,7 +112,7 @@ impl Default for EnclosingConfig {
 }
 
 /// What the anatomy's cells are.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AnatomyKind {
     /// Tets (their boundary faces are used).
@@ -245,15 +245,18 @@ pub enum EnclosingError {
 }
 
 /// How S was built (`enclosing_surface` in `report.json`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct EnclosingReport {
     /// What the anatomy's cells are.
     pub anatomy: AnatomyKind,
     /// Triangles voxelized (boundary faces of tets).
     pub anatomy_triangles: usize,
     /// Grid spacing, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub voxel_mm: f64,
     /// Dilation, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub margin_mm: f64,
     /// Grid nodes per axis.
     pub grid: [usize; 3],
@@ -264,16 +267,22 @@ pub struct EnclosingReport {
     /// Taubin iterations.
     pub smoothing_iterations: usize,
     /// Taubin's lambda.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub smoothing_lambda: f64,
     /// Taubin's mu.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub smoothing_mu: f64,
     /// A point of the cut plane (the centroid of S's rim), mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub cut_point_mm: [f64; 3],
     /// The cut plane's unit normal, towards the base (the part removed).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub cut_normal: [f64; 3],
     /// Height of the highest anatomy point above the landmarks' plane, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub highest_point_mm: f64,
     /// Height of the cut above that point, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub cut_above_highest_mm: f64,
     /// Pieces left below the plane (2 for a cup's two sides).
     pub pieces_below_cut: usize,
@@ -282,12 +291,16 @@ pub struct EnclosingReport {
     /// Triangles of S.
     pub triangles: usize,
     /// Smallest distance from an anatomy point to S, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub min_clearance_mm: f64,
     /// The rim landmarks given, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub landmarks_given_mm: [[f64; 3]; 2],
     /// The rim vertices of S they were carried to, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub rim_landmarks_mm: [[f64; 3]; 2],
     /// Wall-clock time, s.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
 }
 

@@ -35,14 +35,14 @@
 use super::error::VentricleError;
 use super::landmarks::check_finite_landmark;
 use crate::OrganError;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use unfold_mesh::TriMesh;
 use unfold_mesh::geometry::{point_segment_distance, segment_crosses_triangle};
 use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::boundary_loops;
 
 /// Why the rim is the loop it is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum RimChoice {
     /// S has one boundary loop.
@@ -54,17 +54,21 @@ pub enum RimChoice {
 }
 
 /// One boundary loop of S as given.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Opening {
     /// Vertices of the loop.
     pub vertices: usize,
     /// Length of its closed polyline, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub perimeter_mm: f64,
     /// Its length-weighted centroid, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub centroid_mm: [f64; 3],
     /// The distance the rim was chosen by, mm: the mean distance of the two
     /// rim landmarks to the polyline, or that of the `rim_near` point (0
     /// when S has one loop).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub distance_mm: f64,
     /// Whether this loop is the basal rim.
     pub rim: bool,
@@ -74,7 +78,8 @@ pub struct Opening {
 
 /// The openings of S and what was done with them (`openings` in
 /// `report.json`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Openings {
     /// Every boundary loop, longest first.
     pub loops: Vec<Opening>,

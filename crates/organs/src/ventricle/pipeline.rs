@@ -9,7 +9,8 @@ use super::harmonic_disk::HarmonicDisk;
 use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
 use super::openings::Openings;
 use crate::OrganError;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::time::Instant;
 use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::repair::RepairReport;
@@ -67,15 +68,20 @@ pub struct LandmarkPoints {
 /// and the median of an even count is `(a + b) / 2` here (there
 /// `a + (b - a) / 2`). No conversion reproduces these bits from that
 /// summary, so this one stays as the report's own format.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Summary {
     /// Mean.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub mean: f64,
     /// Median.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub median: f64,
     /// Standard deviation (population).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub std: f64,
     /// Maximum.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub max: f64,
 }
 
@@ -106,20 +112,26 @@ impl Summary {
 }
 
 /// Seconds per step.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Seconds {
     /// Repair, landmarks, disk map.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub disk: f64,
     /// The Laplace field.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub laplace: f64,
     /// The forward map of the anatomy.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub streamlines: f64,
     /// The inverse map (round trip).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub inverse: f64,
 }
 
 /// The Laplace field's figures.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FieldReport {
     /// Grid nodes in the bounding box.
     pub grid_nodes: usize,
@@ -130,13 +142,16 @@ pub struct FieldReport {
     /// Conjugate-gradient iterations.
     pub cg_iterations: usize,
     /// Relative residual reached.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub relative_residual: f64,
     /// The field's memory predicted before it was allocated, bytes.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub estimated_bytes: f64,
 }
 
 /// `report.json`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Report {
     /// `lv` or `rv`.
     pub chamber: Chamber,
@@ -155,23 +170,28 @@ pub struct Report {
     /// injective map).
     pub overlapping_disk_boundary_edges: usize,
     /// Grid spacing of the Laplace field, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub grid_mm: f64,
     /// Radius of H, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub hemisphere_mm: f64,
     /// The display exponent.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub display_exponent: f64,
     /// The disk initializer (`harmonic-disk`, or a method developer's).
-    pub disk_map: &'static str,
+    pub disk_map: Cow<'static, str>,
     /// The disk embedding's weights (`cotangent` or `mean-value`).
-    pub disk_weights: &'static str,
+    pub disk_weights: Cow<'static, str>,
     /// The apex warp (`thin-plate spline` or `mobius`).
-    pub apex_warp: &'static str,
+    pub apex_warp: Cow<'static, str>,
     /// What the repair of S changed.
     pub surface_repair: RepairReport,
     /// Distances from the given landmarks to the vertices they snapped to,
     /// mm (anterior, inferior, apex; 0 for a computed apex).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub landmark_snap_mm: [f64; 3],
     /// The apex used, mm.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub apex_mm: [f64; 3],
     /// S's boundary loops (openings): each one's size, which is the basal
     /// rim and why, and the caps closing the others.
@@ -409,9 +429,9 @@ fn outcome(
         grid_mm: chart.field().grid_mm(),
         hemisphere_mm: chart.field().hemisphere_radius(),
         display_exponent: config.display_exponent,
-        disk_map,
-        disk_weights: chart.disk().weights,
-        apex_warp: chart.disk().apex_warp,
+        disk_map: disk_map.into(),
+        disk_weights: chart.disk().weights.into(),
+        apex_warp: chart.disk().apex_warp.into(),
         surface_repair: *chart.repair(),
         landmark_snap_mm: chart.landmarks().snap_distances_mm,
         apex_mm: [apex.x, apex.y, apex.z],

@@ -12,17 +12,22 @@ use unfold_mesh::nalgebra::{Point3, Vector3};
 use unfold_mesh::topology::boundary_loops;
 
 /// The rim landmarks derived from two RV insertion points.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FromRv {
     /// The RV insertion points given (anterior, inferior).
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub rv: [[f64; 3]; 2],
     /// The centroid `c` of the basal rim the rays start from.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub rim_centroid: [f64; 3],
     /// Where each ray `c + t (p - c)`, `t > 0`, meets S: the intersection
     /// nearest the RV point.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub hits: [[f64; 3]; 2],
     /// The rim vertices nearest the hits: the anterior and inferior
     /// landmarks.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub landmarks: [[f64; 3]; 2],
 }
 

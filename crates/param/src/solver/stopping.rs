@@ -1,7 +1,7 @@
 //! When a solve stops: the rules the [`Executor`](super::Executor) applies
 //! after every iteration, outside the solver.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Relative Newton decrement below which a failed line search means
 /// convergence to machine precision ([`StopReason::NewtonDecrement`]): the
@@ -41,7 +41,7 @@ impl Default for Stopping {
 }
 
 /// Why a solve stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// `|grad|_F < grad_tol`.
@@ -68,7 +68,8 @@ impl StopReason {
 }
 
 /// The result of a solve.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SolveReport {
     /// Iterations taken.
     pub iterations: usize,
@@ -77,9 +78,12 @@ pub struct SolveReport {
     /// Whether it converged.
     pub converged: bool,
     /// Final objective value.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub value: f64,
     /// Final `|grad|_F`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub grad_norm: f64,
     /// Wall-clock seconds.
+    #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
 }

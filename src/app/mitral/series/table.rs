@@ -6,7 +6,7 @@ use crate::app::mitral::inputs::ValveFiles;
 use crate::app::run::provenance::Provenance;
 use crate::figures::mitral::series::SeriesPoint;
 use crate::organs::mitral::Report;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The columns of `series.csv`: the first fourteen as before issue 22 (the
 /// energies final), then the initial energies, the coaptation counts near
@@ -38,45 +38,60 @@ pub const SERIES_COLUMNS: [&str; 21] = [
 /// One row of the series table (`series.csv`, `series.json`): the
 /// measurements of one step, its final and initial mean energies and its
 /// coaptation counts.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SeriesRow {
     /// The step's name (`step_000`, ...).
     pub step: String,
     /// The anterior leaflet's file.
     pub anterior: String,
     /// Length of the annulus ring, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub annulus_length_mm: f64,
     /// Extent of the annulus in `u`, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub u_extent_mm: f64,
     /// Area of the anterior leaflet, mm^2.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub anterior_area_mm2: f64,
     /// Area of the posterior leaflet, mm^2.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub posterior_area_mm2: f64,
     /// Highest annulus point above the annulus plane, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub saddle_horn_height_mm: f64,
     /// Leaflet area on the atrial side of the annulus plane, mm^2.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub area_above_plane_mm2: f64,
     /// Vertices within the coaptation threshold.
     pub coaptation_vertices: usize,
     /// Final mean angle energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub angle_energy: f64,
     /// Final mean area energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub area_energy: f64,
     /// Final mean length energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub length_energy: f64,
     /// Triangles with non-positive area in the final 2D map.
     pub flipped_triangles: usize,
     /// Wall-clock seconds of the step's pipeline.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub seconds: f64,
     /// Initial mean angle energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub initial_angle_energy: f64,
     /// Initial mean area energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub initial_area_energy: f64,
     /// Initial mean length energy.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub initial_length_energy: f64,
     /// Vertices near the coaptation zone (within twice the threshold).
     pub coaptation_near_vertices: usize,
     /// The coaptation threshold, mm.
+    #[serde(with = "crate::mesh::nan_as_null")]
     pub coaptation_threshold_mm: f64,
     /// The posterior leaflet's file.
     pub posterior: String,
@@ -174,7 +189,8 @@ pub fn csv(rows: &[SeriesRow]) -> String {
 
 /// `series.json`: the series table and the run's provenance (its run hash
 /// lets a batch skip a series done before with the same inputs).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SeriesReport {
     /// One row per step, as `series.csv`.
     pub steps: Vec<SeriesRow>,
