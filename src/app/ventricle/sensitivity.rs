@@ -39,7 +39,7 @@ use crate::figures::ventricle::sensitivity_figure;
 use crate::figures::{Figure, FigureOptions};
 use crate::mesh::nalgebra::{Point3, Vector3};
 use crate::mesh::{CellMesh, Field, TriMesh};
-use crate::organs::ventricle::pipeline::{Summary, displayed};
+use crate::organs::ventricle::pipeline::{ErrorSummary, displayed};
 use crate::organs::ventricle::{Chart, Config, CylinderPoint, LandmarkPoints, Outcome, Pipeline};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -211,11 +211,11 @@ pub struct PerturbationReport {
     #[serde(with = "crate::mesh::nan_as_null")]
     pub moved_mm: [f64; 3],
     /// `|psi_k^-1(psi(v)) - v|` over the anatomy points, mm.
-    pub error_mm: Summary,
+    pub error_mm: ErrorSummary,
     /// `|D(psi_k(v)) - D(psi(v))|`, displayed disk units.
-    pub disk_shift: Summary,
+    pub disk_shift: ErrorSummary,
     /// `|d_k(v) - d(v)|`.
-    pub depth_shift: Summary,
+    pub depth_shift: ErrorSummary,
     /// Anatomy points this perturbation cannot map (left out above).
     pub points_not_mapped: usize,
     /// Why its chart could not be built (then no figures above).
@@ -234,11 +234,11 @@ pub struct SensitivityReport {
     pub perturbations: Vec<PerturbationReport>,
     /// Per anatomy point the largest reconstruction error over the
     /// perturbations (`sensitivity_mm`), mm.
-    pub error_mm: Summary,
+    pub error_mm: ErrorSummary,
     /// Per point the largest disk shift (`sensitivity_disk`).
-    pub disk_shift: Summary,
+    pub disk_shift: ErrorSummary,
     /// Per point the largest depth shift (`sensitivity_depth`).
-    pub depth_shift: Summary,
+    pub depth_shift: ErrorSummary,
     /// Points some perturbation cannot map (NaN in the arrays).
     pub points_not_mapped: usize,
     /// Seconds for the perturbed charts and maps.
@@ -297,9 +297,9 @@ impl Sensitivity {
 }
 
 /// The summary of the finite values.
-fn finite_summary(v: &[f64]) -> Summary {
+fn finite_summary(v: &[f64]) -> ErrorSummary {
     let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    Summary::of(&f)
+    ErrorSummary::of(&f)
 }
 
 /// Runs the ten perturbations of `given` by `mm` (module doc) for the
@@ -347,9 +347,9 @@ pub fn sensitivity(
                 reports.push(PerturbationReport {
                     name: p.name.to_string(),
                     moved_mm: [f64::NAN; 3],
-                    error_mm: Summary::default(),
-                    disk_shift: Summary::default(),
-                    depth_shift: Summary::default(),
+                    error_mm: ErrorSummary::default(),
+                    disk_shift: ErrorSummary::default(),
+                    depth_shift: ErrorSummary::default(),
                     points_not_mapped: n,
                     error: Some(msg),
                 });

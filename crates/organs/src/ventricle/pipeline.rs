@@ -14,6 +14,7 @@ use std::borrow::Cow;
 use std::time::Instant;
 use unfold_mesh::nalgebra::Point3;
 use unfold_mesh::repair::RepairReport;
+use unfold_mesh::stats::Summary;
 use unfold_mesh::{CellMesh, Field, TriMesh};
 use unfold_param::Initializer;
 
@@ -56,28 +57,21 @@ pub struct LandmarkPoints {
     pub rim_near: Option<Point3<f64>>,
 }
 
-/// Mean, median, standard deviation and maximum of a set of values: the
-/// round-trip errors of [`Report::roundtrip_error_um`].
-///
-/// Not [`unfold_mesh::stats::Summary`], the one summary of the other
-/// reports, on purpose: `report.json` has always printed these four
-/// numbers as computed here, and that summary computes each differently
-/// to the bit: `mean = sum v / n` here sums in the values' order (there
-/// over the sorted values), `std` here is the **population** standard
-/// deviation `sqrt(sum (v - mean)^2 / n)` (there the sample one, `n - 1`),
-/// and the median of an even count is `(a + b) / 2` here (there
-/// `a + (b - a) / 2`). No conversion reproduces these bits from that
-/// summary, so this one stays as the report's own format.
+/// Mean, median, standard deviation and maximum of a set of values (the
+/// round-trip errors of [`Report::roundtrip_error_um`], the sensitivity
+/// study's shifts): four numbers of [`unfold_mesh::stats::Summary`], the one
+/// summary of every report (`median` its `p50`; `std` its **sample**
+/// standard deviation, `sqrt(sum (v - mean)^2 / (n - 1))`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Summary {
+pub struct ErrorSummary {
     /// Mean.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub mean: f64,
     /// Median.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub median: f64,
-    /// Standard deviation (population).
+    /// Standard deviation (sample, `n - 1`).
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub std: f64,
     /// Maximum.
@@ -85,28 +79,24 @@ pub struct Summary {
     pub max: f64,
 }
 
-impl Summary {
-    /// The summary of `values` (all zero when empty).
-    pub fn of(values: &[f64]) -> Summary {
-        if values.is_empty() {
-            return Summary::default();
-        }
-        let n = values.len() as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-        let mut s = values.to_vec();
-        s.sort_by(|a, b| a.total_cmp(b));
-        let m = s.len() / 2;
-        let median = if s.len() % 2 == 1 {
-            s[m]
-        } else {
-            0.5 * (s[m - 1] + s[m])
-        };
-        Summary {
-            mean,
-            median,
-            std: var.sqrt(),
-            max: s[s.len() - 1],
+impl ErrorSummary {
+    /// The summary of `values`: all zero when there is none, all NaN when
+    /// one is NaN.
+    pub fn of(values: &[f64]) -> ErrorSummary {
+        match Summary::of(values) {
+            Some(s) => ErrorSummary {
+                mean: s.mean,
+                median: s.p50,
+                std: s.std,
+                max: s.max,
+            },
+            None if values.is_empty() => ErrorSummary::default(),
+            None => ErrorSummary {
+                mean: f64::NAN,
+                median: f64::NAN,
+                std: f64::NAN,
+                max: f64::NAN,
+            },
         }
     }
 }
@@ -158,7 +148,7 @@ pub struct Report {
     /// Anatomy points mapped.
     pub anatomy_points: usize,
     /// Round-trip error `|v - psi^-1(psi(v))|`, micrometres.
-    pub roundtrip_error_um: Summary,
+    pub roundtrip_error_um: ErrorSummary,
     /// Disk triangles with the wrong orientation (0: `phi` is injective).
     pub flipped_disk_triangles: usize,
     /// Interior edges of S folded in the disk map (the two triangles of an
@@ -414,7 +404,7 @@ fn outcome(
     let report = Report {
         chamber,
         anatomy_points: anatomy.positions.len(),
-        roundtrip_error_um: Summary::of(&errors_um),
+        roundtrip_error_um: ErrorSummary::of(&errors_um),
         flipped_disk_triangles: chart.disk().flipped_triangles,
         folded_disk_edges: unfold_mesh::geometry::folded_edges(
             &chart.disk().uv,
