@@ -1,7 +1,8 @@
-//! Inputs in metres: an organ command that fails on a mesh smaller than any
-//! organ (10 mm across) says that unfold reads millimetres and how to scale
-//! the file, and `unfold convert --scale` scales it. Inputs are the
-//! built-in shapes, written in metres.
+//! Inputs in metres or centimetres: an organ command that fails on a mesh
+//! smaller than the organ says that unfold reads millimetres, which unit the
+//! file is likely in (from the organ's size) and how to scale it, and
+//! `unfold convert --scale` scales it. Inputs are the built-in shapes,
+//! written in metres or centimetres.
 
 use std::path::{Path, PathBuf};
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
@@ -17,9 +18,14 @@ use common::*;
 /// `mesh` with every coordinate divided by 1000 (millimetres to metres),
 /// written to `dir/name`.
 fn write_in_metres(dir: &Path, name: &str, mesh: &CellMesh) -> PathBuf {
+    write_divided(dir, name, mesh, 1000.0)
+}
+
+/// `mesh` with every coordinate divided by `by`, written to `dir/name`.
+fn write_divided(dir: &Path, name: &str, mesh: &CellMesh, by: f64) -> PathBuf {
     let mut m = mesh.clone();
     for p in &mut m.positions {
-        p.coords /= 1000.0;
+        p.coords /= by;
     }
     let path = dir.join(name);
     write_mesh(&path, &m, &WriteOptions::default()).unwrap();
@@ -45,7 +51,8 @@ fn assert_units_note(o: &std::process::Output, small: &Path) {
         err.contains(&format!("note: {} is only", small.display())),
         "{err}"
     );
-    assert!(err.contains("--scale 1000"), "{err}");
+    assert!(err.contains("if it is in metres"), "{err}");
+    assert!(err.contains("--scale 1000`"), "{err}");
 }
 
 #[test]
@@ -151,6 +158,48 @@ fn a_ventricle_in_metres_is_named() {
 }
 
 #[test]
+fn a_ventricle_in_centimetres_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = ventricle_cup(&VentricleParams::default()).unwrap();
+    let anatomy = write_divided(dir.path(), "anatomy.vtp", &CellMesh::from(&v.anatomy), 10.0);
+    let surface = write_divided(dir.path(), "surface.vtp", &CellMesh::from(&v.surface), 10.0);
+    let cm = |p: &Point3<f64>| pt(&Point3::from(p.coords / 10.0));
+    let o = unfold(&[
+        "ventricle",
+        &s(&anatomy),
+        "--surface",
+        &s(&surface),
+        "--anterior",
+        &cm(&v.anterior),
+        "--inferior",
+        &cm(&v.inferior),
+        "-o",
+        &s(&dir.path().join("out")),
+        "--no-figures",
+    ]);
+    assert_one_line_error(&o, "reads coordinates as millimetres");
+    let err = stderr(&o);
+    assert!(err.contains("if it is in centimetres"), "{err}");
+    assert!(err.contains("--scale 10`"), "{err}");
+    assert!(!err.contains("--scale 1000"), "{err}");
+}
+
+#[test]
+fn a_placenta_in_centimetres_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let cm = write_divided(dir.path(), "slab_cm.vtu", &slab(), 10.0);
+    let o = unfold(&[
+        "placenta",
+        &s(&cm),
+        "-o",
+        &s(&dir.path().join("out")),
+        "--no-figures",
+    ]);
+    assert_one_line_error(&o, "if it is in centimetres");
+    assert!(stderr(&o).contains("--scale 10`"), "{}", stderr(&o));
+}
+
+#[test]
 fn convert_scales_the_points_and_keeps_the_arrays() {
     let dir = tempfile::tempdir().unwrap();
     let mut mesh = slab();
@@ -209,9 +258,16 @@ fn info_notes_a_mesh_smaller_than_an_organ() {
     let o = unfold(&["info", &s(&metres), "--json"]);
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert!(
-        j["units_note"].as_str().unwrap().contains("--scale 1000"),
+        j["units_note"].as_str().unwrap().contains("--scale 1000`"),
         "{j}"
     );
+    // in centimetres (the slab is 17.4 cm across, but info knows no organ:
+    // under 10 mm only)
+    let small = write_divided(dir.path(), "small.vtu", &slab(), 50.0);
+    let o = unfold(&["info", &s(&small), "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let note = j["units_note"].as_str().unwrap();
+    assert!(note.contains("if it is in centimetres"), "{note}");
     // in millimetres: no note
     let mm = dir.path().join("slab.vtu");
     write_mesh(&mm, &slab(), &WriteOptions::default()).unwrap();

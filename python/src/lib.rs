@@ -44,20 +44,20 @@ pub(crate) fn error(e: impl std::fmt::Display) -> PyErr {
 
 /// An organ pipeline's failure on `inputs` (each named, with its points)
 /// as an [`UnfoldError`]: `e`'s message, and when an input is smaller than
-/// any organ (`unfold::app::run::units::SMALLEST_ORGAN_MM` across), the note the
-/// command line adds that unfold reads millimetres.
+/// the `organ` (`unfold::app::run::units::OrganSize`), the note the command
+/// line adds that unfold reads millimetres, with the unit the points are
+/// likely in.
 pub(crate) fn input_error(
     e: impl std::fmt::Display,
     inputs: &[(&str, &[unfold::mesh::nalgebra::Point3<f64>])],
+    organ: unfold::app::run::units::OrganSize,
 ) -> PyErr {
-    use unfold::app::run::units::{note, smaller_than_an_organ};
+    use unfold::app::run::units::note;
     let small = inputs.iter().find_map(|(name, points)| {
-        let side = smaller_than_an_organ(points)?;
-        Some(note(
-            name,
-            side,
-            "multiply the points of a mesh in metres by 1000",
-        ))
+        let side = organ.too_small(points)?;
+        let unit = organ.likely_unit(side);
+        let fix = format!("multiply the points by {}", unit.millimetres());
+        Some(note(name, side, unit, &fix))
     });
     match small {
         Some(note) => UnfoldError::new_err(format!("{e}; {note}")),

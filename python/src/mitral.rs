@@ -89,6 +89,7 @@ pub(crate) fn mitral<'py>(
                     ("the anterior leaflet", &anterior.positions),
                     ("the posterior leaflet", &posterior.positions),
                 ],
+                unfold::app::run::units::OrganSize::MITRAL,
             )
         })?,
     };
@@ -122,6 +123,7 @@ pub(crate) fn mitral<'py>(
                 ("the posterior leaflet", &inputs.posterior.positions),
                 ("the annulus", &inputs.ring),
             ],
+            unfold::app::run::units::OrganSize::MITRAL,
         )
     })?;
     let outcome = run.outcome;

@@ -165,7 +165,13 @@ pub(crate) fn placenta<'py>(
     if let Some(e) = callback.error.take() {
         return Err(e);
     }
-    let (run, predicted) = run.map_err(|e| crate::input_error(e, &[(name, &mesh.positions)]))?;
+    let (run, predicted) = run.map_err(|e| {
+        crate::input_error(
+            e,
+            &[(name, &mesh.positions)],
+            unfold::app::run::units::OrganSize::PLACENTA,
+        )
+    })?;
     let outcome = run.outcome;
     let mut report: PlacentaReport = run.report;
     for entry in &mut report.report.images {

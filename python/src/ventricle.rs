@@ -161,7 +161,13 @@ pub(crate) fn ventricle<'py>(
             };
             let built = py
                 .detach(|| build_from(&anatomy, anatomy_name, &landmarks, &settings.enclosing))
-                .map_err(|e| crate::input_error(e, &[(anatomy_name, &anatomy.positions)]))?;
+                .map_err(|e| {
+                    crate::input_error(
+                        e,
+                        &[(anatomy_name, &anatomy.positions)],
+                        unfold::app::run::units::OrganSize::VENTRICLE,
+                    )
+                })?;
             // the given rim landmarks lie on the anatomy's rim: carried to S's
             [landmarks.anterior, landmarks.inferior] = built.rim_landmarks;
             (built.surface.clone(), Some(built), built_label.as_str())
@@ -215,6 +221,7 @@ pub(crate) fn ventricle<'py>(
                     (anatomy_name, &inputs.anatomy.positions),
                     (surface_name, &inputs.surface.positions),
                 ],
+                unfold::app::run::units::OrganSize::VENTRICLE,
             )
         })?;
     let outcome = &run.outcome;

@@ -90,13 +90,11 @@ pub enum AppError {
         /// What serde says (the field, line and column).
         message: String,
     },
-    /// An organ command failed on an input smaller than any organ
-    /// ([`super::run::units::SMALLEST_ORGAN_MM`] across), probably not in millimetres.
+    /// An organ command failed on an input smaller than the organ
+    /// ([`super::run::units::OrganSize`]), probably not in millimetres.
     #[error(
         "{source}; {}",
-        super::run::units::note(path, *side_mm, &format!(
-            "a mesh in metres is scaled by `unfold convert {path} OUT --scale 1000`"
-        ))
+        super::run::units::note(path, *side_mm, *unit, &super::run::units::convert_fix(path, *unit))
     )]
     SmallerThanAnOrgan {
         /// The failure.
@@ -105,6 +103,8 @@ pub enum AppError {
         path: String,
         /// Its bounding box's largest side, in the file's units.
         side_mm: f64,
+        /// The unit it is likely in.
+        unit: super::run::units::LengthUnit,
     },
 }
 

@@ -21,6 +21,7 @@ pub(crate) use crate::app::error::shown;
 pub(crate) use crate::app::names::stop_name;
 pub use crate::app::run::files::{canonical, ensure_dir, read_image_checked, write_figures};
 pub use crate::app::run::printable::printable;
+use crate::app::run::units::OrganSize;
 pub(crate) use crate::app::run::{memory, provenance, units};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -112,20 +113,26 @@ pub fn run_command_line(cli: Cli, command_line: Vec<String>) -> Result<(), AppEr
         Command::Deform(a) => deform::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Repair(a) => repair::run(&a),
-        Command::Placenta(a) => placenta::run(&a).map_err(|e| hint(e, &a.input_meshes())),
+        Command::Placenta(a) => {
+            placenta::run(&a).map_err(|e| hint(e, &a.input_meshes(), OrganSize::PLACENTA))
+        }
         Command::Pushback(a) => pushback::run(&a),
-        Command::Ventricle(a) => ventricle::run(&a).map_err(|e| hint(e, &a.input_meshes())),
+        Command::Ventricle(a) => {
+            ventricle::run(&a).map_err(|e| hint(e, &a.input_meshes(), OrganSize::VENTRICLE))
+        }
         Command::VentricleInverse(a) => ventricle::inverse::run(&a),
-        Command::Mitral(a) => mitral::run(&a).map_err(|e| hint(e, &a.input_meshes())),
+        Command::Mitral(a) => {
+            mitral::run(&a).map_err(|e| hint(e, &a.input_meshes(), OrganSize::MITRAL))
+        }
         Command::Batch(a) => cohort::run(&a),
         Command::Cohort(a) => cohort::run_cohort(&a),
     }
 }
 
 /// `e` with the organ command's small input named ([`units::with_units_hint`]).
-fn hint(e: AppError, inputs: &[PathBuf]) -> AppError {
+fn hint(e: AppError, inputs: &[PathBuf], organ: OrganSize) -> AppError {
     let paths: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-    units::with_units_hint(e, &paths)
+    units::with_units_hint(e, &paths, organ)
 }
 
 /// A clap parse error as one line: the message lines before the usage

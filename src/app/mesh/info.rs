@@ -12,6 +12,7 @@
 //! declares.
 
 use crate::app::AppError;
+use crate::app::run::units::{self, OrganSize};
 use crate::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
 use crate::mesh::geometry::{bounding_box, total_area, total_volume};
 use crate::mesh::topology::{
@@ -198,13 +199,10 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
         cell_types: counts.iter().map(|(t, n)| (format!("{t:?}"), *n)).collect(),
         bounding_box: bounding_box(&mesh.positions)
             .map(|b| [[b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z]]),
-        units_note: crate::app::run::units::smaller_than_an_organ(&mesh.positions).map(|side| {
-            let file = path.display();
-            crate::app::run::units::note(
-                &file.to_string(),
-                side,
-                &format!("if it is in metres, `unfold convert {file} OUT --scale 1000`"),
-            )
+        units_note: OrganSize::ANY.too_small(&mesh.positions).map(|side| {
+            let file = path.display().to_string();
+            let unit = OrganSize::ANY.likely_unit(side);
+            units::note(&file, side, unit, &units::convert_fix(&file, unit))
         }),
         point_arrays: mesh.point_data.iter().map(array_info).collect(),
         cell_arrays: mesh.cell_data.iter().map(array_info).collect(),
