@@ -261,8 +261,8 @@ fn info_notes_a_mesh_smaller_than_an_organ() {
         j["units_note"].as_str().unwrap().contains("--scale 1000`"),
         "{j}"
     );
-    // in centimetres (the slab is 17.4 cm across, but info knows no organ:
-    // under 10 mm only)
+    // 3.6 across (the 178 mm slab divided by 50): info knows no organ, and
+    // 36 mm is an organ's size where 3.6 m is none
     let small = write_divided(dir.path(), "small.vtu", &slab(), 50.0);
     let o = unfold(&["info", &s(&small), "--json"]);
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();

@@ -243,7 +243,11 @@ mod tests {
 
     #[test]
     fn errors_not_about_the_input_are_left_alone() {
-        let e = with_units_hint(AppError::Usage("x".into()), &[Path::new("nowhere.vtu")]);
+        let e = with_units_hint(
+            AppError::Usage("x".into()),
+            &[Path::new("nowhere.vtu")],
+            OrganSize::ANY,
+        );
         assert!(matches!(e, AppError::Usage(_)));
     }
 }
