@@ -203,3 +203,16 @@ def test_a_cup_in_metres_is_named(cup):
                          anatomy=anatomy, grid_mm=GRID, anatomy_name="cup_m")
     assert "; note: cup_m is only 0.0" in str(e.value)
     assert "reads coordinates as millimetres" in str(e.value)
+    assert "if it is in metres, multiply the points by 1000" in str(e.value)
+
+
+def test_a_cup_in_centimetres_is_named_as_such(cup):
+    s = cup.surface
+    anatomy = unfold.Mesh(cup.anatomy.points / 10.0, cup.anatomy.cells)
+    with pytest.raises(unfold.UnfoldError) as e:
+        unfold.ventricle(s.points / 10.0, s.cells["triangle"],
+                         anterior=np.asarray(cup.anterior) / 10.0,
+                         inferior=np.asarray(cup.inferior) / 10.0,
+                         anatomy=anatomy, grid_mm=GRID, anatomy_name="cup_cm")
+    assert "; note: cup_cm is only " in str(e.value)
+    assert "if it is in centimetres, multiply the points by 10" in str(e.value)
