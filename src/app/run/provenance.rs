@@ -6,8 +6,10 @@
 //! The run hash is SHA-256 over the unfold version, then every argument
 //! after the program name except the output path (`-o`/`--output` and its
 //! value) and `--max-memory` (which does not change what is written), each
-//! followed by a NUL byte, then for every argument naming an existing file
-//! (also the value of `--flag=FILE`) its SHA-256; for an argument naming a
+//! followed by a NUL byte, then for every argument after the subcommand
+//! naming an existing file (also the value of `--flag=FILE`) its SHA-256
+//! (the subcommand, `placenta`, is a name even where a file or folder of
+//! that name, such as an earlier run's output, lies); for an argument naming a
 //! directory (`mitral --series DIR`), the path and SHA-256 of every file
 //! directly in it, sorted by name. Paths are taken as given: the same files
 //! under other names hash differently.
@@ -169,9 +171,12 @@ pub fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update([0]);
     let mut inputs = Vec::new();
-    for a in significant(args) {
+    for (k, a) in significant(args).into_iter().enumerate() {
         h.update(a.as_bytes());
         h.update([0]);
+        if k == 0 {
+            continue; // the subcommand
+        }
         let candidate = a.split_once('=').map_or(a, |(_, v)| v);
         let p = Path::new(candidate);
         if candidate.is_empty() {
@@ -255,6 +260,23 @@ mod tests {
             "x",
         ]);
         assert_eq!(run_hash(&flag).1.len(), 1);
+    }
+
+    #[test]
+    fn the_subcommand_is_never_an_input() {
+        // `unfold mitral ... -o mitral` run twice in one folder: the first
+        // run's output folder is not an input of the second.
+        let dir = tempfile::tempdir().unwrap();
+        let earlier = dir.path().join("mitral");
+        std::fs::create_dir(&earlier).unwrap();
+        std::fs::write(earlier.join("report.json"), b"{}").unwrap();
+        let args = v(&["placenta", "m.vtu", "-o", "x"]);
+        let mut named = args.clone();
+        named[0] = earlier.display().to_string();
+        assert!(run_hash(&named).1.is_empty());
+        // a file named by a later argument still counts
+        let as_input = v(&["mitral", "--series", &earlier.display().to_string()]);
+        assert_eq!(run_hash(&as_input).1.len(), 1);
     }
 
     #[test]
