@@ -8,7 +8,7 @@
 //! output set. Below them, [`run`] holds what every run shares: the staged
 //! output set, the memory budget, provenance, the units note and the mesh
 //! frame. The layer never parses a command line and never prints; the
-//! command line (`crate::cli`) turns flags into settings and prints, Python
+//! command line (the `cli` module) turns flags into settings and prints, Python
 //! turns numpy arrays into settings and inputs.
 
 pub mod cohort;
