@@ -127,6 +127,7 @@ impl Bowl {
             &settings,
             Path::new(self.name),
             Path::new("targets"),
+            &mut unfold::app::observer::Quiet,
         )
         .expect("deform runs");
         (deformed, t0.elapsed().as_secs_f64())

@@ -6,16 +6,14 @@
 //! energy its smallest area distortion).
 
 use std::path::Path;
-use unfold::io::{WriteOptions, write_mesh};
-use unfold::mesh::CellMesh;
-use unfold::mesh::nalgebra::Point3;
-use unfold::mesh::shapes::{PlacentaParams, ValveParams, mitral_valve, placenta_slab};
-use unfold::mesh::{CellType, TriMesh};
 use unfold::param::Named;
 use unfold::param::energy::EnergyKind;
 
 mod common;
+#[path = "common/fixtures.rs"]
+mod fixtures;
 use common::*;
+use fixtures::*;
 
 fn report(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).expect("report written");
@@ -23,28 +21,9 @@ fn report(path: &Path) -> serde_json::Value {
 }
 
 fn write_slab(dir: &Path) -> String {
-    let slab = placenta_slab(&PlacentaParams {
-        cells_radial: 4,
-        cells_through: 2,
-        ..PlacentaParams::default()
-    })
-    .expect("valid slab")
-    .mesh;
     let path = dir.join("slab.vtu");
-    write_mesh(&path, &CellMesh::from(&slab), &WriteOptions::default()).unwrap();
+    write_tets(&path, &slab_mesh(4, 2));
     s(&path)
-}
-
-fn write_tri(path: &Path, mesh: &TriMesh) {
-    write_mesh(path, &CellMesh::from(mesh), &WriteOptions::default()).unwrap();
-}
-
-fn write_ring(path: &Path, ring: &[Point3<f64>]) {
-    let mut m = CellMesh::from_points(ring.to_vec());
-    let mut ids: Vec<u32> = (0..ring.len() as u32).collect();
-    ids.push(0);
-    m.push_cell(CellType::PolyLine, &ids);
-    write_mesh(path, &m, &WriteOptions::default()).unwrap();
 }
 
 #[test]
@@ -85,16 +64,8 @@ fn the_placenta_minimizes_every_energy_flip_free() {
 #[test]
 fn the_mitral_relaxation_minimizes_every_energy_and_each_shows() {
     let dir = tempfile::tempdir().unwrap();
-    let v = mitral_valve(&ValveParams {
-        annulus_segments: 40,
-        depth_segments: 8,
-        ..ValveParams::default()
-    })
-    .unwrap();
-    let [a, p, ring] = ["anterior.vtp", "posterior.vtp", "annulus.vtp"].map(|f| dir.path().join(f));
-    write_tri(&a, &v.anterior);
-    write_tri(&p, &v.posterior);
-    write_ring(&ring, &v.annulus);
+    let v = small_valve();
+    let [a, p, ring] = write_valve(dir.path(), "", &v.anterior, &v.posterior, &v.annulus);
     let mut finals = Vec::new();
     for &name in EnergyKind::NAMES {
         let out = dir.path().join(name);

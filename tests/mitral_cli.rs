@@ -4,49 +4,15 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 use unfold::io::{WriteOptions, read_mesh, write_mesh};
-use unfold::mesh::nalgebra::Point3;
 use unfold::mesh::reindex::compact_vertices;
-use unfold::mesh::shapes::{ValveParams, ValveShape, mitral_valve};
+use unfold::mesh::shapes::{ValveParams, mitral_valve};
 use unfold::mesh::{CellMesh, CellType, TriMesh};
 
 mod common;
+#[path = "common/fixtures.rs"]
+mod fixtures;
 use common::*;
-
-fn ring_mesh(points: &[Point3<f64>]) -> CellMesh {
-    let mut m = CellMesh::from_points(points.to_vec());
-    let mut ids: Vec<u32> = (0..points.len() as u32).collect();
-    ids.push(0);
-    m.push_cell(CellType::PolyLine, &ids);
-    m
-}
-
-/// Writes a valve's three files into `dir` with `prefix`; returns their
-/// paths (anterior, posterior, annulus).
-fn write_valve(
-    dir: &Path,
-    prefix: &str,
-    anterior: &TriMesh,
-    posterior: &TriMesh,
-    ring: &[Point3<f64>],
-) -> [PathBuf; 3] {
-    let a = dir.join(format!("{prefix}anterior.vtp"));
-    let p = dir.join(format!("{prefix}posterior.vtp"));
-    let r = dir.join(format!("{prefix}annulus.vtp"));
-    let opts = WriteOptions::default();
-    write_mesh(&a, &CellMesh::from(anterior), &opts).unwrap();
-    write_mesh(&p, &CellMesh::from(posterior), &opts).unwrap();
-    write_mesh(&r, &ring_mesh(ring), &opts).unwrap();
-    [a, p, r]
-}
-
-fn small_valve() -> ValveShape {
-    mitral_valve(&ValveParams {
-        annulus_segments: 40,
-        depth_segments: 8,
-        ..ValveParams::default()
-    })
-    .unwrap()
-}
+use fixtures::*;
 
 fn run_files(files: &[PathBuf; 3], out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![

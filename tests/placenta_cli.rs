@@ -10,32 +10,19 @@ use unfold::io::{
     Datatype, NiftiImage, WriteOptions, read_image, read_mesh, write_image, write_mesh,
 };
 use unfold::mesh::nalgebra::{Point3, Vector3};
-use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 use unfold::mesh::{CellMesh, CellType, TetMesh, Volume};
 
 mod common;
+#[path = "common/fixtures.rs"]
+mod fixtures;
+use fixtures::*;
 #[path = "common/scan.rs"]
 mod scan;
 use common::*;
 
-/// A small placenta slab (`18 n^2 m` tets).
-fn slab_mesh(cells_radial: usize, cells_through: usize) -> TetMesh {
-    placenta_slab(&PlacentaParams {
-        cells_radial,
-        cells_through,
-        ..PlacentaParams::default()
-    })
-    .expect("valid slab parameters")
-    .mesh
-}
-
 /// The default test slab (6 radial cells, 2 layers: 1296 tets).
 fn slab() -> TetMesh {
     slab_mesh(6, 2)
-}
-
-fn write_tets(path: &Path, mesh: &TetMesh) {
-    write_mesh(path, &CellMesh::from(mesh), &WriteOptions::default()).expect("mesh written");
 }
 
 /// Writes the default slab to `dir/slab.vtu`.

@@ -6,70 +6,17 @@
 
 use std::path::{Path, PathBuf};
 use unfold::app::cohort::{SubjectReport, read_report};
-use unfold::io::{WriteOptions, write_image, write_mesh};
-use unfold::mesh::nalgebra::{Point3, Vector3};
-use unfold::mesh::shapes::{
-    PlacentaParams, ShellParams, ValveParams, ValveShape, VentricleParams, bowl_shell,
-    mitral_valve, placenta_slab, ventricle_cup,
-};
-use unfold::mesh::{CellMesh, CellType, TetMesh, TriMesh};
+use unfold::io::write_image;
+use unfold::mesh::nalgebra::Vector3;
+use unfold::mesh::shapes::{ShellParams, VentricleParams, bowl_shell, ventricle_cup};
 
 mod common;
+#[path = "common/fixtures.rs"]
+mod fixtures;
+use fixtures::*;
 #[path = "common/scan.rs"]
 mod scan;
 use common::*;
-
-/// The placenta tests' slab (`tests/placenta_cli.rs`).
-fn slab_mesh(cells_radial: usize, cells_through: usize) -> TetMesh {
-    placenta_slab(&PlacentaParams {
-        cells_radial,
-        cells_through,
-        ..PlacentaParams::default()
-    })
-    .expect("valid slab parameters")
-    .mesh
-}
-
-fn write_tets(path: &Path, mesh: &TetMesh) {
-    write_mesh(path, &CellMesh::from(mesh), &WriteOptions::default()).unwrap();
-}
-
-/// The mitral tests' valve (`tests/mitral_cli.rs`).
-fn small_valve() -> ValveShape {
-    mitral_valve(&ValveParams {
-        annulus_segments: 40,
-        depth_segments: 8,
-        ..ValveParams::default()
-    })
-    .unwrap()
-}
-
-fn ring_mesh(points: &[Point3<f64>]) -> CellMesh {
-    let mut m = CellMesh::from_points(points.to_vec());
-    let mut ids: Vec<u32> = (0..points.len() as u32).collect();
-    ids.push(0);
-    m.push_cell(CellType::PolyLine, &ids);
-    m
-}
-
-/// Writes a valve's three files into `dir` with `prefix` (anterior,
-/// posterior, annulus).
-fn write_valve(
-    dir: &Path,
-    prefix: &str,
-    anterior: &TriMesh,
-    posterior: &TriMesh,
-    ring: &[Point3<f64>],
-) -> [PathBuf; 3] {
-    let a = dir.join(format!("{prefix}anterior.vtp"));
-    let p = dir.join(format!("{prefix}posterior.vtp"));
-    let r = dir.join(format!("{prefix}annulus.vtp"));
-    let opts = WriteOptions::default();
-    write_mesh(&a, &CellMesh::from(anterior), &opts).unwrap();
-    write_mesh(&p, &CellMesh::from(posterior), &opts).unwrap();
-    write_mesh(&r, &ring_mesh(ring), &opts).unwrap();
-    [a, p, r]
-}
 
 /// The report at `path` read as `organ`'s and written again: the same text.
 fn round_trip(path: &Path, organ: &str) -> SubjectReport {

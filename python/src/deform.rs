@@ -63,7 +63,9 @@ pub(crate) fn deform<'py>(
         tets,
         pairs,
     };
-    let run = py.detach(|| run(&settings, inputs)).map_err(crate::error)?;
+    let run = py
+        .detach(|| run(&settings, inputs, &mut unfold::app::observer::Quiet))
+        .map_err(crate::error)?;
     let report = DeformRunReport {
         provenance: Provenance::python(parameters, started),
         ..run.report

@@ -115,17 +115,19 @@ pub(crate) fn mitral<'py>(
         posterior,
         ring,
     };
-    let run = py.detach(|| run_with(&pipeline, &inputs)).map_err(|e| {
-        crate::input_error(
-            e,
-            &[
-                ("the anterior leaflet", &inputs.anterior.positions),
-                ("the posterior leaflet", &inputs.posterior.positions),
-                ("the annulus", &inputs.ring),
-            ],
-            unfold::app::run::units::OrganSize::MITRAL,
-        )
-    })?;
+    let run = py
+        .detach(|| run_with(&pipeline, &inputs, &mut unfold::app::observer::Quiet))
+        .map_err(|e| {
+            crate::input_error(
+                e,
+                &[
+                    ("the anterior leaflet", &inputs.anterior.positions),
+                    ("the posterior leaflet", &inputs.posterior.positions),
+                    ("the annulus", &inputs.ring),
+                ],
+                unfold::app::run::units::OrganSize::MITRAL,
+            )
+        })?;
     let outcome = run.outcome;
     let report = MitralReport {
         provenance: Provenance::python(parameters, started),

@@ -4,6 +4,7 @@
 //! there), and the summary line printed on stdout.
 
 use super::choice::named;
+use super::progress::Progress;
 use super::stop_name;
 use crate::app::AppError;
 use crate::app::deform::{self, Files, Outputs, Settings};
@@ -79,7 +80,7 @@ pub fn run(a: &DeformArgs) -> Result<(), AppError> {
     let mut staged = StagedOutputs::new([&a.mesh, &a.targets]);
     let (mesh_target, report_target) = (staged.file(&a.output)?, staged.file(files.report())?);
     let inputs = deform::read(&files)?;
-    let run = deform::run(&settings, inputs)?;
+    let run = deform::run(&settings, inputs, &mut Progress::new(true))?;
     deform::write(
         &run,
         &Outputs {

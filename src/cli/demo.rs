@@ -241,6 +241,7 @@ fn write_demo(dir: &Path, staged: &StagedOutputs) -> Result<(), AppError> {
             staged,
         },
         true,
+        &mut crate::app::observer::Quiet,
     )?;
     println!(
         "built-in mitral valve: {}",

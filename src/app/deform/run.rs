@@ -7,6 +7,7 @@ use super::inputs::Inputs;
 use super::report::DeformRunReport;
 use super::settings::Settings;
 use crate::app::error::{AppError, at};
+use crate::app::observer::Observer;
 use crate::app::run::provenance;
 use crate::mesh::repair::{RepairOptions, RepairReport, Weld, repair_tet_mesh_traced};
 use crate::mesh::{CellMesh, MeshError, TetMesh};
@@ -40,11 +41,16 @@ pub struct Run {
 }
 
 /// Deforms `inputs` with `settings` ([`deform_mesh`]) into a [`Run`] whose
-/// report names the inputs, with this process's provenance.
+/// report names the inputs, with this process's provenance; the solver's
+/// iterations go to `observer`.
 ///
 /// # Errors
 /// [`deform_mesh`]'s.
-pub fn run(settings: &Settings, inputs: Inputs) -> Result<Run, AppError> {
+pub fn run(
+    settings: &Settings,
+    inputs: Inputs,
+    observer: &mut dyn Observer,
+) -> Result<Run, AppError> {
     let Inputs {
         mesh,
         targets,
@@ -52,7 +58,7 @@ pub fn run(settings: &Settings, inputs: Inputs) -> Result<Run, AppError> {
         tets,
         pairs,
     } = inputs;
-    let deformed = deform_mesh(cells, &tets, &pairs, settings, &mesh, &targets)?;
+    let deformed = deform_mesh(cells, &tets, &pairs, settings, &mesh, &targets, observer)?;
     Ok(Run {
         mesh: deformed.mesh,
         tets: deformed.tets,
@@ -99,7 +105,8 @@ fn deform_problem(mesh: &Path, targets: &Path, solver: SolverKind, e: ParamError
 /// repaired mesh (the memory budget checked before a Newton factor) and
 /// puts the solution back on the input's vertex numbers (welded copies move
 /// together; the first target of a welded vertex counts; a vertex no tet
-/// uses goes to its target, if it has one).
+/// uses goes to its target, if it has one). The stage `deformation` and
+/// every iteration go to `observer`.
 ///
 /// # Errors
 /// The settings' ([`Settings::validate`]), a mesh that cannot be repaired,
@@ -112,6 +119,7 @@ pub fn deform_mesh(
     settings: &Settings,
     mesh: &Path,
     targets: &Path,
+    observer: &mut dyn Observer,
 ) -> Result<Deformed, AppError> {
     settings.validate()?;
     let n = tet_mesh.num_vertices();
@@ -160,8 +168,10 @@ pub fn deform_mesh(
             "coarsen the mesh, or use --solver gd (no factor)",
         )?;
     }
+    observer.stage("deformation");
+    let mut iterations = |it: &crate::param::Iteration| observer.iteration(it);
     let outcome = pipeline
-        .run(&repaired.mesh, &solve_pairs)
+        .run_with(&repaired.mesh, &solve_pairs, &mut iterations)
         .map_err(|e| deform_problem(mesh, targets, settings.solver, e))?;
     let mut deformed = cells;
     for (i, p) in deformed.positions.iter_mut().enumerate() {

@@ -7,6 +7,7 @@ use super::report::MitralReport;
 use super::settings::Settings;
 use crate::app::AppError;
 use crate::app::error::organ;
+use crate::app::observer::Observer;
 use crate::app::run::provenance;
 use crate::mesh::TriMesh;
 use crate::mesh::nalgebra::Point3;
@@ -41,15 +42,26 @@ impl Run {
 /// # Errors
 /// The settings' ([`Settings::pipeline`]) and the pipeline's, about the
 /// inputs.
-pub fn run(settings: &Settings, inputs: &Inputs) -> Result<Run, AppError> {
-    run_with(&settings.pipeline()?, inputs)
+pub fn run(
+    settings: &Settings,
+    inputs: &Inputs,
+    observer: &mut dyn Observer,
+) -> Result<Run, AppError> {
+    run_with(&settings.pipeline()?, inputs, observer)
 }
 
-/// Runs `pipeline` (its pieces may be a method developer's) on `inputs`.
+/// Runs `pipeline` (its pieces may be a method developer's) on `inputs`;
+/// the stage goes to `observer` (the library's mitral pipeline reports no
+/// iterations: its solves take well under a second each).
 ///
 /// # Errors
 /// The pipeline's, about `inputs.label` (settings as usage errors).
-pub fn run_with(pipeline: &Pipeline, inputs: &Inputs) -> Result<Run, AppError> {
+pub fn run_with(
+    pipeline: &Pipeline,
+    inputs: &Inputs,
+    observer: &mut dyn Observer,
+) -> Result<Run, AppError> {
+    observer.stage("mitral: layout, relaxation and maps");
     let outcome = map_valve(
         pipeline,
         &inputs.anterior,

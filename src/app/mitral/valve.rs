@@ -5,6 +5,7 @@ use super::inputs::{ValveFiles, read};
 use super::run::{Run, run_with};
 use super::write::{Outputs, write};
 use crate::app::AppError;
+use crate::app::observer::Observer;
 use crate::organs::mitral::Pipeline;
 
 /// Reads one valve ([`read`]), runs `pipeline` on it ([`run_with`]) and
@@ -19,10 +20,11 @@ pub fn run_valve(
     pipeline: &Pipeline,
     out: &Outputs<'_>,
     figures: bool,
+    observer: &mut dyn Observer,
 ) -> Result<Run, AppError> {
     let label = files.shown(out.staged).label();
     let inputs = read(files, label, pipeline)?;
-    let run = run_with(pipeline, &inputs)?;
+    let run = run_with(pipeline, &inputs, observer)?;
     write(&run, out, figures)?;
     Ok(run)
 }

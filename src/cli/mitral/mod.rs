@@ -133,6 +133,7 @@ pub fn run(a: &MitralArgs) -> Result<(), AppError> {
                     staged: &staged,
                 },
                 figures,
+                &mut Progress::new(true),
             )
             .map_err(|e| shown(&staged, e))?;
             staged.commit()?;
