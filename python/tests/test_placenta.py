@@ -170,7 +170,7 @@ def test_a_slab_in_metres_is_named(slab, unfold_bin, tmp_path):
         unfold.placenta(metres, slab.cells["tetra"], name="slab_m")
     message = str(e.value)
     assert "; note: slab_m is only 0." in message
-    assert "reads coordinates as millimetres: multiply the points" in message
+    assert "reads coordinates as millimetres: if it is in metres, multiply the points by 1000" in message
     path = tmp_path / "slab_m.vtu"
     unfold.write_mesh(path, metres, {"tetra": slab.cells["tetra"]})
     cli = subprocess.run([unfold_bin, "placenta", str(path), "-o", str(tmp_path / "o")],
