@@ -7,6 +7,7 @@
 //! as against "a longitude starts off the annulus" (parry's style). Each
 //! message is one line a user can act on.
 
+use crate::gate::GateError;
 use crate::mitral::MitralError;
 use crate::placenta::error::PlacentaError;
 use crate::ventricle::error::VentricleError;
@@ -42,6 +43,10 @@ pub enum OrganError {
     /// The ventricle pipeline failed (landmarks, disk map, field, mapping).
     #[error(transparent)]
     Ventricle(#[from] VentricleError),
+    /// A quality gate failed: a stage's result is one a right map cannot
+    /// have (see [`crate::gate`]).
+    #[error(transparent)]
+    Gate(#[from] GateError),
 }
 
 /// What a setting must satisfy.

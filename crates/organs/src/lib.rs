@@ -7,11 +7,14 @@
 //!   the boundary parcellation and the image pull-back.
 //! - [`mitral`]: the mitral valve's leaflets laid out below their annulus
 //!   in 2D, flip-free, with clinical maps and measurements (ALGORITHMS 4).
+//! - [`gate`]: quality gates, the checks after each stage that a wrong
+//!   result cannot pass, each listed in `report.json`.
 //! - [`ventricle`]: the chamber's enclosing surface flattened to the disk
 //!   with its landmarks, the anatomy carried along Laplace streamlines into
 //!   a cylinder (ALGORITHMS 3).
 
 mod error;
+pub mod gate;
 pub mod mitral;
 mod observer;
 pub mod placenta;
