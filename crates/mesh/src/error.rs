@@ -56,12 +56,55 @@ pub enum MeshError {
         threshold: f64,
     },
     /// A tet has negative signed volume `(b-a)·((c-a)×(d-a))/6 < 0`.
-    #[error("tet {element} is inverted (signed volume {volume:e}); `orient()` fixes this")]
+    #[error(
+        "tet {element} is inverted (signed volume {volume:e}): when every tet is, the mesh is \
+         mirrored and `unfold repair` re-orients it; when only some are, it is folded"
+    )]
     InvertedElement {
         /// Tet index.
         element: usize,
         /// Its signed volume.
         volume: f64,
+    },
+    /// A triangle of a planar mesh turns against the others: its signed
+    /// area in the mesh's plane has the sign fewer triangles have (the mesh
+    /// is folded).
+    #[error(
+        "triangle {element} of the planar mesh is inverted (signed area {area:e} against the \
+         others'): the map is folded"
+    )]
+    InvertedTriangle {
+        /// Triangle index.
+        element: usize,
+        /// Its signed area in the plane (the majority's sign is positive).
+        area: f64,
+    },
+    /// An interior face of a tet mesh is folded: the two tets sharing it
+    /// lie on the same side of it, so the mesh overlaps itself there
+    /// ([`crate::geometry::folded_faces`]).
+    #[error(
+        "face ({}, {}, {}) is folded: tets {} and {} lie on the same side of it (the mesh \
+         overlaps itself; re-orienting cannot fix that: re-mesh or untangle it)",
+        face[0], face[1], face[2], tets[0], tets[1]
+    )]
+    FoldedFace {
+        /// The face's vertices, ascending.
+        face: [u32; 3],
+        /// The two tets sharing it.
+        tets: [usize; 2],
+    },
+    /// An interior edge of a planar triangle mesh is folded: its two
+    /// triangles lie on the same side of it ([`crate::geometry::folded_edges`]).
+    #[error(
+        "edge ({}, {}) is folded: triangles {} and {} lie on the same side of it (the map \
+         overlaps itself; re-orienting cannot fix that: re-mesh or untangle it)",
+        edge[0], edge[1], triangles[0], triangles[1]
+    )]
+    FoldedEdge {
+        /// The edge's vertices, ascending.
+        edge: [u32; 2],
+        /// The two triangles sharing it.
+        triangles: [usize; 2],
     },
     /// Some vertices are used by no element.
     #[error("{count} vertices are used by no element (first: vertex {first})")]
@@ -321,6 +364,9 @@ impl MeshError {
             MeshError::NonFiniteCoordinate { .. } => "non_finite_coordinate",
             MeshError::DegenerateElement { .. } => "degenerate_element",
             MeshError::InvertedElement { .. } => "inverted_element",
+            MeshError::InvertedTriangle { .. } => "inverted_triangle",
+            MeshError::FoldedFace { .. } => "folded_face",
+            MeshError::FoldedEdge { .. } => "folded_edge",
             MeshError::UnusedVertices { .. } => "unused_vertices",
             MeshError::NonManifoldEdge { .. } => "non_manifold_edge",
             MeshError::NonManifoldFace { .. } => "non_manifold_face",

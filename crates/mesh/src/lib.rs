@@ -6,6 +6,8 @@
 //! - [`validate`] and [`repair`]: typed problems ([`MeshError`]), orientation,
 //!   duplicate removal, largest component; [`reindex`]: dropping unused
 //!   vertices and renumbering the elements.
+//! - [`fold_check`]: inverted and folded elements (tets, planar
+//!   triangles), counted and as validation problems.
 //! - [`topology`]: adjacency, edges, k-rings, boundaries, loops, components.
 //! - [`geometry`]: volumes, areas, normals, vertex areas, PCA frame, hull.
 //! - [`geodesic`]: Dijkstra along edges.
@@ -27,6 +29,7 @@ pub mod clip;
 pub mod coarsen;
 mod error;
 pub mod field;
+pub mod fold_check;
 pub mod geodesic;
 pub mod geometry;
 pub mod marching_tets;

@@ -14,6 +14,7 @@
 use crate::app::AppError;
 use crate::app::run::units::{self, OrganSize};
 use crate::io::{FileKind, ImageHeader, ValueSummary, image_value_summary, read_mesh};
+use crate::mesh::fold_check::{FoldCounts, planar_triangle_folds, tet_folds};
 use crate::mesh::geometry::{bounding_box, total_area, total_volume};
 use crate::mesh::topology::{
     boundary_loops, connected_components, euler_characteristic, tet_boundary,
@@ -99,6 +100,10 @@ pub struct MeshInfo {
     pub area_mm2: Option<f64>,
     /// Total volume, mm^3 (tet meshes).
     pub volume_mm3: Option<f64>,
+    /// Inverted and folded elements ([`crate::mesh::fold_check`]): of a tet
+    /// mesh, or of a surface whose points lie in one plane (none for a
+    /// surface curved in space). Each one found is also a problem.
+    pub folds: Option<FoldCounts>,
     /// Whether no validity problem was found.
     pub valid: bool,
     /// The validity problems, one per kind.
@@ -211,6 +216,7 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
         boundary_surface: None,
         area_mm2: None,
         volume_mm3: None,
+        folds: None,
         valid: true,
         problems: Vec::new(),
     };
@@ -234,7 +240,11 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
                         euler_characteristic: euler_characteristic(s),
                     });
                 }
-                check_tet_mesh(&t, &opts)
+                let mut problems = check_tet_mesh(&t, &opts);
+                let (folds, folded) = tet_folds(&t);
+                info.folds = Some(folds);
+                problems.extend(folded);
+                problems
             }
             Err(e) => vec![crate::mesh::validate::Problem { error: e, count: 1 }],
         },
@@ -245,7 +255,12 @@ pub fn mesh_info(path: &Path, mesh: &CellMesh) -> MeshInfo {
                 info.boundary_loops = boundary_loops(&t)
                     .ok()
                     .map(|ls| ls.iter().map(Vec::len).collect());
-                check_tri_mesh(&t, &opts)
+                let mut problems = check_tri_mesh(&t, &opts);
+                if let Some((folds, folded)) = planar_triangle_folds(&t) {
+                    info.folds = Some(folds);
+                    problems.extend(folded);
+                }
+                problems
             }
             Err(e) => vec![crate::mesh::validate::Problem { error: e, count: 1 }],
         },

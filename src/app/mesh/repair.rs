@@ -15,9 +15,11 @@ use crate::app::run::StagedOutputs;
 use crate::app::run::files::canonical;
 use crate::io::{WriteOptions, read_mesh, write_mesh};
 use crate::mesh::CellMesh;
+use crate::mesh::fold_check::{FoldCounts, planar_triangle_folds, tet_folds};
 use crate::mesh::repair::{
     RepairOptions, RepairReport, Weld, repair_tet_mesh_with, repair_tri_mesh_with,
 };
+use crate::mesh::validate::Problem;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -152,9 +154,16 @@ pub struct RepairSummary {
 /// fan-triangulated); with `largest_component`, only the largest connected
 /// component (most elements, the first on ties) is kept.
 ///
+/// A folded mesh (tets, or triangles in one plane, whose elements overlap
+/// their neighbours: [`crate::mesh::fold_check`]) is refused rather than
+/// re-oriented: turning its inverted elements positive would hide the fold,
+/// not undo it. A mirrored mesh (every tet negative) has no fold and is
+/// re-oriented.
+///
 /// # Errors
 /// [`AppError::Usage`] at `input` for what cannot be repaired (a
-/// non-orientable surface, naming the vertices).
+/// non-orientable surface, naming the vertices; a folded mesh, naming the
+/// first fold).
 pub fn run(
     cells: &CellMesh,
     options: &RepairOptions,
@@ -171,6 +180,8 @@ pub fn run(
     let (mesh, report, elements): (CellMesh, RepairReport, &'static str) = if volume {
         let tets = cells.volume_tets().map_err(|e| at(input, e))?;
         let (mut m, r) = repair_tet_mesh_with(&tets, options).map_err(|e| at(input, e))?;
+        let (folds, problems) = tet_folds(&m);
+        refuse_folds(input, "faces", folds, &problems)?;
         if largest_component {
             let before = (m.tets.len(), m.positions.len());
             m = m.largest_component().map_err(|e| at(input, e))?.0;
@@ -180,6 +191,9 @@ pub fn run(
     } else {
         let tris = cells.to_tri_mesh().map_err(|e| at(input, e))?;
         let (mut m, r) = repair_tri_mesh_with(&tris, options).map_err(|e| at(input, e))?;
+        if let Some((folds, problems)) = planar_triangle_folds(&m) {
+            refuse_folds(input, "edges", folds, &problems)?;
+        }
         if largest_component {
             let before = (m.triangles.len(), m.positions.len());
             m = m.largest_component().map_err(|e| at(input, e))?.0;
@@ -193,6 +207,29 @@ pub fn run(
         elements,
         largest_component: kept,
     })
+}
+
+/// Refuses a repaired mesh that still has folds or inverted elements
+/// (`folds` and `problems` from [`crate::mesh::fold_check`]), naming how
+/// many and the last problem (the first folded face or edge when there is
+/// one).
+fn refuse_folds(
+    input: &Path,
+    what: &str,
+    folds: FoldCounts,
+    problems: &[Problem],
+) -> Result<(), AppError> {
+    match problems.last() {
+        Some(fold) if !folds.is_clean() => Err(at(
+            input,
+            format!(
+                "the mesh is folded ({} folded {what}, {} inverted elements), which repair \
+                 cannot undo: {}",
+                folds.folded, folds.inverted, fold.error
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 impl Repaired {

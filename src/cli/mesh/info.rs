@@ -81,6 +81,18 @@ fn print_mesh(i: &MeshInfo) {
     if let Some(v) = i.volume_mm3 {
         println!("  volume: {v:.6} mm^3");
     }
+    if let Some(f) = &i.folds {
+        println!(
+            "  inverted elements: {}, folded {}: {}",
+            f.inverted,
+            if i.mesh_type == "tetrahedral" {
+                "faces"
+            } else {
+                "edges"
+            },
+            f.folded
+        );
+    }
     if i.valid {
         println!("  valid: yes");
     } else {

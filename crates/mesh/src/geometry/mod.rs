@@ -17,6 +17,8 @@
 //! - `segment`: [`point_segment_distance`], [`closest_point_on_segment`],
 //!   [`closest_point_on_segment_2d`] (clamped projection);
 //! - `pca`: [`PcaFrame`], [`pca_frame`];
+//! - `planar`: [`plane_coordinates`] (points in one plane, in its
+//!   coordinates);
 //! - `aabb`: [`Aabb`], [`bounding_box`];
 //! - `orientation`: [`flipped_triangles`] (one tie rule: the minority
 //!   orientation and the degenerate triangles of a planar map),
@@ -41,6 +43,7 @@ mod intersect;
 mod measures;
 mod orientation;
 mod pca;
+mod planar;
 mod predicates;
 mod segment;
 mod self_intersections;
@@ -65,6 +68,7 @@ pub use orientation::{
     Orientations, flipped_indices, flipped_triangles, majority_sign, twice_signed_areas_2d,
 };
 pub use pca::{PcaFrame, pca_frame};
+pub use planar::{PLANAR_REL_TOL, plane_coordinates};
 pub use predicates::{orient2d_exact, orient3d_exact};
 pub use segment::{closest_point_on_segment, closest_point_on_segment_2d, point_segment_distance};
 pub use self_intersections::{
