@@ -400,7 +400,9 @@ fn fiedler_sine(pairs: &unfold_linalg::eigen::Eigenpairs) -> f64 {
 /// Fiedler pair and the next, whose gap bounds the Fiedler vector's
 /// error), gated by [`MAX_FIEDLER_SINE`]: when the default tolerance
 /// leaves the vector unsure, the pair is solved again with the tolerance
-/// at a thousandth of the gap (the fallback), and refused if still unsure.
+/// at a thousandth of the gap (the fallback), and refused if still unsure,
+/// if that tolerance is out of reach (below 1e-13) or the re-solve does
+/// not converge.
 fn fiedler_pair(
     laplacian: &AffinityLaplacian,
     gates: &mut Gates,
@@ -421,25 +423,27 @@ fn fiedler_pair(
         return Ok(pairs);
     }
     // |L|_est <= 2 for a normalized Laplacian, so the solver's threshold
-    // tol * max(1, |L|_est) is at most 2 tol.
+    // tol * max(1, |L|_est) is at most 2 tol. A gap too small for any
+    // reachable tolerance (two equally good splits) is refused as is; so
+    // is a re-solve that does not converge.
     let gap = pairs.values[1] - pairs.values[0];
-    let tol = (5e-4 * gap).max(1e-14);
-    let again = if tol.is_finite() && gap > 0.0 {
+    let tol = 5e-4 * gap;
+    let again = if tol.is_finite() && tol >= 1e-13 {
         solve(&EigenOptions {
             tol,
-            max_iterations: 2_000,
             ..EigenOptions::default()
-        })?
+        })
+        .ok()
     } else {
-        pairs
+        None
     };
     gates.check(
         "sides.eigensolver_resolved",
-        fiedler_sine(&again),
+        again.as_ref().map_or(sine, fiedler_sine),
         requirement,
         SPLIT_FIX,
     )?;
-    Ok(again)
+    Ok(again.unwrap_or(pairs))
 }
 
 /// The normalized Laplacian of the affinity and `sqrt(d)` (its null vector).
@@ -876,6 +880,33 @@ mod tests {
             proptest::prop_assert!((0.5..2.0).contains(&ratio), "{}", ratio);
             proptest::prop_assert!(p.gates.get("sides.eigensolver").unwrap().value < 1e-4);
         }
+    }
+
+    /// The normalized Laplacian of a cycle of `n` vertices (unit weights):
+    /// its eigenvalues `1 - cos(2 pi k / n)` come in equal pairs, so no
+    /// Fiedler vector is the one.
+    fn cycle(n: usize) -> AffinityLaplacian {
+        let entries = (0..n as u32).flat_map(|i| {
+            let j = (i + 1) % n as u32;
+            [(i, i, 1.0), (i.min(j), i.max(j), -0.5)]
+        });
+        AffinityLaplacian {
+            l: Csr::from_symmetric_entries(n, entries).unwrap(),
+            sqrt_degree: vec![2f64.sqrt(); n],
+        }
+    }
+
+    #[test]
+    fn a_boundary_with_two_equally_good_splits_is_refused_after_the_fallback() {
+        let mut gates = Gates::new();
+        let e = fiedler_pair(&cycle(40), &mut gates).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("quality gate sides.eigensolver_resolved"),
+            "{e}"
+        );
+        let first = gates.get("sides.eigensolver").unwrap();
+        assert!(!first.passed && first.fallback.is_some(), "{first:?}");
     }
 
     #[test]

@@ -327,6 +327,7 @@ impl Pipeline {
                 labels: &labels,
                 weights: &weights,
                 min_det_j: eval.min_det_j,
+                final_error_mm: eval.template_error_mm,
                 voxel_mm: config.parcellation.voxel_mm,
                 resists_scaling: resists_scaling(self.energy.as_ref()),
             },
