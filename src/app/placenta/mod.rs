@@ -41,6 +41,7 @@ pub mod pushback;
 pub mod report;
 pub mod run;
 pub mod seg;
+pub mod seg_prediction;
 pub mod settings;
 pub mod write;
 

@@ -2,11 +2,14 @@
 //! side chosen from the mask (its volume, its thickness, its voxels), the
 //! meshing itself, and what the report says of it.
 
+use super::seg_prediction::{BYTES_PER_TET, SegPrediction};
 use super::settings::Settings;
 use crate::app::error::{AppError, at};
 use crate::app::mesh::mask::{describe, warn_dropped};
 use crate::app::observer::Observer;
+use crate::app::run::memory;
 use crate::mesh::mask::inside_distance_quantile;
+use crate::mesh::memory::MemoryEstimate;
 use crate::mesh::mesher::{MaskMeshOptions, MeshQuality, cube_side_for_cubes};
 use crate::mesh::{MeshError, TetMesh, Volume};
 use crate::organs::placenta::segmentation::{THICKNESS_QUANTILE, from_segmentation};
@@ -115,6 +118,9 @@ pub struct SegReport {
     pub half_thickness_mm: f64,
     /// Size and quality of the mesh.
     pub quality: MeshQuality,
+    /// What the run was predicted to cost before the mask was meshed
+    /// ([`SegPrediction`]).
+    pub prediction: SegPrediction,
 }
 
 /// A mesh made from a segmentation, with what the report says of it.
@@ -129,7 +135,10 @@ pub struct Segmented {
 }
 
 /// Meshes the mask `seg` as `settings` say (graded at the cube side of
-/// [`seg_cube_side`] unless `dense`), checking the memory first; tells
+/// [`seg_cube_side`] unless `dense`), predicting the run's tets, memory and
+/// time first ([`SegPrediction`]: a warning when large, refused when
+/// `--max-memory` is given and the flattening would pass it) and checking
+/// the mesher's memory; tells
 /// `observer` the mesh's size and quality (and the rule that chose the
 /// cube side) and warns of components left out. `mesh_shown` is where the
 /// mesh will be written, for the report.
@@ -153,6 +162,23 @@ pub fn mesh_segmentation(
         size_mm: Some(size_mm),
         ..m.options(false)?
     };
+    let prediction = SegPrediction::of(&mask, size_mm, options.grade);
+    if memory::budget().source == memory::LimitSource::Flag {
+        // The flattening's own check comes after the meshing; with a
+        // budget given, a run that cannot fit it is refused before.
+        memory::check(
+            "flattening the placenta (predicted from the mask before meshing)",
+            &MemoryEstimate::new().with("tets", prediction.tets, BYTES_PER_TET),
+            "raise --size-mm (the tets grow as 1/size^3, graded as 1/size^2) or drop --dense",
+        )?;
+    }
+    if prediction.is_large() {
+        observer.warning(&format!(
+            "{}: {}",
+            seg.display(),
+            prediction.note(size_mm, options.grade)
+        ));
+    }
     m.check_memory(seg, &mask, &options)?;
     let segmented =
         from_segmentation(&mask, &options).map_err(|e| super::errors::organ(&label, e))?;
@@ -190,6 +216,7 @@ pub fn mesh_segmentation(
         dropped_components: out.dropped_components.clone(),
         half_thickness_mm: h,
         quality,
+        prediction,
     };
     Ok(Segmented {
         mesh: out.mesh,

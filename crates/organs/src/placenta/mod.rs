@@ -21,7 +21,9 @@
 //!    [`estimate::estimate`]: the initial map and `h` / radii;
 //! 4. [`optimize::optimize`]: one stage per template (the single plane
 //!    starts from the planes result);
-//! 5. [`evaluate::evaluate`]: the figures of ALGORITHMS 2.6;
+//! 5. [`evaluate::evaluate`]: the figures of ALGORITHMS 2.6, and the
+//!    solve's quality gates ([`solve_gates`]; the side split's are in
+//!    [`parcellation`]), all listed in the report's `gates`;
 //! 6. [`images`]: images into the template grid ([`pullback`]); and back:
 //!    [`pushback`] carries template-space images onto a scanner grid.
 
@@ -43,6 +45,7 @@ pub mod pullback;
 pub mod pushback;
 pub mod report;
 pub mod segmentation;
+pub mod solve_gates;
 pub mod templates;
 
 pub use align::{Alignment, PcaAlignment, TransformReport};

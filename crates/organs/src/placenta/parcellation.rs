@@ -25,9 +25,26 @@
 //! Only the largest connected piece of the boundary surface (the outer
 //! surface) is parcellated; the vertices of any other piece (an internal
 //! cavity) stay [`side::INTERIOR`] and carry no template term.
+//!
+//! # Quality gates (issue 35)
+//!
+//! A split that cannot be right stops the run with one line naming the fix
+//! ([`crate::gate`]); every gate is listed in `report.json`:
+//!
+//! - `sides.eigensolver`: `|L v - lambda_2 v| / (lambda_3 - lambda_2)`, the
+//!   Davis–Kahan bound on the sine of the angle between the computed and
+//!   the true Fiedler vector, at most [`MAX_FIEDLER_SINE`]. When it is
+//!   not, the pair is solved again with the tolerance scaled to the gap
+//!   (the fallback, `sides.eigensolver_resolved`), and a split that is
+//!   still unsure is refused.
+//! - `sides.area_ratio`: fetal over maternal area of the two clusters, in
+//!   [`AREA_RATIO_RANGE`].
+//! - `sides.fetal_components`, `sides.maternal_components`: each side,
+//!   outside the margin, is one connected piece.
 
 use super::error::PlacentaError;
 use super::side;
+use crate::gate::Gates;
 use crate::{ConfigError, OrganError, Requirement};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -52,6 +69,32 @@ pub const MIN_BOUNDARY_VERTICES: usize = 8;
 /// the acquisition's voxel size when no margin is given, so that a 1.5 mm
 /// mask starts at 7.5 mm inside its 15 mm limit.
 pub const DEFAULT_MARGIN_VOXELS: f64 = 5.0;
+
+/// The largest `sides.eigensolver` value: the sine of the angle between
+/// the computed Fiedler vector and the true one (Davis–Kahan:
+/// `sin angle <= |L v - lambda v| / gap`). At 0.01 the vector is the true
+/// one to 1 % of its norm, so only vertices where it is within 1 % of its
+/// RMS of zero (those next to the cut, inside the margin) can change
+/// side; a converged solve on the demo and test slabs is near 1e-6.
+pub const MAX_FIEDLER_SINE: f64 = 0.01;
+
+/// The range of `sides.area_ratio`, fetal over maternal cluster area. The
+/// fetal (chorionic) and maternal (basal) plates of a placenta are the two
+/// faces of one disc: for a disc of diameter `D` and thickness `t` each
+/// cluster is a face (`pi D^2 / 4`) plus about half the rim (`pi D t / 2`),
+/// so the ratio is 1 for any flat disc, and a placenta cupped on the
+/// uterine wall (its maternal face the outer one) stays within 1.5 of 1
+/// even at a curvature radius of its own diameter. A factor of 4 either
+/// way is far outside what a right split gives, and far inside what a
+/// split that cut off a bump gives (171 against 49,415 vertices in issue
+/// 35).
+pub const AREA_RATIO_RANGE: (f64, f64) = (0.25, 4.0);
+
+/// What a user can do when the boundary does not split into two faces.
+pub const SPLIT_FIX: &str = "the boundary does not split into one fetal and one maternal face: \
+    check that the mask holds one placenta and nothing else (`unfold info MESH`), smooth it \
+    (`--smooth-voxels 2`) or mesh it coarser (`unfold mesh MASK --size-mm 3 --grade`, or \
+    `placenta --seg MASK` with its default size), or start the margin smaller (`--margin-mm`)";
 
 /// Settings of [`parcellate`]; every default from ALGORITHMS 2.5.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -142,6 +185,8 @@ pub struct Parcellation {
     pub boundary: TetBoundary,
     /// What the parcellation found.
     pub summary: ParcellationSummary,
+    /// The side split's quality gates (module docs), in the order checked.
+    pub gates: Gates,
 }
 
 /// Figures of a parcellation, for the report.
@@ -233,9 +278,8 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let graph = EdgeGraph::from_tri_mesh(&sub);
     let normals = vertex_normals(&sub);
     let laplacian = normalized_affinity_laplacian(&adj, &graph, &normals, config)?;
-    let sqrt_d = laplacian.sqrt_degree.clone();
-    let pairs = smallest_eigenpairs(&laplacian.l, 1, &[sqrt_d], &EigenOptions::default())
-        .map_err(PlacentaError::Fiedler)?;
+    let mut gates = Gates::new();
+    let pairs = fiedler_pair(&laplacian, &mut gates)?;
     let mut fiedler = pairs.vectors[0].clone();
     let cluster_a: Vec<bool> = fiedler.iter().map(|&f| f > 0.0).collect();
     let count_a = cluster_a.iter().filter(|&&a| a).count();
@@ -274,6 +318,13 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
     let seed_distance = graph.distances(&seeds);
     let areas = vertex_areas(&sub);
     let total_area: f64 = areas.iter().sum();
+    let maternal_area: f64 = (0..n).filter(|&i| maternal[i]).map(|i| areas[i]).sum();
+    gates.check(
+        "sides.area_ratio",
+        (total_area - maternal_area) / maternal_area,
+        Requirement::Within(AREA_RATIO_RANGE.0, AREA_RATIO_RANGE.1),
+        SPLIT_FIX,
+    )?;
     let margin = choose_margin(&adj, &maternal, &seed_distance, &areas, total_area, config);
 
     let mut labels = vec![side::INTERIOR; mesh.num_vertices()];
@@ -300,6 +351,17 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
         }
         .into());
     }
+    for (name, pieces) in [
+        ("sides.fetal_components", margin.pieces[0]),
+        ("sides.maternal_components", margin.pieces[1]),
+    ] {
+        gates.check(
+            name,
+            pieces as f64,
+            Requirement::CountWithin(1, 1),
+            SPLIT_FIX,
+        )?;
+    }
     Ok(Parcellation {
         labels,
         fiedler: fiedler_volume,
@@ -319,7 +381,69 @@ pub fn parcellate(mesh: &TetMesh, config: &ParcellationConfig) -> Result<Parcell
             eigen_iterations: pairs.iterations,
         },
         boundary,
+        gates,
     })
+}
+
+/// `sides.eigensolver` of a pair solve: the Fiedler pair's residual over
+/// the gap to the next eigenvalue (NaN when there is no gap).
+fn fiedler_sine(pairs: &unfold_linalg::eigen::Eigenpairs) -> f64 {
+    let gap = pairs.values[1] - pairs.values[0];
+    if gap > 0.0 {
+        pairs.residuals[0] / gap
+    } else {
+        f64::NAN
+    }
+}
+
+/// The two smallest eigenpairs of `L` beside its null vector (the
+/// Fiedler pair and the next, whose gap bounds the Fiedler vector's
+/// error), gated by [`MAX_FIEDLER_SINE`]: when the default tolerance
+/// leaves the vector unsure, the pair is solved again with the tolerance
+/// at a thousandth of the gap (the fallback), and refused if still unsure,
+/// if that tolerance is out of reach (below 1e-13) or the re-solve does
+/// not converge.
+fn fiedler_pair(
+    laplacian: &AffinityLaplacian,
+    gates: &mut Gates,
+) -> Result<unfold_linalg::eigen::Eigenpairs, OrganError> {
+    let deflate = [laplacian.sqrt_degree.clone()];
+    let solve = |opts: &EigenOptions| {
+        smallest_eigenpairs(&laplacian.l, 2, &deflate, opts).map_err(PlacentaError::Fiedler)
+    };
+    let pairs = solve(&EigenOptions::default())?;
+    let requirement = Requirement::Within(0.0, MAX_FIEDLER_SINE);
+    let sine = fiedler_sine(&pairs);
+    if gates.fallback(
+        "sides.eigensolver",
+        sine,
+        requirement,
+        "solved again with the tolerance at a thousandth of the eigengap",
+    ) {
+        return Ok(pairs);
+    }
+    // |L|_est <= 2 for a normalized Laplacian, so the solver's threshold
+    // tol * max(1, |L|_est) is at most 2 tol. A gap too small for any
+    // reachable tolerance (two equally good splits) is refused as is; so
+    // is a re-solve that does not converge.
+    let gap = pairs.values[1] - pairs.values[0];
+    let tol = 5e-4 * gap;
+    let again = if tol.is_finite() && tol >= 1e-13 {
+        solve(&EigenOptions {
+            tol,
+            ..EigenOptions::default()
+        })
+        .ok()
+    } else {
+        None
+    };
+    gates.check(
+        "sides.eigensolver_resolved",
+        again.as_ref().map_or(sine, fiedler_sine),
+        requirement,
+        SPLIT_FIX,
+    )?;
+    Ok(again.unwrap_or(pairs))
 }
 
 /// The normalized Laplacian of the affinity and `sqrt(d)` (its null vector).
@@ -486,17 +610,20 @@ struct Margin {
     radius: f64,
     area: f64,
     connected: bool,
+    /// Connected pieces of the fetal and the maternal side outside it.
+    pieces: [usize; 2],
 }
 
-/// Whether every side, outside the margin `seed_distance <= r`, is one
-/// connected piece (over boundary edges), and the margin's area.
+/// The connected pieces (over boundary edges) of the fetal and the
+/// maternal side outside the margin `seed_distance <= r`, and the margin's
+/// area.
 fn evaluate_margin(
     adj: &Adjacency,
     maternal: &[bool],
     seed_distance: &[f64],
     areas: &[f64],
     r: f64,
-) -> (bool, f64) {
+) -> ([usize; 2], f64) {
     let n = maternal.len();
     let in_margin = |i: usize| seed_distance[i] <= r;
     let area: f64 = (0..n).filter(|&i| in_margin(i)).map(|i| areas[i]).sum();
@@ -520,7 +647,7 @@ fn evaluate_margin(
             }
         }
     }
-    (pieces[0] <= 1 && pieces[1] <= 1, area)
+    (pieces, area)
 }
 
 /// The adaptive margin radius (module docs, step 3).
@@ -532,61 +659,44 @@ fn choose_margin(
     total_area: f64,
     config: &ParcellationConfig,
 ) -> Margin {
-    let eval = |r: f64| evaluate_margin(adj, maternal, seed_distance, areas, r);
+    let eval = |radius: f64| {
+        let (pieces, area) = evaluate_margin(adj, maternal, seed_distance, areas, radius);
+        Margin {
+            radius,
+            area,
+            connected: pieces[0] <= 1 && pieces[1] <= 1,
+            pieces,
+        }
+    };
     let r0 = config.margin_mm;
-    let (connected0, area0) = eval(r0);
+    let first = eval(r0);
     if !config.adaptive_margin {
-        return Margin {
-            radius: r0,
-            area: area0,
-            connected: connected0,
-        };
+        return first;
     }
     let step = 0.25 * config.voxel_mm;
     let r_max = config.max_margin_voxels * config.voxel_mm;
-    let mut best = Margin {
-        radius: r0,
-        area: area0,
-        connected: connected0,
-    };
-    if !connected0 {
+    if !first.connected {
         // Shrink while a side is split.
         let mut r = r0 - step;
         while r > 0.0 {
-            let (connected, area) = eval(r);
-            best = Margin {
-                radius: r,
-                area,
-                connected,
-            };
-            if connected {
-                break;
+            let m = eval(r);
+            if m.connected {
+                return m;
             }
             r -= step;
         }
-        if !best.connected {
-            let (connected, area) = eval(r0);
-            best = Margin {
-                radius: r0,
-                area,
-                connected,
-            };
-        }
-        return best;
+        return first;
     }
     // Grow while the margin is too small and growing splits no side.
+    let mut best = first;
     let mut r = r0;
     while best.area < config.min_margin_area_fraction * total_area && r + step < r_max {
         r += step;
-        let (connected, area) = eval(r);
-        if !connected {
+        let m = eval(r);
+        if !m.connected {
             break;
         }
-        best = Margin {
-            radius: r,
-            area,
-            connected,
-        };
+        best = m;
     }
     best
 }
@@ -740,6 +850,63 @@ mod tests {
             let e = c.validate().unwrap_err().to_string();
             assert!(e.contains(needle), "{e}");
         }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(6))]
+        /// Every gate of a slab's split passes, whatever its outline's
+        /// aspect, its thickness and its bend: its two faces have alike
+        /// areas and the Fiedler vector is sure.
+        #[test]
+        fn a_slab_of_any_aspect_passes_the_split_gates(
+            width in 60.0f64..180.0,
+            thickness in 10.0f64..40.0,
+            bend in proptest::prop_oneof![proptest::strategy::Just(0.0), 150.0f64..400.0],
+        ) {
+            let mesh = placenta_slab(&PlacentaParams {
+                width,
+                thickness_centre: thickness,
+                thickness_rim: thickness / 3.0,
+                bend_radius: bend,
+                cells_radial: 5,
+                cells_through: 2,
+                ..PlacentaParams::default()
+            })
+            .unwrap()
+            .mesh;
+            let p = parcellate(&mesh, &ParcellationConfig::default()).unwrap();
+            proptest::prop_assert!(p.gates.all_passed(), "{:?}", p.gates);
+            let ratio = p.gates.get("sides.area_ratio").unwrap().value;
+            proptest::prop_assert!((0.5..2.0).contains(&ratio), "{}", ratio);
+            proptest::prop_assert!(p.gates.get("sides.eigensolver").unwrap().value < 1e-4);
+        }
+    }
+
+    /// The normalized Laplacian of a cycle of `n` vertices (unit weights):
+    /// its eigenvalues `1 - cos(2 pi k / n)` come in equal pairs, so no
+    /// Fiedler vector is the one.
+    fn cycle(n: usize) -> AffinityLaplacian {
+        let entries = (0..n as u32).flat_map(|i| {
+            let j = (i + 1) % n as u32;
+            [(i, i, 1.0), (i.min(j), i.max(j), -0.5)]
+        });
+        AffinityLaplacian {
+            l: Csr::from_symmetric_entries(n, entries).unwrap(),
+            sqrt_degree: vec![2f64.sqrt(); n],
+        }
+    }
+
+    #[test]
+    fn a_boundary_with_two_equally_good_splits_is_refused_after_the_fallback() {
+        let mut gates = Gates::new();
+        let e = fiedler_pair(&cycle(40), &mut gates).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("quality gate sides.eigensolver_resolved"),
+            "{e}"
+        );
+        let first = gates.get("sides.eigensolver").unwrap();
+        assert!(!first.passed && first.fallback.is_some(), "{first:?}");
     }
 
     #[test]

@@ -13,6 +13,7 @@ use super::parcellation::{Parcellation, parcellate};
 use super::prepare::{PreparedMesh, boundary_weights, prepare_mesh};
 use super::pullback::{PullbackTable, TemplateGrid};
 use super::report::{BoundaryReport, CanonicalReport, InputReport, Pieces, Report, Timings};
+use super::solve_gates::{SolveInput, check_solve, resists_scaling};
 use super::templates::{ParallelPlanes, PlacentaTemplate};
 use crate::{OrganError, PipelineObserver};
 use std::time::Instant;
@@ -294,6 +295,8 @@ impl Pipeline {
             .chunks_exact(3)
             .map(|c| Point3::new(c[0], c[1], c[2]))
             .collect();
+        // The solved map in the start's frame, for the solve's gates.
+        let solved = opt.x.clone();
         let canonical = canonical_motion(&optimized, &rest.tets, self.template.symmetry());
         for (c, p) in opt.x.chunks_exact_mut(3).zip(&optimized) {
             let q = canonical.apply(p);
@@ -313,6 +316,23 @@ impl Pipeline {
             &opt.x,
             &opt.theta,
         );
+        let mut gates = parcellation.gates.clone();
+        check_solve(
+            &SolveInput {
+                rest: &rest.positions,
+                start: &start_map.x,
+                solved: &solved,
+                template,
+                theta_initial: &opt.theta_initial,
+                labels: &labels,
+                weights: &weights,
+                min_det_j: eval.min_det_j,
+                final_error_mm: eval.template_error_mm,
+                voxel_mm: config.parcellation.voxel_mm,
+                resists_scaling: resists_scaling(self.energy.as_ref()),
+            },
+            &mut gates,
+        )?;
         let names = template.parameter_names();
         let last = opt
             .stages
@@ -405,6 +425,7 @@ impl Pipeline {
             stages: opt.stages,
             images: flat_images.iter().map(|i| i.report.clone()).collect(),
             timings,
+            gates,
         };
         Ok(Outcome {
             original,

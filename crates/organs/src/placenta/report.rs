@@ -150,6 +150,10 @@ pub struct Report {
     pub images: Vec<ImageReport>,
     /// Seconds per step.
     pub timings: Timings,
+    /// The quality gates, in the order checked: the side split's
+    /// (`sides.*`, [`super::parcellation`]) and the solve's (`solve.*`,
+    /// [`super::solve_gates`]), each with its measured value.
+    pub gates: crate::gate::Gates,
 }
 
 /// The pieces a run was built from, by name.
