@@ -276,11 +276,15 @@ mod tests {
     #[test]
     fn a_corner_whose_diagonal_is_an_edge_is_not_cut() {
         // the unit square 0-1-2-3; the mesh has the edge 0-2 already
-        let pos = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(x, y)| Point3::new(x, y, 0.0));
+        let pos =
+            [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(x, y)| Point3::new(x, y, 0.0));
         let edges = HashSet::from([(0, 2)]);
         let tris = ear_clip_avoiding(&[0, 1, 2, 3], &pos, &edges).unwrap();
         assert_eq!(tris.len(), 2);
-        assert!(tris.iter().all(|t| t.contains(&1) && t.contains(&3)), "{tris:?}");
+        assert!(
+            tris.iter().all(|t| t.contains(&1) && t.contains(&3)),
+            "{tris:?}"
+        );
         // both diagonals taken: no way to close it without a third triangle
         let edges = HashSet::from([(0, 2), (1, 3)]);
         assert_eq!(ear_clip_avoiding(&[0, 1, 2, 3], &pos, &edges), None);
