@@ -52,7 +52,8 @@ pub fn run(
 
 /// Runs `pipeline` (its pieces may be a method developer's) on `inputs`;
 /// the stage goes to `observer` (the library's mitral pipeline reports no
-/// iterations: its solves take well under a second each).
+/// iterations: its solves take well under a second each), and a warning for
+/// each quality gate that failed with a fallback (the spring map's flips).
 ///
 /// # Errors
 /// The pipeline's, about `inputs.label` (settings as usage errors).
@@ -69,6 +70,15 @@ pub fn run_with(
         &inputs.ring,
         &inputs.label,
     )?;
+    // a gate that failed with a sound fallback: the run goes on, said once
+    for g in outcome.report.gates.0.iter().filter(|g| !g.passed) {
+        if let Some(fallback) = &g.fallback {
+            observer.warning(&format!(
+                "quality gate {}: {} is not {}; {fallback}",
+                g.name, g.value, g.requirement
+            ));
+        }
+    }
     Ok(Run::new(outcome, &inputs.label))
 }
 

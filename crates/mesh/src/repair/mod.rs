@@ -15,10 +15,12 @@
 //!    outward (a non-orientable surface is the one refusal:
 //!    [`MeshError::NonOrientable`], with vertex ids and coordinates); tets
 //!    positive unless [`RepairOptions::keep_tet_orientation`];
-//! 6. **non-manifold vertices** ([`non_manifold`], triangles): one copy of a
+//! 6. **holes** ([`holes`], triangles, when asked): close boundary loops of
+//!    small perimeter, before the fans are split, so a hole that touches
+//!    another or the rim at one vertex is closed there instead of cut
+//!    apart; the filling never makes an edge of more than two triangles;
+//! 7. **non-manifold vertices** ([`non_manifold`], triangles): one copy of a
 //!    vertex per fan of triangles around it;
-//! 7. **holes** ([`holes`], triangles, when asked): close boundary loops of
-//!    small perimeter;
 //! 8. **unreferenced vertices**: drop the vertices no element uses
 //!    ([`compact_vertices`]).
 //!
@@ -77,6 +79,10 @@ pub struct RepairOptions {
     /// Close the boundary loops whose perimeter is at most this, mm
     /// (triangle meshes; `None`: no hole is filled).
     pub fill_holes: Option<f64>,
+    /// With [`RepairOptions::fill_holes`]: close only the loops whose
+    /// perimeter is also at most this fraction of the longest loop's, and
+    /// never the longest (a sheet's rim).
+    pub fill_holes_fraction: Option<f64>,
     /// Leave the tets' orientation alone (a pipeline that orients and
     /// reports it itself).
     pub keep_tet_orientation: bool,
@@ -207,12 +213,13 @@ pub fn repair_tri_mesh_traced(
             }),
         }
     })?;
-    r.non_manifold_vertices_split = non_manifold::split_fans(&mut w);
     if let Some(d) = options.fill_holes {
-        let f = holes::fill_holes(&mut w, d)?;
+        let f = holes::fill_holes(&mut w, d, options.fill_holes_fraction);
         r.holes_filled = f.holes;
         r.hole_triangles = f.triangles;
+        r.holes_left_open = f.left_open;
     }
+    r.non_manifold_vertices_split = non_manifold::split_fans(&mut w);
     r.unused_vertices = w.drop_unreferenced();
     r.components = connected_components(w.positions.len(), &w.elements).count;
     let (point_data, cell_data) = w.fields(&mesh.point_data, &mesh.cell_data);

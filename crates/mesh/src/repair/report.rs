@@ -34,6 +34,11 @@ pub struct RepairReport {
     pub holes_filled: usize,
     /// Triangles added to close them.
     pub hole_triangles: usize,
+    /// Loops short enough to close that were left open: every way of
+    /// closing them over their own vertices makes an edge of more than two
+    /// triangles (a chord of the loop is an edge of the mesh already).
+    #[serde(default)]
+    pub holes_left_open: usize,
     /// Vertices removed because no (remaining) element uses them.
     pub unused_vertices: usize,
     /// Connected components of the repaired mesh.
@@ -117,6 +122,12 @@ impl fmt::Display for RepairReport {
                 "filled {} with {}",
                 n(self.holes_filled, "hole", "holes"),
                 n(self.hole_triangles, "triangle", "triangles")
+            ));
+        }
+        if self.holes_left_open > 0 {
+            parts.push(format!(
+                "left {} open (closing would make a non-manifold edge)",
+                n(self.holes_left_open, "hole", "holes")
             ));
         }
         if parts.is_empty() {

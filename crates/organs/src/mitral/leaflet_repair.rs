@@ -4,8 +4,12 @@
 //! segmentation often has a hole where it was thin; the rim is its longest
 //! boundary loop, and any other loop up to [`LEAFLET_HOLE_FRACTION`] of the
 //! rim's perimeter is closed by the repair's hole filling (ear clipping over
-//! the loop's own vertices). A longer second loop is not taken for a hole:
-//! the contract refuses the leaflet as not a disk. `report.json`'s
+//! the loop's own vertices, [`unfold_mesh::repair::holes`]). Holes that
+//! touch each other or the rim at one vertex are split there and each
+//! closed; the filling never makes an edge of more than two triangles (a
+//! hole that cannot be closed so is left open and counted,
+//! `holes_left_open`). A longer second loop is not taken for a hole: the
+//! contract refuses the leaflet as not a disk. `report.json`'s
 //! `repair` counts what was done (`holes_filled`, `hole_triangles`).
 
 use super::{ANTERIOR, LeafletRepairs, LeafletSide, POSTERIOR};
@@ -30,23 +34,12 @@ pub fn repair_leaflets(
 ) -> Result<([TriMesh; 2], LeafletRepairs), OrganError> {
     let options = RepairOptions {
         weld: Weld::Relative,
+        fill_holes: Some(f64::INFINITY),
+        fill_holes_fraction: Some(LEAFLET_HOLE_FRACTION),
         ..Default::default()
     };
     let one = |k: usize, mesh: &TriMesh| {
-        let repaired = repair_tri_mesh_with(mesh, &options).and_then(|(m, r)| {
-            match holes_perimeter(&m) {
-                // again from the input, with the holes closed as well
-                Some(d) => repair_tri_mesh_with(
-                    mesh,
-                    &RepairOptions {
-                        fill_holes: Some(d),
-                        ..options
-                    },
-                ),
-                None => Ok((m, r)),
-            }
-        });
-        repaired.map_err(|source| {
+        repair_tri_mesh_with(mesh, &options).map_err(|source| {
             OrganError::from(super::ContractError::LeafletMesh {
                 leaflet: LeafletSide::of(k),
                 source,
@@ -63,29 +56,6 @@ pub fn repair_leaflets(
             posterior: rp,
         },
     ))
-}
-
-/// The perimeter of the longest boundary loop of `leaflet` after its rim
-/// (its longest), when that is at most [`LEAFLET_HOLE_FRACTION`] of the
-/// rim's: the hole-filling bound that closes every loop but the rim.
-/// `None` with fewer than two loops, loops that cannot be traced (the
-/// contract names the problem) or a second loop too long to be a hole.
-fn holes_perimeter(leaflet: &TriMesh) -> Option<f64> {
-    let loops = unfold_mesh::topology::boundary_loops(leaflet).ok()?;
-    let p = &leaflet.positions;
-    let mut perimeters: Vec<f64> = loops
-        .iter()
-        .map(|l| {
-            (0..l.len())
-                .map(|i| (p[l[(i + 1) % l.len()] as usize] - p[l[i] as usize]).norm())
-                .sum()
-        })
-        .collect();
-    perimeters.sort_by(|a, b| b.total_cmp(a));
-    match perimeters[..] {
-        [rim, hole, ..] if hole <= LEAFLET_HOLE_FRACTION * rim => Some(hole),
-        _ => None,
-    }
 }
 
 #[cfg(test)]
@@ -134,10 +104,37 @@ mod tests {
             unfold_mesh::topology::boundary_loops(&frame).unwrap().len(),
             2
         );
-        assert_eq!(holes_perimeter(&frame), None);
         let ([a, _], r) = repair_leaflets(&frame, &clean).unwrap();
         assert_eq!(r.anterior.holes_filled, 0);
         assert_eq!(a.triangles.len(), frame.triangles.len());
+    }
+
+    /// Two holes that touch at a vertex (the stars of two vertices one
+    /// apart on a row) and a third next to them: closed, the leaflet a
+    /// disk again over the same vertices, no edge of more than two
+    /// triangles (the hole filling once made edges of four).
+    #[test]
+    fn holes_touching_at_a_vertex_are_closed_into_a_disk() {
+        for centres in [
+            &[(4, 3), (6, 3)][..],
+            &[(4, 3), (6, 3), (5, 5)],
+            &[(3, 2), (4, 4)],
+        ] {
+            let (clean, leaflet) = holed(centres);
+            let ([a, _], r) = repair_leaflets(&leaflet, &clean).unwrap();
+            assert_eq!(r.anterior.holes_left_open, 0, "{centres:?}");
+            assert_eq!(r.anterior.non_manifold_vertices_split, 0, "{centres:?}");
+            assert_eq!(a.positions, leaflet.positions, "{centres:?}");
+            unfold_mesh::topology::disk_boundary_loop(&a).unwrap();
+            let mut count = std::collections::HashMap::<(u32, u32), usize>::new();
+            for t in &a.triangles {
+                for i in 0..3 {
+                    let (x, y) = (t[i], t[(i + 1) % 3]);
+                    *count.entry((x.min(y), x.max(y))).or_default() += 1;
+                }
+            }
+            assert!(count.values().all(|&c| c <= 2), "{centres:?}");
+        }
     }
 
     proptest! {

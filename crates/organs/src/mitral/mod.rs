@@ -18,6 +18,9 @@
 //! 3. [`layout`]: the initial leaflet layout (longitudes or Tutte).
 //! 4. [`relax`]: the spring baseline or flip-free symmetric Dirichlet.
 //! 5. [`maps`]: distortion and clinical maps, measurements.
+//! 6. [`gates`]: the quality gates (leaflet areas against the annulus,
+//!    flips), listed in [`Report::gates`]; a failed gate stops the run with
+//!    one line naming the fix.
 //!
 //! Failures specific to the valve are [`MitralError`]s (one nested enum
 //! per step, see [`error`]), inside [`OrganError::Mitral`].
@@ -25,6 +28,7 @@
 pub mod annulus;
 pub mod contract;
 pub mod error;
+pub mod gates;
 pub mod initializer;
 pub mod layout;
 pub mod leaflet_repair;
@@ -364,6 +368,8 @@ pub struct Report {
     pub seconds: f64,
     /// Seconds per step.
     pub timings: Timings,
+    /// The quality gates checked ([`gates`]), each with its measured value.
+    pub gates: crate::gate::Gates,
 }
 
 /// The repair of each leaflet ([`Report::repair`]).

@@ -326,7 +326,7 @@ impl Pipeline {
         }
         timings.maps = t.elapsed().as_secs_f64();
         let pt = |p: &Point3<f64>| [p.x, p.y, p.z];
-        let report = Report {
+        let mut report = Report {
             repair,
             annulus_length_mm: m.annulus_length_mm,
             u_extent_mm: amap.u_extent(),
@@ -373,9 +373,12 @@ impl Pipeline {
                 normal: [plane.normal.x, plane.normal.y, plane.normal.z],
             },
             cut_posteromedial: config.cut_posteromedial,
-            seconds: start.elapsed().as_secs_f64(),
+            seconds: 0.0,
             timings,
+            gates: Default::default(),
         };
+        report.gates = super::gates::check(&report, config.relax)?;
+        report.seconds = start.elapsed().as_secs_f64();
         Ok(Outcome {
             valve,
             annulus: amap,

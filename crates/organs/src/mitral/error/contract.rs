@@ -93,7 +93,8 @@ pub enum ContractError {
     /// A leaflet has no boundary loop or more than one (a closed surface, a
     /// hole).
     #[error(
-        "the {leaflet} leaflet is not a disk: {} boundary loops{}; expected exactly one (its rim)",
+        "the {leaflet} leaflet is not a disk: {} boundary loops{}; expected exactly one (its rim): \
+         close its holes first (`unfold repair --fill-holes-mm P`) or export the leaflet without them",
         .loop_sizes.len(),
         LoopSizes(.loop_sizes)
     )]

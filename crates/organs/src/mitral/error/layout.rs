@@ -199,7 +199,7 @@ pub enum LayoutError {
     /// (degenerate 3D triangles give zero mean-value weights).
     #[error(
         "Tutte layout: the embedding with a convex boundary flips triangles (degenerate leaflet \
-         triangles?)"
+         triangles?); remove them first (`unfold repair`) or remesh the leaflet"
     )]
     ConvexEmbeddingFlips {
         /// The smallest signed triangle area of that embedding (twice the
@@ -207,10 +207,14 @@ pub enum LayoutError {
         min_double_area: f64,
     },
     /// The homotopy to a non-convex annulus profile did not arrive within
-    /// its step budget (or its steps became vanishingly small).
+    /// its step budget (or its steps became vanishingly small). The fix it
+    /// names: `--annulus-mode straight` puts every annulus vertex at `v = 0`,
+    /// a convex boundary, where the Tutte embedding is flip-free without a
+    /// homotopy (Tutte's theorem).
     #[error(
         "Tutte layout: could not move the annulus to its non-convex profile without flipping \
-         triangles ({max_steps} steps)"
+         triangles ({max_steps} steps); lay the annulus out straight (`--annulus-mode straight`: \
+         a convex boundary) or smooth the leaflet's rim where it dips"
     )]
     HomotopyStalled {
         /// The steps allowed.
