@@ -133,8 +133,8 @@ pub enum VentricleError {
         by: RimChoice,
         /// The two nearest openings.
         nearest: [usize; 2],
-        /// Their sizes and centres.
-        openings: [OpeningSize; 2],
+        /// Their sizes and centres (boxed: the variant stays small).
+        openings: Box<[OpeningSize; 2]>,
         /// Distance of every opening, mm (longest opening first).
         distances_mm: Vec<f64>,
         /// The snap distance, mm.
@@ -164,8 +164,8 @@ pub enum VentricleError {
         if *.apex { " and both face away from the apex" } else { " (no --apex given)" }
     )]
     OpeningsTie {
-        /// The two largest openings.
-        openings: [OpeningSize; 2],
+        /// The two largest openings (boxed: the variant stays small).
+        openings: Box<[OpeningSize; 2]>,
         /// Whether the apex was known (both face away from it).
         apex: bool,
     },
@@ -179,10 +179,10 @@ pub enum VentricleError {
         .anatomy
     )]
     RimDisagrees {
-        /// The opening the landmarks name.
-        landmarks: OpeningSize,
+        /// The opening the landmarks name (boxed: the variant stays small).
+        landmarks: Box<OpeningSize>,
         /// The anatomy's choice.
-        anatomy: OpeningSize,
+        anatomy: Box<OpeningSize>,
     },
     /// An opening other than the rim cannot be capped by a fan from its
     /// centroid.
@@ -304,11 +304,7 @@ pub enum VentricleError {
     NoAnatomyPoints,
     /// Some points of a set cannot be mapped.
     #[error(
-        "{failed} of {total} {points} cannot be mapped; the first, point {first} at \
-         ({:.3}, {:.3}, {:.3}): {reason}{}",
-        .at[0],
-        .at[1],
-        .at[2],
+        "{failed} of {total} {points} cannot be mapped; the first, point {first}: {reason}{}",
         unmapped_fix(.reason)
     )]
     Unmapped {
@@ -320,9 +316,6 @@ pub enum VentricleError {
         total: usize,
         /// Index of the first that failed.
         first: usize,
-        /// The first that failed as given: its position, mm (anatomy
-        /// points), or `(xi, zeta, depth)` (cylinder points).
-        at: [f64; 3],
         /// Why it failed.
         reason: PointFailure,
     },

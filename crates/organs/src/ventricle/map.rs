@@ -466,9 +466,7 @@ impl Chart {
     pub fn forward_all(&self, points: &[Point3<f64>]) -> Result<Vec<ForwardPoint>, VentricleError> {
         let out: Vec<Result<ForwardPoint, PointFailure>> =
             points.par_iter().map(|p| self.forward(p)).collect();
-        collect("anatomy points", out, |i| {
-            [points[i].x, points[i].y, points[i].z]
-        })
+        collect("anatomy points", out)
     }
 
     /// The triangle of S and barycentric coordinates at disk position
@@ -549,19 +547,15 @@ impl Chart {
     ) -> Result<Vec<Point3<f64>>, VentricleError> {
         let out: Vec<Result<Point3<f64>, PointFailure>> =
             coords.par_iter().map(|c| self.inverse(c)).collect();
-        collect("cylinder points", out, |i| {
-            [coords[i].xi, coords[i].zeta, coords[i].depth]
-        })
+        collect("cylinder points", out)
     }
 }
 
 /// All results, or [`VentricleError::Unmapped`] naming how many of the
-/// `points` failed, where the first is (`at` of its index) and why it
-/// failed.
+/// `points` failed and why the first did.
 fn collect<T>(
     points: &'static str,
     out: Vec<Result<T, PointFailure>>,
-    at: impl Fn(usize) -> [f64; 3],
 ) -> Result<Vec<T>, VentricleError> {
     let total = out.len();
     let mut failures = out
@@ -574,7 +568,6 @@ fn collect<T>(
             failed: 1 + failures.count(),
             total,
             first,
-            at: at(first),
             reason,
         });
     }

@@ -361,7 +361,7 @@ pub fn choose_rim(surface: &TriMesh, hint: &RimHint, snap_mm: f64) -> Result<Rim
     let tie = |[a, b]: [usize; 2]| -> OrganError {
         let s = sizes(&shapes, &loops, &[a.min(b), a.max(b)]);
         VentricleError::OpeningsTie {
-            openings: [s[0], s[1]],
+            openings: Box::new([s[0], s[1]]),
             apex: hint.apex.is_some(),
         }
         .into()
@@ -417,8 +417,8 @@ pub fn choose_rim(surface: &TriMesh, hint: &RimHint, snap_mm: f64) -> Result<Rim
         (Ok(l), Ok(x)) => {
             let s = sizes(&shapes, &loops, &[l, x]);
             Err(VentricleError::RimDisagrees {
-                landmarks: s[0],
-                anatomy: s[1],
+                landmarks: Box::new(s[0]),
+                anatomy: Box::new(s[1]),
             }
             .into())
         }
@@ -451,7 +451,7 @@ fn ambiguous(
     VentricleError::AmbiguousRim {
         by,
         nearest: pair,
-        openings: [s[0], s[1]],
+        openings: Box::new([s[0], s[1]]),
         distances_mm,
         snap_mm,
     }
