@@ -293,10 +293,12 @@ pub fn read(
         Some(p) => p.display().to_string(),
         None => format!("S built from {}", path.display()),
     };
-    let (mut landmarks, from_rv) =
-        files
-            .heart
-            .on_surface(&surface, &surface_label, settings.chart.chamber)?;
+    let (mut landmarks, from_rv) = files.heart.on_surface(
+        &surface,
+        &surface_label,
+        settings.chart.chamber,
+        settings.chart.snap_mm,
+    )?;
     if let (Some((rim, _)), None) = (&built, &from_rv) {
         // the given rim landmarks lie on the anatomy's rim: carried to S's
         [landmarks.anterior, landmarks.inferior] = *rim;
@@ -305,7 +307,9 @@ pub fn read(
         (Some(surface), _, Some(p)) => Some(Transfer {
             label: p.display().to_string(),
             surface,
-            landmarks: files.to.points("--to-anterior and --to-inferior")?,
+            landmarks: files
+                .to
+                .points("--to-anterior and --to-inferior or --to-landmarks FILE")?,
         }),
         (None, Some(h), _) => Some(h),
         _ => None,

@@ -57,9 +57,7 @@ fn landmark_points(
 ) -> Result<LandmarkPoints, AppError> {
     let Some(path) = file else {
         let (Some(anterior), Some(inferior)) = (anterior, inferior) else {
-            return Err(AppError::Usage(format!(
-                "give {flags} (the rim landmarks) or a markups file with them"
-            )));
+            return Err(AppError::Usage(format!("give {flags}")));
         };
         return Ok(LandmarkPoints {
             anterior,
@@ -86,8 +84,8 @@ fn landmark_points(
 
 impl HeartLandmarks {
     /// The landmarks as given: from the markups file (read now), else the
-    /// points; `flags` names the rim landmarks' flags in the message when
-    /// neither is given (`--anterior and --inferior`).
+    /// points; `flags` names every way to give the rim landmarks in the
+    /// message when neither is given.
     ///
     /// # Errors
     /// [`AppError::Usage`] without rim landmarks; reading the markups file,
@@ -117,14 +115,19 @@ impl HeartLandmarks {
                 apex: self.apex,
                 rim_near: None,
             }),
-            _ => self.points("--anterior and --inferior"),
+            _ => self.points(
+                "--anterior and --inferior (the rim landmarks), --landmarks FILE (a markups \
+                 file with them) or --rv-landmarks P Q (the RV insertion points)",
+            ),
         }
     }
 
     /// The landmarks on S (named `surface_label` in messages) of a
     /// `chamber`: with `rv_landmarks` (LV only) the rim landmarks derived
-    /// from the RV insertion points (returned too, for the report), else
-    /// [`HeartLandmarks::points`].
+    /// from the RV insertion points on the basal rim chosen first
+    /// (`rim_near`, else the largest opening facing away from the apex;
+    /// `snap_mm` bounds `rim_near`'s distance), returned too for the
+    /// report, else [`HeartLandmarks::points`].
     ///
     /// # Errors
     /// [`AppError::Usage`] for RV insertion points of the RV, or not two of
@@ -134,6 +137,7 @@ impl HeartLandmarks {
         surface: &TriMesh,
         surface_label: &str,
         chamber: Chamber,
+        snap_mm: f64,
     ) -> Result<(LandmarkPoints, Option<FromRv>), AppError> {
         let from_rv = match self.rv_landmarks.as_slice() {
             [] => None,
@@ -146,8 +150,14 @@ impl HeartLandmarks {
                     ));
                 }
                 Some(
-                    rim_landmarks_from_rv(surface, [*p, *q])
-                        .map_err(|e| organ(surface_label, e))?,
+                    rim_landmarks_from_rv(
+                        surface,
+                        [*p, *q],
+                        self.rim_near.as_ref(),
+                        self.apex.as_ref(),
+                        snap_mm,
+                    )
+                    .map_err(|e| organ(surface_label, e))?,
                 )
             }
             more => {
@@ -164,7 +174,11 @@ impl HeartLandmarks {
                 apex: self.apex,
                 rim_near: self.rim_near,
             },
-            None => self.points("--anterior and --inferior")?,
+            None => self.points(
+                "--anterior and --inferior (the rim landmarks), --landmarks FILE (a markups \
+                 file with them) or, for the LV, --rv-landmarks P Q (the RV insertion points \
+                 they are derived from)",
+            )?,
         };
         Ok((landmarks, from_rv))
     }
@@ -178,11 +192,22 @@ mod tests {
     fn rim_landmarks_are_needed_and_rv_points_stand_in_for_them() {
         let none = HeartLandmarks::default();
         assert_eq!(
-            none.points("--to-anterior and --to-inferior")
+            none.points("--to-anterior and --to-inferior or --to-landmarks FILE")
                 .unwrap_err()
                 .to_string(),
-            "give --to-anterior and --to-inferior (the rim landmarks) or a markups file with them"
+            "give --to-anterior and --to-inferior or --to-landmarks FILE"
         );
+        let e = none
+            .on_surface(&TriMesh::new(vec![], vec![]), "S", Chamber::Lv, 5.0)
+            .unwrap_err()
+            .to_string();
+        for route in [
+            "--anterior and --inferior",
+            "--landmarks FILE",
+            "--rv-landmarks P Q",
+        ] {
+            assert!(e.contains(route), "{e}");
+        }
         let rv = HeartLandmarks {
             rv_landmarks: vec![Point3::new(1.0, 0.0, 0.0), Point3::new(0.0, 1.0, 0.0)],
             ..HeartLandmarks::default()

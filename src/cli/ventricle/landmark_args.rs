@@ -33,13 +33,11 @@ pub(crate) fn parse_point(s: &str) -> Result<Point3<f64>, String> {
 pub(crate) struct HeartLandmarkArgs {
     /// Anterior RV insertion point (LV) or first septal corner (RV), on the
     /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
     pub(crate) anterior: Option<Point3<f64>>,
     /// Inferior RV insertion point (LV) or second septal corner (RV), on the
     /// rim of S.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true,
-          required_unless_present_any = ["landmarks", "rv_landmarks"])]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
     pub(crate) inferior: Option<Point3<f64>>,
     /// LV: the anterior and inferior RV insertion points where the user
     /// marked them (at the base of the RV ridges, outside S): the rim
@@ -58,8 +56,10 @@ pub(crate) struct HeartLandmarkArgs {
     /// points are converted to RAS. Instead of --anterior/--inferior/--apex.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["anterior", "inferior", "apex"])]
     pub(crate) landmarks: Option<PathBuf>,
-    /// A point on or near the basal rim, naming it when S has several
-    /// openings [default: the opening nearest the rim landmarks]; the other
+    /// A point on the basal rim or at the centre of its opening, naming it
+    /// when S has several openings [default: the opening the rim landmarks
+    /// lie on, which must be the largest facing away from the apex when
+    /// --apex is given; without rim landmarks, that opening]; the other
     /// openings are capped.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true)]
     pub(crate) rim_near: Option<Point3<f64>>,

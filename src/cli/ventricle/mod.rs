@@ -257,13 +257,14 @@ pub fn run(a: &VentricleArgs) -> Result<(), AppError> {
     let o = &report.report.openings;
     if o.loops.len() > 1 {
         println!(
-            "{}: {} openings; the rim is opening {} (nearest the {}), {} capped with {} triangles",
+            "{}: {} openings; the rim is opening {} ({}), {} capped with {} triangles",
             inputs.surface_label,
             o.loops.len(),
             o.rim,
             match o.chosen_by {
-                RimChoice::RimNear => "--rim-near point",
-                _ => "rim landmarks",
+                RimChoice::RimNear => "nearest the --rim-near point",
+                RimChoice::Anatomy => "the largest facing away from the apex",
+                _ => "nearest the rim landmarks",
             },
             o.cap_vertices,
             o.cap_triangles

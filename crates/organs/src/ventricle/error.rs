@@ -120,11 +120,11 @@ pub enum VentricleError {
     /// Two boundary loops of S are about equally near the points that name
     /// the rim.
     #[error(
-        "the basal rim is ambiguous: openings {} and {} are about equally near the {} (distances \
+        "the basal rim is ambiguous: {} and {} are about equally near the {} (distances \
          {}; the rim must be at least twice as near and {snap_mm} mm nearer than any other \
-         opening); name the rim with a point on it (--rim-near X,Y,Z)",
-        .nearest[0],
-        .nearest[1],
+         opening); name the rim with a point on it or at its centre (--rim-near X,Y,Z)",
+        .openings[0],
+        .openings[1],
         choice_name(*.by),
         distance_list(.distances_mm)
     )]
@@ -133,6 +133,8 @@ pub enum VentricleError {
         by: RimChoice,
         /// The two nearest openings.
         nearest: [usize; 2],
+        /// Their sizes and centres (boxed: the variant stays small).
+        openings: Box<[OpeningSize; 2]>,
         /// Distance of every opening, mm (longest opening first).
         distances_mm: Vec<f64>,
         /// The snap distance, mm.
@@ -140,15 +142,47 @@ pub enum VentricleError {
     },
     /// The `rim_near` point is far from every boundary loop of S.
     #[error(
-        "the rim-near point is more than {snap_mm} mm from every opening of S (distances {}); \
-         give a point on the basal rim",
+        "the rim-near point is more than {snap_mm} mm from every opening of S (distances to each \
+         opening's ring or the disk it spans: {}); give a point on the basal rim or at the centre \
+         of its opening",
         distance_list(.distances_mm)
     )]
     RimNearFar {
-        /// Distance of every opening, mm (longest opening first).
+        /// Distance of every opening's disk, mm (longest opening first).
         distances_mm: Vec<f64>,
         /// The largest distance accepted, mm.
         snap_mm: f64,
+    },
+    /// The anatomy cannot tell the basal rim from another opening (two
+    /// openings of about the same size, both facing away from the apex) and
+    /// nothing else names it.
+    #[error(
+        "the basal rim is ambiguous: {} and {} are within 15% of each other in size{}; name \
+         the rim with --rim-near X,Y,Z (a point on it or at its centre)",
+        .openings[0],
+        .openings[1],
+        if *.apex { " and both face away from the apex" } else { " (no --apex given)" }
+    )]
+    OpeningsTie {
+        /// The two largest openings (boxed: the variant stays small).
+        openings: Box<[OpeningSize; 2]>,
+        /// Whether the apex was known (both face away from it).
+        apex: bool,
+    },
+    /// The rim landmarks lie on another opening than the anatomy's basal rim
+    /// (the largest opening facing away from the apex).
+    #[error(
+        "the rim landmarks lie on {}, but the basal rim by the anatomy (the largest opening \
+         facing away from the apex) is {}; name the rim with --rim-near X,Y,Z (a point on it or \
+         at its centre), or move the landmarks onto it",
+        .landmarks,
+        .anatomy
+    )]
+    RimDisagrees {
+        /// The opening the landmarks name (boxed: the variant stays small).
+        landmarks: Box<OpeningSize>,
+        /// The anatomy's choice.
+        anatomy: Box<OpeningSize>,
     },
     /// An opening other than the rim cannot be capped by a fan from its
     /// centroid.
@@ -269,7 +303,10 @@ pub enum VentricleError {
     #[error("the anatomy has no points")]
     NoAnatomyPoints,
     /// Some points of a set cannot be mapped.
-    #[error("{failed} of {total} {points} cannot be mapped; the first, point {first}: {reason}")]
+    #[error(
+        "{failed} of {total} {points} cannot be mapped; the first, point {first}: {reason}{}",
+        unmapped_fix(.reason)
+    )]
     Unmapped {
         /// Which points (`anatomy points` or `cylinder points`).
         points: &'static str,
@@ -381,6 +418,50 @@ impl fmt::Display for Streamline<'_> {
                 write!(f, "its streamline did not reach {target} within {l:.1} mm")
             }
         }
+    }
+}
+
+/// One opening of S in a message: its index (longest first), vertices,
+/// perimeter and centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpeningSize {
+    /// Index among S's openings, longest first.
+    pub index: usize,
+    /// Vertices of its loop.
+    pub vertices: usize,
+    /// Perimeter, mm.
+    pub perimeter_mm: f64,
+    /// Length-weighted centroid, mm.
+    pub centroid_mm: [f64; 3],
+}
+
+impl fmt::Display for OpeningSize {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let c = self.centroid_mm;
+        write!(
+            f,
+            "opening {} ({} vertices, {:.1} mm around, centre {:.1},{:.1},{:.1})",
+            self.index,
+            self.vertices,
+            self.perimeter_mm,
+            // + 0.0: no "-0.0"
+            c[0] + 0.0,
+            c[1] + 0.0,
+            c[2] + 0.0
+        )
+    }
+}
+
+/// What helps when points fail for `reason`: for a streamline, the flags
+/// that change the field it follows.
+fn unmapped_fix(reason: &PointFailure) -> &'static str {
+    match reason {
+        PointFailure::Streamline { .. } => {
+            "; streamlines leave the field or stall where S is thin or near its base: a finer \
+             --grid-mm resolves thin parts of S, a smaller --hemisphere-mm lets streamlines near \
+             the base reach H, or leave such points out of the anatomy"
+        }
+        _ => "",
     }
 }
 

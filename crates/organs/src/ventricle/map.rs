@@ -22,6 +22,7 @@ use super::openings::{Capped, Openings, cap_openings};
 use super::pipeline::LandmarkPoints;
 use super::trace::{DEFAULT_TRACE_TOLERANCE_MM, SurfaceIndex, TraceTarget, Tracer};
 use crate::OrganError;
+use crate::gate::Gates;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -134,6 +135,7 @@ pub struct Chart {
     /// S's own basal rim (before the strip), vertices of `surface`.
     rim_of_s: Vec<u32>,
     openings: Openings,
+    gates: Gates,
     timings: ChartTimings,
 }
 
@@ -183,12 +185,15 @@ impl Chart {
 
     /// [`Chart::build`] with the landmarks as one value, `rim_near` included:
     /// S may have several boundary loops; the basal rim is the one nearest
-    /// `rim_near` (when given) or the rim landmarks, and every other loop is
-    /// capped ([`cap_openings`]) before the landmarks are snapped.
+    /// `rim_near` (when given) or the rim landmarks (which must agree with
+    /// the anatomy, the largest opening facing away from the apex, when the
+    /// apex is given), and every other loop is capped ([`cap_openings`])
+    /// before the landmarks are snapped.
     ///
     /// # Errors
     /// As [`Chart::build`], and [`cap_openings`]'s errors
     /// ([`VentricleError::AmbiguousRim`], [`VentricleError::RimNearFar`],
+    /// [`VentricleError::RimDisagrees`], [`VentricleError::OpeningsTie`],
     /// [`VentricleError::OpeningNotCappable`]).
     pub fn from_landmarks(
         surface: &TriMesh,
@@ -207,11 +212,16 @@ impl Chart {
             ..Default::default()
         };
         let (surface, repair) = repair_tri_mesh_with(surface, &weld)?;
-        let Capped { surface, openings } = cap_openings(
+        let Capped {
+            surface,
+            openings,
+            gates,
+        } = cap_openings(
             &surface,
             anterior,
             inferior,
             points.rim_near.as_ref(),
+            apex,
             config.snap_mm,
         )?;
         let landmarks = Landmarks::resolve(&surface, anterior, inferior, apex, config.snap_mm)?;
@@ -282,6 +292,7 @@ impl Chart {
             original_vertices,
             rim_of_s,
             openings,
+            gates,
             timings: ChartTimings {
                 disk: (t1 - t0).as_secs_f64(),
                 laplace: (t2 - t1).as_secs_f64(),
@@ -317,6 +328,12 @@ impl Chart {
     /// S's boundary loops: which is the rim, and the caps of the others.
     pub fn openings(&self) -> &Openings {
         &self.openings
+    }
+
+    /// The quality gates of the chart (`base.rim_agrees`, see
+    /// [`super::openings`]).
+    pub fn gates(&self) -> &Gates {
+        &self.gates
     }
 
     /// What the repair of S changed.
@@ -768,6 +785,7 @@ mod tests {
                     total: 5,
                     first: 3,
                     reason: PointFailure::OutsideSurface { .. },
+                    ..
                 },
             ) => {
                 let m = e.to_string();
@@ -810,6 +828,7 @@ mod tests {
                     total: 4,
                     first: 2,
                     reason: PointFailure::NotOnCylinder { depth: 2.0, .. },
+                    ..
                 },
             ) => {
                 let m = e.to_string();

@@ -8,7 +8,8 @@ use super::error::VentricleError;
 use super::harmonic_disk::HarmonicDisk;
 use super::map::{Chamber, Chart, ChartConfig, ChartTimings, CylinderPoint};
 use super::openings::Openings;
-use crate::OrganError;
+use crate::gate::Gates;
+use crate::{OrganError, Requirement};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::time::Instant;
@@ -188,6 +189,9 @@ pub struct Report {
     pub openings: Openings,
     /// Anatomy points per AHA segment 1..17 (LV only).
     pub aha_points: Option<[usize; 17]>,
+    /// The quality gates: `base.rim_agrees` (see [`super::openings`]) and,
+    /// for the LV, `aha.balance` (see [`aha_balance`]).
+    pub gates: Gates,
     /// The Laplace field.
     pub field: FieldReport,
     /// Seconds per step.
@@ -215,6 +219,60 @@ pub struct Outcome {
     pub disk: TriMesh,
     /// The report.
     pub report: Report,
+}
+
+/// Smallest [`aha_balance`] of a right LV map. Measured (1.5 mm grid):
+/// 0.97 on the two-opening LV of `tests/ventricle_two_openings.rs` with its
+/// mitral ring as the base, against 0.081 with its aortic ring as the base
+/// (the mitral opening capped: the mid ring's areas spread from 198 to
+/// 2451 mm^2, issue 35). The segments of one ring have equal angles, so a
+/// right map gives them areas of one order whatever the chamber's length
+/// (a hemisphere's rings differ tenfold from each other, which is why the
+/// rings are not compared); a quarter leaves a factor of three on the wrong
+/// side and of four on the right. A value below is recorded in the
+/// report's gates with its fallback (the map kept), not refused: a
+/// hemispherical S built from the anatomy measures 0.11 and is right.
+pub const AHA_BALANCE_MIN: f64 = 0.25;
+
+/// The AHA balance of an LV map: the area of S (its own triangles, caps
+/// included, not the strip closing it to its base) in each of the segments
+/// 1..16, a triangle counted in the segment of its centroid's displayed disk
+/// position (`shown`, per vertex of `surface`); in each of the basal (1..6)
+/// and mid (7..12) rings the smallest segment's area over the largest's;
+/// the smaller of the two (NaN when a ring has no area). The apical ring
+/// is left out: on a round S it is a few triangles wide, too coarse for
+/// areas by centroid (0.11 on the hemisphere of `tests/ventricle_surface.rs`).
+pub fn aha_balance(surface: &TriMesh, original_vertices: usize, shown: &[[f64; 2]]) -> f64 {
+    let mut area = [0.0f64; 16];
+    for t in &surface.triangles {
+        if t.iter().any(|&v| v as usize >= original_vertices) {
+            continue;
+        }
+        let [a, b, c] = t.map(|v| surface.positions[v as usize]);
+        let p = t.map(|v| shown[v as usize]);
+        let centre = [
+            (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+            (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+        ];
+        let s = aha_segment(centre) as usize;
+        if (1..=16).contains(&s) {
+            area[s - 1] += 0.5 * (b - a).cross(&(c - a)).norm();
+        }
+    }
+    [&area[0..6], &area[6..12]]
+        .iter()
+        .map(|ring| {
+            let lo = ring.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = ring.iter().copied().fold(0.0, f64::max);
+            if hi > 0.0 { lo / hi } else { f64::NAN }
+        })
+        .fold(f64::INFINITY, |m, x| {
+            if x.is_nan() || m.is_nan() {
+                f64::NAN
+            } else {
+                m.min(x)
+            }
+        })
 }
 
 /// Displayed disk positions: the LV disk warped by `r' = r^n`; the RV half
@@ -395,6 +453,22 @@ fn outcome(
         }
         c
     });
+    let mut gates = chart.gates().clone();
+    if chamber == Chamber::Lv {
+        let balance = aha_balance(chart.surface(), chart.original_vertices(), &disk_shown);
+        // Recorded, not refused: a round S built from the anatomy (the
+        // hemisphere of tests/ventricle_surface.rs) measures 0.11 and is
+        // right; the wrong base this catches is refused earlier, by the
+        // choice of the rim (super::openings), unless --rim-near forces it.
+        gates.fallback(
+            "aha.balance",
+            balance,
+            Requirement::AtLeast(AHA_BALANCE_MIN),
+            "kept the map: some AHA segments of S are nearly empty, the mark of a wrong basal \
+             rim or misplaced landmarks; check openings and landmarks in this report, or name \
+             the basal (mitral) opening with --rim-near X,Y,Z",
+        );
+    }
     let stats = chart.field().stats();
     let ChartTimings {
         disk: t_disk,
@@ -427,6 +501,7 @@ fn outcome(
         apex_mm: [apex.x, apex.y, apex.z],
         openings: chart.openings().clone(),
         aha_points,
+        gates,
         field: FieldReport {
             grid_nodes: stats.grid_nodes,
             unknowns: stats.unknowns,

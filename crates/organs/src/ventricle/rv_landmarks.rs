@@ -3,18 +3,22 @@
 //! the base of the RV ridges (`P_LRV`, `P_RRV`); rays from the centroid of
 //! the LV's basal rim through them meet the LV's enclosing surface S, and
 //! the rim vertices closest to those intersections are the anterior and
-//! inferior landmarks.
+//! inferior landmarks. The rays start from the basal rim chosen first
+//! ([`super::openings::choose_rim`]: `rim_near`, else the anatomy), so that
+//! the landmarks lie on that rim, not on another opening of S.
 
 use super::error::VentricleError;
+use super::openings::{RimChoice, RimHint, choose_rim};
 use crate::OrganError;
 use unfold_mesh::TriMesh;
 use unfold_mesh::nalgebra::{Point3, Vector3};
-use unfold_mesh::topology::boundary_loops;
 
 /// The rim landmarks derived from two RV insertion points.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FromRv {
+    /// Why the rim the landmarks were derived on is the basal rim.
+    pub rim_chosen_by: RimChoice,
     /// The RV insertion points given (anterior, inferior).
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub rv: [[f64; 3]; 2],
@@ -33,16 +37,24 @@ pub struct FromRv {
 
 /// The anterior and inferior rim landmarks of S from the anterior and
 /// inferior RV insertion points `rv` (see the module docs). The basal rim
-/// is the boundary loop of S nearest the midpoint of the two points (S may
-/// have other openings); its centroid is the vertex average.
+/// is chosen first by [`choose_rim`] from `rim_near` and `apex` (S may have
+/// other openings: the largest facing away from the apex); its centroid is
+/// the vertex average.
 ///
 /// # Errors
-/// [`VentricleError::NotADisk`] when S's boundary does not form loops;
+/// [`choose_rim`]'s (S's boundary does not form loops, openings that tie,
+/// a `rim_near` far from every opening);
 /// [`VentricleError::EmptyRim`] when S has no boundary;
 /// [`VentricleError::LandmarkNotFinite`] for a point that is not finite;
 /// [`VentricleError::RvRayMisses`] when a ray from the rim's centroid
 /// through a point meets no triangle of S (or the point is the centroid).
-pub fn rim_landmarks_from_rv(s: &TriMesh, rv: [Point3<f64>; 2]) -> Result<FromRv, OrganError> {
+pub fn rim_landmarks_from_rv(
+    s: &TriMesh,
+    rv: [Point3<f64>; 2],
+    rim_near: Option<&Point3<f64>>,
+    apex: Option<&Point3<f64>>,
+    snap_mm: f64,
+) -> Result<FromRv, OrganError> {
     const NAMES: [&str; 2] = ["anterior", "inferior"];
     for (p, landmark) in rv.iter().zip(NAMES) {
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
@@ -53,18 +65,16 @@ pub fn rim_landmarks_from_rv(s: &TriMesh, rv: [Point3<f64>; 2]) -> Result<FromRv
             .into());
         }
     }
-    let loops = boundary_loops(s).map_err(VentricleError::NotADisk)?;
-    let mid = Point3::from((rv[0].coords + rv[1].coords) / 2.0);
-    let dist = |l: &Vec<u32>| {
-        l.iter()
-            .map(|&v| (s.positions[v as usize] - mid).norm())
-            .fold(f64::INFINITY, f64::min)
+    let hint = RimHint {
+        landmarks: None,
+        rim_near: rim_near.copied(),
+        apex: apex.copied(),
     };
-    let rim = loops
-        .iter()
-        .filter(|l| !l.is_empty())
-        .min_by(|a, b| dist(a).total_cmp(&dist(b)))
-        .ok_or(VentricleError::EmptyRim)?;
+    let pick = choose_rim(s, &hint, snap_mm)?;
+    let rim = &pick.loops[pick.rim];
+    if rim.is_empty() {
+        return Err(VentricleError::EmptyRim.into());
+    }
     let c = Point3::from(
         rim.iter()
             .map(|&v| s.positions[v as usize].coords)
@@ -95,6 +105,7 @@ pub fn rim_landmarks_from_rv(s: &TriMesh, rv: [Point3<f64>; 2]) -> Result<FromRv
         landmarks[k] = [r.x, r.y, r.z];
     }
     Ok(FromRv {
+        rim_chosen_by: pick.chosen_by,
         rv: rv.map(|p| [p.x, p.y, p.z]),
         rim_centroid: [c.x, c.y, c.z],
         hits,
@@ -187,7 +198,7 @@ mod tests {
             let s = cup(r, 12, segments);
             let a1 = a0 + gap;
             let rv = [a0, a1].map(|a| Point3::new((r + out) * a.cos(), (r + out) * a.sin(), -1.0));
-            let f = rim_landmarks_from_rv(&s, rv).unwrap();
+            let f = rim_landmarks_from_rv(&s, rv, None, None, 5.0).unwrap();
             prop_assert!(f.rim_centroid.iter().all(|x| x.abs() < 1e-9));
             for (k, a) in [a0, a1].iter().enumerate() {
                 let h = f.hits[k];
@@ -213,7 +224,9 @@ mod tests {
         let s = cup(30.0, 8, 24);
         // Straight up from the rim's centre: the cup is below.
         let up = [Point3::new(0.0, 0.0, 10.0), Point3::new(40.0, 0.0, -1.0)];
-        let e = rim_landmarks_from_rv(&s, up).unwrap_err().to_string();
+        let e = rim_landmarks_from_rv(&s, up, None, None, 5.0)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("anterior") && e.contains("meets no triangle"),
             "{e}"
@@ -222,7 +235,9 @@ mod tests {
             Point3::new(f64::NAN, 0.0, 0.0),
             Point3::new(40.0, 0.0, -1.0),
         ];
-        let e = rim_landmarks_from_rv(&s, nan).unwrap_err().to_string();
+        let e = rim_landmarks_from_rv(&s, nan, None, None, 5.0)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("not finite"), "{e}");
     }
 }

@@ -102,10 +102,12 @@ pub fn read(settings: &Settings, files: &Files, started: Instant) -> Result<Inpu
     let normalized_label = files.normalized.display().to_string();
     let surface = read_surface(&files.surface, settings.mesh_frame)?;
     let surface_label = files.surface.display().to_string();
-    let (landmarks, from_rv) =
-        files
-            .heart
-            .on_surface(&surface, &surface_label, settings.chart.chamber)?;
+    let (landmarks, from_rv) = files.heart.on_surface(
+        &surface,
+        &surface_label,
+        settings.chart.chamber,
+        settings.chart.snap_mm,
+    )?;
     Ok(Inputs {
         normalized,
         normalized_label,
