@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use unfold_mesh::Volume;
 use unfold_mesh::geometry::{tet_signed_volume, total_volume};
 use unfold_mesh::mesher::{MaskMesh, MaskMeshOptions, mesh_mask};
-use unfold_mesh::nalgebra::{Matrix4, Point3};
+use unfold_mesh::nalgebra::Matrix4;
 use unfold_mesh::stuffing::check_closed_manifold;
 
 /// An `n^3` mask of 1 mm voxels set where `inside(i, j, k)`.
