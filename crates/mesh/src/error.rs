@@ -349,6 +349,25 @@ pub enum MeshError {
         /// Whether every distinct value was counted.
         all_counted: bool,
     },
+    /// The boundary of a tet mesh cut from a lattice still touches itself
+    /// after [`crate::pinch::resolve_pinches`]'s rounds.
+    #[error(
+        "the mesh's boundary stays pinched near ({:.2}, {:.2}, {:.2}) ({edges} edges, {vertices} \
+         vertices touching themselves after {rounds} rounds of splitting and opening); {hint}",
+        at[0], at[1], at[2]
+    )]
+    Pinched {
+        /// A pinched vertex's position.
+        at: [f64; 3],
+        /// Pinched edges left.
+        edges: usize,
+        /// Pinched vertices left.
+        vertices: usize,
+        /// Rounds run.
+        rounds: usize,
+        /// What to change.
+        hint: &'static str,
+    },
     /// Any other invalid argument, with a message.
     #[error("{0}")]
     InvalidArgument(String),
@@ -388,6 +407,7 @@ impl MeshError {
             MeshError::Image(_) => "image",
             MeshError::MaskValues { .. } => "mask_values",
             MeshError::MaskLabelAbsent { .. } => "mask_label_absent",
+            MeshError::Pinched { .. } => "pinched",
             MeshError::InvalidArgument(_) => "invalid_argument",
         }
     }

@@ -16,7 +16,7 @@
 //!   [`nan_as_null`]: reading back a report's numbers written as `null`.
 //! - [`Volume`]: 3D / 4D images with their voxel-to-world affine; [`mask`]
 //!   operations and [`mesher`]: tet meshes of segmentations by isosurface
-//!   [`stuffing`].
+//!   [`stuffing`], whose self-touching boundaries [`pinch`] resolves.
 //! - [`marching_tets`]: the zero level set of a sampled field as a closed
 //!   surface; [`taubin`]: non-shrinking smoothing; [`clip`]: a surface cut
 //!   by a plane.
@@ -38,6 +38,7 @@ pub mod mask_selection;
 pub mod memory;
 pub mod mesher;
 pub mod nan_as_null;
+pub mod pinch;
 pub mod raster;
 pub mod reindex;
 pub mod repair;

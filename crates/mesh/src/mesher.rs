@@ -31,10 +31,20 @@
 //! has voxels, so the mesh keeps the mask's volume (within 0.5 % on those
 //! shapes) while its surface stays the smoothed one.
 //!
-//! 5. With `grade`, the interior is coarsened by edge collapses
+//! 5. Where the smoothed mask is thinner than the lattice resolves (two
+//!    blobs touching, a neck thinner than a cube), the cut boundary can
+//!    touch itself at a vertex or an edge: the stuffing resolves those
+//!    pinches ([`crate::pinch`]: split the vertex, one copy per tet group;
+//!    open what splitting cannot by removing the tets at the pinch) and
+//!    [`MaskMesh::pinches`] counts what it did. A mask that meshes at one
+//!    size therefore meshes at every coarser one (property-tested in
+//!    `tests/mesher_pinch.rs`).
+//! 6. With `grade`, the interior is coarsened by edge collapses
 //!    ([`crate::coarsen::coarsen_interior`]) towards edges of
 //!    `size + d / 2` at depth `d` below the boundary, which is kept exactly
-//!    (the dihedral angles then stay within `[10, 165]` degrees).
+//!    (the dihedral angles then stay within `[10, 165]` degrees). The
+//!    collapses keep the boundary and obey the link condition, so they
+//!    cannot pinch it (checked again afterwards).
 //!
 //! The mesh is valid by construction (positive tets with dihedral angles
 //! bounded away from 0 and 180 degrees, a closed manifold boundary, checked
@@ -43,6 +53,7 @@
 
 use crate::geometry::{tet_dihedral_angles, total_volume};
 use crate::memory::MemoryEstimate;
+use crate::pinch::PinchRepair;
 use crate::spatial::ClosestPointQuery;
 use crate::stuffing::{Implicit, Stuffed, stuff};
 use crate::{MeshError, TetMesh, Volume, mask};
@@ -174,6 +185,8 @@ pub struct MaskMesh {
     pub level: f64,
     /// Interior vertices removed by grading (0 without).
     pub graded_collapses: usize,
+    /// What resolving the boundary's pinches did (see [`crate::pinch`]).
+    pub pinches: PinchRepair,
     /// Voxels set in the mask.
     pub mask_voxels: usize,
     /// Their volume, mm^3 (voxel count times voxel volume).
@@ -287,6 +300,32 @@ pub fn grade(mesh: &TetMesh, size: f64) -> Result<crate::coarsen::Coarsened, Mes
     )?;
     crate::stuffing::check_closed_manifold(&out.mesh)?;
     Ok(out)
+}
+
+/// The hint of [`MeshError::Pinched`] from the mesher: what a user changes
+/// in the mask or the options.
+const PINCH_HINT: &str = "the mask is thinner there than the elements resolve: smooth it more \
+                          (--smooth-voxels 2), close it (--dilate 1), or mesh at another \
+                          --size-mm";
+
+/// The mesher's errors with its hint for a pinch.
+fn with_pinch_hint(e: MeshError) -> MeshError {
+    match e {
+        MeshError::Pinched {
+            at,
+            edges,
+            vertices,
+            rounds,
+            ..
+        } => MeshError::Pinched {
+            at,
+            edges,
+            vertices,
+            rounds,
+            hint: PINCH_HINT,
+        },
+        e => e,
+    }
 }
 
 /// The largest working grid of the mesher (the mask cropped to its voxels
@@ -560,12 +599,13 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
         mut mesh,
         components,
         dropped_components,
+        pinches,
         ..
     } = stuff(&f, bmin, bmax, size, opts.keep_all_components).map_err(|e| match e {
         MeshError::Empty { .. } => MeshError::Empty {
             what: "tets (nothing of the mask is left above the level after smoothing)",
         },
-        e => e,
+        e => with_pinch_hint(e),
     })?;
     // back to world coordinates (a rotation: the tets keep their orientation)
     for p in &mut mesh.positions {
@@ -579,6 +619,7 @@ pub fn mesh_mask(mask: &Volume<bool>, opts: &MaskMeshOptions) -> Result<MaskMesh
     };
     Ok(MaskMesh {
         mesh,
+        pinches,
         graded_collapses,
         components,
         dropped_components,

@@ -27,8 +27,11 @@
 //!    sharing a face split it alike (the mesh is conforming), and it never
 //!    chooses the three diagonals of a prism cyclically (Dompierre et al.
 //!    1999), so every prism splits into tets.
-//! 3. [`stuff`] keeps the largest connected component (or all of them) and
-//!    reports the others.
+//! 3. [`stuff`] resolves the pinches of the boundary (where the domain is
+//!    thinner than the lattice resolves, the cut can touch itself at a
+//!    vertex or an edge: [`crate::pinch::resolve_pinches`] splits those
+//!    vertices, or opens what splitting cannot), then keeps the largest
+//!    connected component (or all of them) and reports the others.
 //!
 //! The paper's `alpha_long = 0.24999`, `alpha_short = 0.41189` bound its
 //! dihedral angles to `[10.7, 164.8]` degrees for smooth surfaces resolved
@@ -370,19 +373,24 @@ pub struct Stuffed {
     pub lattice: BccLattice,
     /// Lattice vertices warped onto the surface.
     pub warped: usize,
+    /// What resolving the boundary's pinches did (before the components
+    /// were chosen).
+    pub pinches: crate::pinch::PinchRepair,
 }
 
 /// Isosurface stuffing of `{x : f(x) < 0}`: a lattice of cube side `h`
 /// around the box `[min, max]` that must contain the domain, cut and warped
-/// ([`cut_and_warp`]), filled ([`fill`]); the largest connected component
+/// ([`cut_and_warp`]), filled ([`fill`]), its boundary's pinches resolved
+/// ([`crate::pinch::resolve_pinches`]); the largest connected component
 /// (most tets) is kept, or all when `keep_all_components`.
 ///
 /// # Errors
 /// `InvalidArgument` for a bad box or spacing, a lattice too large, or a
 /// domain reaching the box's border; `Empty` when the domain has no tets
-/// (nothing inside, or thinner than the lattice resolves); `NonManifoldEdge`
-/// / `InvalidArgument` when the boundary is not a closed manifold (a
-/// surface with features finer than `h`).
+/// (nothing inside, or thinner than the lattice resolves); `Pinched` when
+/// the boundary still touches itself after resolving; `NonManifoldEdge` /
+/// `InvalidArgument` when the boundary is not a closed manifold otherwise
+/// (not expected: the check guards the construction).
 pub fn stuff(
     f: &dyn Implicit,
     min: Point3<f64>,
@@ -425,7 +433,8 @@ pub fn stuff(
     let mut positions = w.positions.clone();
     positions.extend_from_slice(&w.cut_points);
     let compact = crate::reindex::compact_vertices(&positions, &Fields::new(), &tets)?;
-    let mut mesh = TetMesh::new(compact.positions, compact.elements);
+    let (mut mesh, pinches) =
+        crate::pinch::resolve_pinches(&TetMesh::new(compact.positions, compact.elements))?;
     let comps = crate::topology::connected_components(mesh.num_vertices(), &mesh.tets);
     let mut dropped = Vec::new();
     if comps.count > 1 && !keep_all_components {
@@ -454,6 +463,7 @@ pub fn stuff(
         dropped_components: dropped,
         lattice,
         warped: w.warped,
+        pinches,
     })
 }
 
@@ -552,9 +562,11 @@ pub fn check_closed_manifold(mesh: &TetMesh) -> Result<(), MeshError> {
             }
         }
         if at != start || steps != f.len() {
+            let p = mesh.positions[b.to_volume[v] as usize];
             return Err(MeshError::InvalidArgument(format!(
-                "the boundary is pinched at vertex {} (its triangles form no single fan)",
-                b.to_volume[v]
+                "the boundary is pinched at vertex {} ({:.2}, {:.2}, {:.2}) (its triangles form \
+                 no single fan: the object touches itself there)",
+                b.to_volume[v], p.x, p.y, p.z
             )));
         }
     }

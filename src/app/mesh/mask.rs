@@ -10,6 +10,7 @@ use crate::mesh::mesher::{
     IsoLevel, MaskMesh, MaskMeshOptions, MaskSelection, MeshQuality, estimate_memory,
     mask_from_image, mesh_mask,
 };
+use crate::mesh::pinch::PinchRepair;
 use crate::mesh::{MeshError, Volume};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -220,8 +221,24 @@ pub fn warn_dropped(
     ));
 }
 
+/// What resolving the boundary's pinches did, for [`describe`] (empty when
+/// nothing was pinched).
+fn describe_pinches(p: &PinchRepair) -> String {
+    if !p.changed() {
+        return String::new();
+    }
+    let mut s = format!(", pinches resolved: {} vertices split", p.vertices_split);
+    if p.tets_removed > 0 {
+        s += &format!(
+            ", {} edges and {} vertices opened ({} tets, {:.3} mm^3 removed)",
+            p.edges_opened, p.vertices_opened, p.tets_removed, p.volume_removed
+        );
+    }
+    s
+}
+
 /// One line of figures about a mask's mesh: its size, cube side, level,
-/// grading, volume against the mask's, dihedral angle range.
+/// grading, pinches resolved, volume against the mask's, dihedral angle range.
 pub fn describe(out: &MaskMesh, q: &MeshQuality) -> String {
     format!(
         "{} tets, {} vertices, {} boundary triangles (cube side {:.3} mm, level {:.3}{}); \
@@ -238,7 +255,7 @@ pub fn describe(out: &MaskMesh, q: &MeshQuality) -> String {
             )
         } else {
             String::new()
-        },
+        } + &describe_pinches(&out.pinches),
         q.volume_mm3,
         100.0 * (q.volume_mm3 / out.mask_volume_mm3 - 1.0),
         out.mask_volume_mm3,

@@ -18,6 +18,7 @@ use crate::app::run::files::canonical;
 use crate::app::run::provenance::Provenance;
 use crate::io::{WriteOptions, write_mesh};
 use crate::mesh::mesher::{MaskMesh, MaskMeshOptions, MeshQuality};
+use crate::mesh::pinch::PinchRepair;
 use crate::mesh::{CellMesh, Volume};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -124,6 +125,7 @@ impl Run {
             dilate: settings.mask.dilate,
             level: out.level,
             graded_collapses: out.graded_collapses,
+            pinches: out.pinches,
             components: out.components,
             dropped_components: out.dropped_components.clone(),
             quality: self.quality,
@@ -152,6 +154,9 @@ pub struct MeshReport {
     pub level: f64,
     /// Interior vertices removed by grading.
     pub graded_collapses: usize,
+    /// What resolving the boundary's pinches did: vertices split, edges
+    /// and vertices opened, tets and volume (mm^3) removed.
+    pub pinches: PinchRepair,
     /// Connected components of the meshed domain.
     pub components: usize,
     /// Tet counts of the components left out, largest first.
