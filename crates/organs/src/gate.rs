@@ -177,7 +177,11 @@ mod tests {
     #[test]
     fn nan_never_passes_and_reads_back() {
         let mut gates = Gates::new();
-        assert!(gates.check("x", f64::NAN, Requirement::NonNegative, "f").is_err());
+        assert!(
+            gates
+                .check("x", f64::NAN, Requirement::NonNegative, "f")
+                .is_err()
+        );
         let json = serde_json::to_string(&gates).unwrap();
         assert!(json.contains("\"value\":null"), "{json}");
         let back: Gates = serde_json::from_str(&json).unwrap();
