@@ -46,7 +46,7 @@ impl Default for ValveLabelParams {
             thickness_mm: 1.5,
             tube_mm: 1.2,
             coaptation_y_mm: -4.0,
-            rotation: Rotation3::from_euler_angles(0.5236, 0.0, 0.3491),
+            rotation: Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_6, 0.0, 0.3491),
             offset: Vector3::new(10.0, -20.0, 35.0),
             labels: [1.0, 2.0, 3.0],
         }
