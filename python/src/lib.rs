@@ -93,6 +93,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ventricle::ventricle, m)?)?;
     m.add_function(wrap_pyfunction!(ventricle_inverse::ventricle_inverse, m)?)?;
     m.add_function(wrap_pyfunction!(mitral::mitral, m)?)?;
+    m.add_function(wrap_pyfunction!(mitral::mitral_seg, m)?)?;
     m.add_function(wrap_pyfunction!(deform::deform, m)?)?;
     m.add_function(wrap_pyfunction!(shapes::ventricle_cup_shape, m)?)?;
     m.add_function(wrap_pyfunction!(shapes::mitral_valve_shape, m)?)?;

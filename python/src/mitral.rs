@@ -4,13 +4,16 @@
 
 use crate::arrays::{cell_mesh, mesh_tuple};
 use crate::inputs::{choice, points};
-use numpy::PyReadonlyArray2;
+use numpy::{PyReadonlyArray2, PyReadonlyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::path::Path;
-use unfold::app::mitral::{Inputs, MitralReport, Settings, leaflet_of, run_with};
+use unfold::app::mitral::{
+    Inputs, MitralReport, Settings, inputs_from_labels, leaflet_of, run_with,
+};
 use unfold::app::run::provenance::Provenance;
 use unfold::mesh::CellMesh;
+use unfold::organs::mitral::segmentation::SegmentationReport;
 
 /// A leaflet given as `(points, cells, point_data)` (meshio's layout).
 type Leaflet<'py> = (
@@ -61,6 +64,7 @@ pub(crate) fn mitral<'py>(
         tolerance_mm,
         cut_posteromedial,
         no_figures: true,
+        ..Settings::default()
     };
     let pipeline = settings.pipeline().map_err(crate::error)?;
     let leaflet = |(p, c, d): Leaflet<'py>, which: &str| -> PyResult<_> {
@@ -93,8 +97,19 @@ pub(crate) fn mitral<'py>(
             )
         })?,
     };
-    // The settings as the report has always named them.
-    let parameters = format!(
+    let inputs = Inputs {
+        label: name.to_string(),
+        anterior,
+        posterior,
+        ring,
+    };
+    let parameters = parameters(&settings, annulus.is_some());
+    finish(py, &pipeline, &inputs, None, parameters, started)
+}
+
+/// The settings as the report has always named them.
+fn parameters(settings: &Settings, annulus_given: bool) -> String {
+    format!(
         "MitralSettings {{ annulus_mode: {:?}, init: {:?}, relax: {:?}, energy: {:?}, \
          iterations: {:?}, step_scale: {:?}, coaptation_mm: {:?}, tolerance_mm: {:?}, cut_posteromedial: {:?} }}, \
          annulus given: {}",
@@ -107,16 +122,22 @@ pub(crate) fn mitral<'py>(
         settings.coaptation_mm,
         settings.tolerance_mm,
         settings.cut_posteromedial,
-        annulus.is_some()
-    );
-    let inputs = Inputs {
-        label: name.to_string(),
-        anterior,
-        posterior,
-        ring,
-    };
+        annulus_given
+    )
+}
+
+/// Runs `pipeline` on `inputs` with the GIL released; returns `(valve2d,
+/// valve3d, report_json)`, the report with `segmentation` when given.
+fn finish<'py>(
+    py: Python<'py>,
+    pipeline: &unfold::organs::mitral::Pipeline,
+    inputs: &Inputs,
+    segmentation: Option<SegmentationReport>,
+    parameters: String,
+    started: String,
+) -> PyResult<Bound<'py, PyTuple>> {
     let run = py
-        .detach(|| run_with(&pipeline, &inputs, &mut unfold::app::observer::Quiet))
+        .detach(|| run_with(pipeline, inputs, &mut unfold::app::observer::Quiet))
         .map_err(|e| {
             crate::input_error(
                 e,
@@ -131,6 +152,7 @@ pub(crate) fn mitral<'py>(
     let outcome = run.outcome;
     let report = MitralReport {
         provenance: Provenance::python(parameters, started),
+        segmentation,
         ..run.report
     };
     // As before: the report without a final newline.
@@ -144,5 +166,64 @@ pub(crate) fn mitral<'py>(
             valve3d.into_any(),
             json.into_pyobject(py)?.into_any(),
         ],
+    )
+}
+
+/// Cuts one valve from a label map `(labels, affine)` (`unfold mitral
+/// --seg`) and lays it out; returns `(valve2d, valve3d, report_json)`.
+#[pyfunction]
+#[pyo3(signature = (
+    labels, affine, *, anterior_label, posterior_label, annulus_label=None,
+    annulus_mode="landmark", init="auto", relax="sd", energy="symmetric-dirichlet",
+    coaptation_mm=2.0, tolerance_mm=None, cut_posteromedial=false, name="valve"
+))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn mitral_seg<'py>(
+    py: Python<'py>,
+    labels: PyReadonlyArrayDyn<'py, f32>,
+    affine: PyReadonlyArray2<'py, f64>,
+    anterior_label: i64,
+    posterior_label: i64,
+    annulus_label: Option<i64>,
+    annulus_mode: &str,
+    init: &str,
+    relax: &str,
+    energy: &str,
+    coaptation_mm: f64,
+    tolerance_mm: Option<f64>,
+    cut_posteromedial: bool,
+    name: &str,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let started = unfold::app::run::provenance::now();
+    let settings = Settings {
+        annulus_mode: choice("--annulus-mode", annulus_mode)?,
+        init: choice("--init", init)?,
+        relax: choice("--relax", relax)?,
+        energy: choice("--energy", energy)?,
+        coaptation_mm,
+        tolerance_mm,
+        cut_posteromedial,
+        no_figures: true,
+        anterior_label: Some(anterior_label),
+        posterior_label: Some(posterior_label),
+        annulus_label,
+        ..Settings::default()
+    };
+    let pipeline = settings.pipeline().map_err(crate::error)?;
+    let volume = crate::inputs::volume(&labels, &affine, name)?;
+    let (inputs, segmentation) = py
+        .detach(|| inputs_from_labels(&volume, name.to_string(), &settings))
+        .map_err(crate::error)?;
+    let parameters = format!(
+        "{}, labels: anterior {anterior_label}, posterior {posterior_label}, annulus {annulus_label:?}",
+        parameters(&settings, false)
+    );
+    finish(
+        py,
+        &pipeline,
+        &inputs,
+        Some(segmentation),
+        parameters,
+        started,
     )
 }

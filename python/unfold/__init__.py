@@ -15,7 +15,8 @@ its defaults and its one-line error messages:
 * :func:`ventricle_inverse`: ``unfold ventricle-inverse``, a mesh in the
   cylinder carried back onto a heart, returning an :class:`InverseResult`;
 * :func:`mitral`: ``unfold mitral`` on one valve, returning a
-  :class:`MitralResult`;
+  :class:`MitralResult`; :func:`mitral_seg` the same from a label map
+  (``unfold mitral --seg``);
 * :func:`deform`: ``unfold deform`` on a tet mesh and targets, returning a
   :class:`DeformResult`;
 * :class:`Template`: a placenta template written in Python (value,
@@ -43,7 +44,7 @@ from ._template import Side, Template, check_template
 from ._tet_mesh import TetMeshResult, tet_mesh
 from ._ventricle import VentricleResult, ventricle
 from ._ventricle_inverse import InverseResult, ventricle_inverse
-from ._mitral import MitralResult, mitral
+from ._mitral import MitralResult, mitral, mitral_seg
 from ._deform import DeformResult, deform
 from . import shapes
 
@@ -63,6 +64,7 @@ __all__ = [
     "check_template",
     "deform",
     "mitral",
+    "mitral_seg",
     "placenta",
     "read_mesh",
     "shapes",

@@ -187,6 +187,22 @@ def mitral(
     cut_posteromedial: bool = ...,
     name: str = ...,
 ) -> MitralResult: ...
+def mitral_seg(
+    labels: np.ndarray,
+    affine: np.ndarray,
+    *,
+    anterior_label: int,
+    posterior_label: int,
+    annulus_label: Optional[int] = ...,
+    annulus_mode: str = ...,
+    init: str = ...,
+    relax: str = ...,
+    energy: str = ...,
+    coaptation_mm: float = ...,
+    tolerance_mm: Optional[float] = ...,
+    cut_posteromedial: bool = ...,
+    name: str = ...,
+) -> MitralResult: ...
 def deform(
     points: np.ndarray,
     tets: Union[np.ndarray, Mapping[str, np.ndarray]],

@@ -12,7 +12,7 @@ from ._convert import points as _points, surface
 from ._mesh import Mesh
 from ._result import MapResult
 
-__all__ = ["MitralResult", "mitral"]
+__all__ = ["MitralResult", "mitral", "mitral_seg"]
 
 Leaflet = Union[Mesh, Tuple[np.ndarray, np.ndarray]]
 
@@ -107,6 +107,65 @@ def mitral(
         energy=energy,
         iterations=int(iterations),
         step_scale=None if step_scale is None else float(step_scale),
+        coaptation_mm=float(coaptation_mm),
+        tolerance_mm=None if tolerance_mm is None else float(tolerance_mm),
+        cut_posteromedial=bool(cut_posteromedial),
+        name=name,
+    )
+    return MitralResult(**MapResult._fields(valve2d, report), original=Mesh._from_tuple(valve3d))
+
+
+def mitral_seg(
+    labels,
+    affine,
+    *,
+    anterior_label: int,
+    posterior_label: int,
+    annulus_label: Optional[int] = None,
+    annulus_mode: str = "landmark",
+    init: str = "auto",
+    relax: str = "sd",
+    energy: str = "symmetric-dirichlet",
+    coaptation_mm: float = 2.0,
+    tolerance_mm: Optional[float] = None,
+    cut_posteromedial: bool = False,
+    name: str = "valve",
+) -> MitralResult:
+    """Cuts one mitral valve from a label map and lays it out in 2D
+    (``unfold mitral --seg LABELS --anterior-label A --posterior-label P``).
+
+    Each leaflet's atrial surface is what is seen of its label from the
+    atrium along the annulus plane's normal (the annulus label, when given,
+    sets the plane and the atrial side); the annulus ring is the leaflets'
+    outer edge. ``report["segmentation"]`` says how the surfaces were made
+    (labels, voxels, grid, atrial side, triangles, the cut's gates).
+
+    Args:
+        labels: (nx, ny, nz) integer labels, indexed ``[i, j, k]`` as
+            nibabel's ``get_fdata()``.
+        affine: (4, 4) voxel indices to world mm (any voxel size, rotation).
+        anterior_label, posterior_label: the leaflets' labels.
+        annulus_label: the annulus' label, or None.
+        the rest: as :func:`mitral`.
+
+    Returns:
+        A :class:`MitralResult`.
+
+    Raises:
+        UnfoldError: a label missing or empty, a map that is not integer
+            labels, leaflets that do not touch, with the command line's
+            message.
+    """
+    valve2d, valve3d, report = _native.mitral_seg(
+        np.ascontiguousarray(labels, dtype=np.float32),
+        np.ascontiguousarray(affine, dtype=np.float64),
+        anterior_label=int(anterior_label),
+        posterior_label=int(posterior_label),
+        annulus_label=None if annulus_label is None else int(annulus_label),
+        annulus_mode=annulus_mode,
+        init=init,
+        relax=relax,
+        energy=energy,
         coaptation_mm=float(coaptation_mm),
         tolerance_mm=None if tolerance_mm is None else float(tolerance_mm),
         cut_posteromedial=bool(cut_posteromedial),

@@ -12,7 +12,9 @@
 //! places where the leaflets' boundaries meet
 //! ([`annulus_from_leaflets`]).
 
+use super::seg::{SegFiles, check_no_labels, refuse_closed, refuse_image};
 use super::series::steps::series_steps;
+use super::settings::Settings;
 use crate::app::error::{AppError, at, organ};
 use crate::app::run::StagedOutputs;
 use crate::app::run::columns::Column;
@@ -44,6 +46,8 @@ pub struct Files {
     pub annulus: Option<PathBuf>,
     /// Or a directory of time steps.
     pub series: Option<PathBuf>,
+    /// Or a label map (`--seg`).
+    pub seg: Option<PathBuf>,
     /// The output directory.
     pub output: PathBuf,
 }
@@ -55,6 +59,7 @@ pub const FILE_COLUMNS: &[Column] = &[
     Column::path("posterior"),
     Column::path("annulus"),
     Column::path("series"),
+    Column::path("seg"),
 ];
 
 /// What [`Files::check`] found to run.
@@ -64,6 +69,8 @@ pub enum Job {
     Valve(ValveFiles),
     /// The steps of a series directory, in order.
     Series(Vec<Step>),
+    /// One valve from a label map.
+    Seg(SegFiles),
 }
 
 /// One step of a series: its output directory's name and its files.
@@ -93,6 +100,17 @@ impl Files {
                 "exists and is not a directory; -o needs a directory",
             ));
         }
+        if let Some(seg) = &self.seg {
+            if self.anterior.is_some() || self.posterior.is_some() || self.series.is_some() {
+                return Err(AppError::Usage(
+                    "--seg LABELS takes the leaflets from the label map: leave out --anterior, \
+                     --posterior and --series"
+                        .into(),
+                ));
+            }
+            check_not_inputs(out, &[seg])?;
+            return Ok(Job::Seg(SegFiles { seg: seg.clone() }));
+        }
         if let Some(series) = &self.series {
             let steps = series_steps(series)?
                 .into_iter()
@@ -111,7 +129,8 @@ impl Files {
         let (Some(anterior), Some(posterior)) = (&self.anterior, &self.posterior) else {
             return Err(AppError::Usage(
                 "give --anterior and --posterior (and --annulus, or it is found from the \
-                 leaflets), or --series DIR"
+                 leaflets), --series DIR, or a label map: --seg LABELS --anterior-label A \
+                 --posterior-label P"
                     .into(),
             ));
         };
@@ -233,7 +252,21 @@ pub fn read(files: &ValveFiles, label: String, pipeline: &Pipeline) -> Result<In
 /// # Errors
 /// Reading the file, or [`leaflet_of`]'s.
 pub fn read_leaflet(path: &Path) -> Result<TriMesh, AppError> {
-    leaflet_of(&read_mesh(path)?, path)
+    refuse_image(path)?;
+    let mesh = leaflet_of(&read_mesh(path)?, path)?;
+    refuse_closed(&mesh, &path.display().to_string())?;
+    Ok(mesh)
+}
+
+/// Checks `settings` against the job: the label flags only with `--seg`.
+///
+/// # Errors
+/// [`AppError::Usage`] naming the flag.
+pub fn check_settings(job: &Job, settings: &Settings) -> Result<(), AppError> {
+    match job {
+        Job::Seg(_) => super::seg::labels_of(settings).map(|_| ()),
+        _ => check_no_labels(settings),
+    }
 }
 
 /// The leaflet in `cells` (named `path` in messages) as a triangle mesh:
@@ -255,7 +288,10 @@ pub fn leaflet_of(cells: &CellMesh, path: &Path) -> Result<TriMesh, AppError> {
     if volume > 0 {
         return Err(at(
             path,
-            format!("has {volume} volume cell(s); a leaflet is a triangle surface"),
+            format!(
+                "has {volume} volume cell(s); a leaflet is a triangle surface; {}",
+                super::seg::SEG_ROUTE
+            ),
         ));
     }
     if surface.num_cells() == 0 {

@@ -17,20 +17,27 @@
 //! - `report.json`: `inputs`, the library's report and `provenance`;
 //! - the figures in `figures/`.
 //!
+//! A label map ([`seg`], `--seg`) gives the leaflets' atrial surfaces and
+//! the annulus ring; `report.json` then has `segmentation`.
+//!
 //! A series ([`series`]) writes one such set per step in `OUT/<step>/`, the
 //! table `OUT/series.csv` (and `series.json`) and the plot over the cycle.
 
 pub mod inputs;
 pub mod report;
 pub mod run;
+pub mod seg;
 pub mod series;
 pub mod settings;
 pub mod valve;
 pub mod write;
 
-pub use inputs::{Files, Inputs, Job, Step, ValveFiles, leaflet_of, read, read_leaflet, read_ring};
+pub use inputs::{
+    Files, Inputs, Job, Step, ValveFiles, check_settings, leaflet_of, read, read_leaflet, read_ring,
+};
 pub use report::{MitralReport, summary};
 pub use run::{Run, map_valve, run, run_with};
+pub use seg::{SegFiles, inputs_from_labels, read_seg};
 pub use series::table::SERIES_COLUMNS;
 pub use settings::Settings;
 pub use valve::run_valve;

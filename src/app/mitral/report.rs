@@ -3,6 +3,7 @@
 
 use crate::app::run::provenance::Provenance;
 use crate::organs::mitral::Report;
+use crate::organs::mitral::segmentation::SegmentationReport;
 use serde::{Deserialize, Serialize};
 
 /// `report.json`: `inputs`, then every key of the library's [`Report`]
@@ -16,6 +17,10 @@ pub struct MitralReport {
     /// The library's report.
     #[serde(flatten)]
     pub report: Report,
+    /// How the leaflets were cut from a label map (`--seg`; absent
+    /// otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segmentation: Option<SegmentationReport>,
     /// Version, command line, parameters, input hashes, start time.
     pub provenance: Provenance,
 }

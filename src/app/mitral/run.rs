@@ -31,6 +31,7 @@ impl Run {
         let report = MitralReport {
             inputs: label.to_string(),
             report: outcome.report.clone(),
+            segmentation: None,
             provenance: provenance::this_run(),
         };
         Run { outcome, report }

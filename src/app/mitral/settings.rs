@@ -35,6 +35,12 @@ pub struct Settings {
     pub cut_posteromedial: bool,
     /// Do not draw the figures.
     pub no_figures: bool,
+    /// With `--seg`: the anterior leaflet's label in the label map.
+    pub anterior_label: Option<i64>,
+    /// With `--seg`: the posterior leaflet's label.
+    pub posterior_label: Option<i64>,
+    /// With `--seg`: the annulus' label, if the map has one.
+    pub annulus_label: Option<i64>,
 }
 
 impl Default for Settings {
@@ -52,6 +58,9 @@ impl Default for Settings {
             tolerance_mm: None,
             cut_posteromedial: false,
             no_figures: false,
+            anterior_label: None,
+            posterior_label: None,
+            annulus_label: None,
         }
     }
 }
@@ -121,6 +130,9 @@ mod tests {
             "tolerance-mm",
             "cut-posteromedial",
             "no-figures",
+            "anterior-label",
+            "posterior-label",
+            "annulus-label",
         ] {
             assert!(v.get(key).is_some(), "{key} missing from {v}");
         }

@@ -31,10 +31,10 @@ pub struct MitralArgs {
     #[arg(long)]
     no_figures: bool,
     /// Anterior leaflet (triangle mesh, disk topology).
-    #[arg(long, value_name = "AL", required_unless_present = "series")]
+    #[arg(long, value_name = "AL", required_unless_present_any = ["series", "seg"])]
     anterior: Option<PathBuf>,
     /// Posterior leaflet (triangle mesh, disk topology).
-    #[arg(long, value_name = "PL", required_unless_present = "series")]
+    #[arg(long, value_name = "PL", required_unless_present_any = ["series", "seg"])]
     posterior: Option<PathBuf>,
     /// Annulus ring: a closed polyline (mesh file) or x,y,z lines (.csv .txt
     /// .xyz); without it, found from the leaflets' shared boundary.
@@ -44,6 +44,21 @@ pub struct MitralArgs {
     /// *posterior*, optional *annulus* files, paired by the rest of the name.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["anterior", "posterior", "annulus"])]
     series: Option<PathBuf>,
+    /// A label map (NIfTI or NRRD, any voxel size and affine): the leaflets'
+    /// atrial surfaces and the annulus ring are cut from it (needs
+    /// --anterior-label and --posterior-label).
+    #[arg(long, value_name = "LABELS", conflicts_with_all = ["anterior", "posterior", "annulus", "series"])]
+    seg: Option<PathBuf>,
+    /// With --seg: the anterior leaflet's label.
+    #[arg(long, value_name = "A", requires = "seg")]
+    anterior_label: Option<i64>,
+    /// With --seg: the posterior leaflet's label.
+    #[arg(long, value_name = "P", requires = "seg")]
+    posterior_label: Option<i64>,
+    /// With --seg: the annulus' label (without it, the plane and the atrial
+    /// side come from the leaflets).
+    #[arg(long, value_name = "N", requires = "seg")]
+    annulus_label: Option<i64>,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
@@ -91,6 +106,9 @@ impl MitralArgs {
             tolerance_mm: self.tolerance_mm,
             cut_posteromedial: self.cut_posteromedial,
             no_figures: self.no_figures,
+            anterior_label: self.anterior_label,
+            posterior_label: self.posterior_label,
+            annulus_label: self.annulus_label,
         }
     }
 
@@ -101,6 +119,7 @@ impl MitralArgs {
             posterior: self.posterior.clone(),
             annulus: self.annulus.clone(),
             series: self.series.clone(),
+            seg: self.seg.clone(),
             output: self.output.clone(),
         }
     }
@@ -121,7 +140,27 @@ pub fn run(a: &MitralArgs) -> Result<(), AppError> {
     let pipeline = settings.pipeline()?;
     let out = a.output.as_path();
     let figures = !settings.no_figures;
-    match a.files().check()? {
+    let job = a.files().check()?;
+    mitral::check_settings(&job, &settings)?;
+    match job {
+        Job::Seg(files) => {
+            let mut staged = StagedOutputs::new([&files.seg]);
+            let dir = staged.dir(out)?;
+            let run = mitral::seg::run_seg(
+                &files,
+                &settings,
+                &pipeline,
+                &Outputs {
+                    dir: &dir,
+                    staged: &staged,
+                },
+                figures,
+                &mut Progress::new(true),
+            )
+            .map_err(|e| shown(&staged, e))?;
+            staged.commit()?;
+            summary::valve(&run.outcome.report, out);
+        }
         Job::Valve(files) => {
             let mut staged = StagedOutputs::new(files.paths());
             let dir = staged.dir(out)?;

@@ -21,6 +21,7 @@ mod placenta;
 pub mod primitives;
 mod shell;
 mod valve;
+mod valve_labels;
 mod ventricle;
 
 #[cfg(test)]
@@ -30,6 +31,7 @@ pub use placenta::{PlacentaParams, PlacentaShape, placenta_slab, side};
 pub use primitives::{grid_disk, kuhn_grid, uv_sphere};
 pub use shell::{ShellParams, ShellShape, bowl_shell};
 pub use valve::{ValveParams, ValveShape, mitral_valve};
+pub use valve_labels::{ValveLabelParams, valve_labels};
 pub use ventricle::{VentricleParams, VentricleShape, ventricle_cup};
 
 use crate::MeshError;

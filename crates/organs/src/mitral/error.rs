@@ -16,12 +16,14 @@ mod contract;
 mod layout;
 mod maps;
 mod relax;
+mod segmentation;
 
 pub use annulus::AnnulusError;
 pub use contract::ContractError;
 pub use layout::{LayoutError, LayoutKind};
 pub use maps::MapsError;
 pub use relax::RelaxError;
+pub use segmentation::SegmentationError;
 
 use super::{ANTERIOR, POSTERIOR};
 use crate::OrganError;
@@ -53,6 +55,10 @@ pub enum MitralError {
     /// ([`maps`](super::maps)).
     #[error(transparent)]
     Maps(#[from] MapsError),
+    /// The leaflets could not be cut from a label map
+    /// ([`segmentation`](super::segmentation)).
+    #[error(transparent)]
+    Segmentation(#[from] SegmentationError),
     /// Internal invariant broken: a per-vertex or per-triangle map has
     /// different value types on the two leaflets, so the merged valve mesh
     /// cannot hold it (both come from the same code; please report).
@@ -120,7 +126,8 @@ into_organ_error!(
     AnnulusError,
     LayoutError,
     RelaxError,
-    MapsError
+    MapsError,
+    SegmentationError
 );
 
 /// A length in mm in messages: at most two decimals, trailing zeros

@@ -35,6 +35,7 @@ pub mod leaflet_repair;
 pub mod maps;
 mod pipeline;
 pub mod relax;
+pub mod segmentation;
 pub mod shared_boundary;
 
 pub use initializer::LeafletLayout;
@@ -43,7 +44,7 @@ pub use shared_boundary::{FoundAnnulus, annulus_from_leaflets};
 
 pub use error::{
     AnnulusError, ContractError, LayoutError, LayoutKind, LeafletSide, MapsError, MitralError,
-    RelaxError,
+    RelaxError, SegmentationError,
 };
 
 use serde::{Deserialize, Serialize};
