@@ -1,4 +1,4 @@
-//! Folds are visible everywhere (issue 35, point 5): a folded tet mesh (a
+//! Folds are visible everywhere (point 5): a folded tet mesh (a
 //! vertex dragged past its neighbour) and a folded flat triangle mesh are
 //! reported by `unfold info` (inverted and folded counts, `valid: no`,
 //! `--strict` fails), `unfold repair` refuses them instead of re-orienting

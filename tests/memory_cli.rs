@@ -126,7 +126,11 @@ fn runaway_mesher_flags_are_refused_before_allocating() {
         "--max-memory",
         "2G",
     ]);
-    assert_one_line_error(&o, "meshing the mask would need about");
+    // refused before meshing, by the prediction from the mask
+    assert_one_line_error(
+        &o,
+        "flattening the placenta (predicted from the mask before meshing) would need about",
+    );
     assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
     assert!((peak as f64) < 200.0 * MIB, "peak {peak} B");
 }

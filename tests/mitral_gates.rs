@@ -1,4 +1,4 @@
-//! The valve's repairs and quality gates through the binary (issue 35):
+//! The valve's repairs and quality gates through the binary:
 //! leaflets with holes that touch map flip-free, a saddle-shaped valve laid
 //! out by Tutte maps flip-free or stops naming the flag, and `report.json`
 //! lists every gate with its value; leaflets that do not span the ring stop
@@ -75,7 +75,7 @@ fn the_report_lists_every_gate_with_its_value() {
     assert_eq!(flipped, 0.0);
 }
 
-/// The case of issue 35: holes that touch at a vertex once got an edge of
+/// The case of an MRI-fitted LV: holes that touch at a vertex once got an edge of
 /// four triangles from the pipeline's own hole filling; now closed, the
 /// map flip-free, every gate passed.
 #[test]

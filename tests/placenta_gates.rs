@@ -1,4 +1,4 @@
-//! The placenta's quality gates through the binary (issue 35): a boundary
+//! The placenta's quality gates through the binary: a boundary
 //! that splits into a tiny and a huge side is refused naming the fix, a
 //! solve that ends where it began is refused, a right run lists every gate
 //! with its value in report.json; and `--seg` predicts its tets before

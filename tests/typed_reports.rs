@@ -1,4 +1,4 @@
-//! Reports read back typed (issue 37 point 4): every `report.json` a real
+//! Reports read back typed: every `report.json` a real
 //! small run writes (placenta with an image, ventricle, mitral valve and
 //! series, deform) reads back as its type and writes the same text again;
 //! and a cohort whose subject's report has a renamed field stops with one

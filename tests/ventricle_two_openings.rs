@@ -1,4 +1,4 @@
-//! `unfold ventricle` on an LV with two openings (issue 35), built from
+//! `unfold ventricle` on an LV with two openings, built from
 //! scratch: the built-in cup, whose basal rim is the mitral ring, with a
 //! smaller "aortic" opening cut into its wall just below the base, off to
 //! one side. The RV insertion points sit outside the wall beside the aortic

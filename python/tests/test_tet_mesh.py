@@ -40,8 +40,10 @@ def test_report_has_the_printed_figures(both):
     assert r["quality"]["tets"] == len(cli_mesh.cells_dict["tetra"])
     assert f"{r['quality']['tets']} tets, {r['quality']['vertices']} vertices" in out.stdout
     assert set(r) == {"mask", "mask_voxels", "mask_volume_mm3", "size_mm", "smooth_voxels",
-                      "dilate", "level", "graded_collapses", "components",
+                      "dilate", "level", "graded_collapses", "pinches", "components",
                       "dropped_components", "quality", "provenance"}
+    # a smooth ellipsoid touches itself nowhere: nothing to resolve
+    assert r["pinches"]["vertices_split"] == 0
     assert r["mask_voxels"] == int(np.count_nonzero(unfold.shapes.ellipsoid_mask(
         (12.0, 9.0, 6.0), spacing_mm=1.5)[0]))
 

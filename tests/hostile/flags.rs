@@ -112,7 +112,8 @@ fn mesher_flags() {
             "--max-memory",
             "2G",
         ]),
-        expect: "meshing the mask would need about",
+        // refused before meshing, by the prediction from the mask
+        expect: "flattening the placenta (predicted from the mask before meshing) would need about",
         max_peak_mib: 150.0,
         inputs: vec![wide.clone()],
         output: Some(p),

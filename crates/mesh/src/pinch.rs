@@ -1,4 +1,4 @@
-//! Resolving pinches of a tet mesh's boundary (issue 35; ALGORITHMS 2.8):
+//! Resolving pinches of a tet mesh's boundary (ALGORITHMS 2.8):
 //! the places where a mesh cut from a lattice touches itself, which
 //! [`crate::stuffing::check_closed_manifold`] refuses.
 //!

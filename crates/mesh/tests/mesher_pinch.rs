@@ -1,4 +1,4 @@
-//! The mesher never pinches (issue 35): masks whose smoothed level set is
+//! The mesher never pinches: masks whose smoothed level set is
 //! thinner than the lattice somewhere (two blobs touching at a voxel
 //! corner or edge, a neck one voxel wide, a diagonal chain of voxels,
 //! unions of random balls) mesh at every element size, fine to coarse:

@@ -1,5 +1,5 @@
 //! A subject's `report.json` read back as its organ's report type: the one
-//! way the cohort reads a report (issue 37). A renamed, missing or retyped
+//! way the cohort reads a report. A renamed, missing or retyped
 //! field is an error naming the file and the field, not a silently empty
 //! cell: serde reads the typed report (the report structs deny unknown
 //! fields), and a key of the file that the type does not have (a renamed

@@ -172,6 +172,9 @@ pub fn mesh_segmentation(
             "raise --size-mm (the tets grow as 1/size^3, graded as 1/size^2) or drop --dense",
         )?;
     }
+    // The mesher's own memory check first: a run it refuses is one line,
+    // without the warning before it.
+    m.check_memory(seg, &mask, &options)?;
     if prediction.is_large() {
         observer.warning(&format!(
             "{}: {}",
@@ -179,7 +182,6 @@ pub fn mesh_segmentation(
             prediction.note(size_mm, options.grade)
         ));
     }
-    m.check_memory(seg, &mask, &options)?;
     let segmented =
         from_segmentation(&mask, &options).map_err(|e| super::errors::organ(&label, e))?;
     drop(mask);

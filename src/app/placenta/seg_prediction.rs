@@ -1,5 +1,5 @@
 //! What `placenta --seg` will cost, predicted from the mask before it is
-//! meshed (issue 35: `--seg --dense` on a fine mask made 2.7M tets and ran
+//! meshed (a fetal-atlas case: `--seg --dense` on a fine mask made 2.7M tets and ran
 //! past 300 s and 3.8 GB with no warning).
 //!
 //! With `V` the mask's volume (voxels set times the voxel volume), `A` its
@@ -27,7 +27,7 @@ pub const TETS_PER_CUBE: f64 = 13.0;
 /// Tets of a graded mesh per `A / s^2`.
 pub const GRADED_TETS_PER_FACE: f64 = 10.0;
 /// Bytes a flattening takes per tet at its peak: 1.4 to 2.0 kB measured
-/// (3.8 GB for 2.7M tets in issue 35; 355 MB for 182k tets), kept above
+/// (3.8 GB for 2.7M tets in a fetal-atlas case; 355 MB for 182k tets), kept above
 /// both.
 pub const BYTES_PER_TET: f64 = 2_500.0;
 /// Tets a `placenta --seg` run gets through per second, meshing included:

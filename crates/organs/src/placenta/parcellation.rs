@@ -26,7 +26,7 @@
 //! surface) is parcellated; the vertices of any other piece (an internal
 //! cavity) stay [`side::INTERIOR`] and carry no template term.
 //!
-//! # Quality gates (issue 35)
+//! # Quality gates
 //!
 //! A split that cannot be right stops the run with one line naming the fix
 //! ([`crate::gate`]); every gate is listed in `report.json`:

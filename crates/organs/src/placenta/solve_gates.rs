@@ -1,4 +1,4 @@
-//! The quality gates of the placenta's solve (issue 35): a map that did not
+//! The quality gates of the placenta's solve: a map that did not
 //! move although it ends off the template, or one with a near-degenerate
 //! tet, is not a right map.
 //!
@@ -38,7 +38,7 @@ pub const ON_TEMPLATE_VOXELS: f64 = 0.5;
 /// percent of the diameter (0.05 on the demo, 0.04 on a voxelized disc);
 /// 1e-4 of it (0.02 mm on a 200 mm placenta, a fiftieth of a 1 mm voxel)
 /// is below any step a solver takes from a map off its optimum, so only a
-/// solve that did not move fails (issue 35: "converged in 0 iterations",
+/// solve that did not move fails (a fetal-atlas case: "converged in 0 iterations",
 /// the input rigidly moved).
 pub const MIN_MOVED: f64 = 1e-4;
 
@@ -47,7 +47,7 @@ pub const MIN_MOVED: f64 = 1e-4;
 /// the mesh's estimates), so a right map changes volumes by factors of a
 /// few (the demo's smallest `det J` is about 0.5 for every energy); a tet
 /// squashed to a ten-thousandth of its volume has collapsed, not flattened
-/// (`--energy mips` gave 4.5e-11 in issue 35), and the images sampled
+/// (`--energy mips` gave 4.5e-11 in a fetal-atlas case), and the images sampled
 /// through it would be smeared.
 pub const MIN_DET_J: f64 = 1e-4;
 

@@ -81,7 +81,7 @@ pub const FACING_MIN: f64 = 0.5;
 /// Two openings whose perimeters are within this ratio (`p_2 >= RATIO
 /// p_1`) are the same size for the anatomy's choice: a real LV's mitral
 /// ring is about 1.5-2 times its aortic ring's perimeter (the failing case
-/// of issue 35: 108 against 62 mm), so 0.85 leaves a wide margin on both
+/// of an MRI-fitted LV: 108 against 62 mm), so 0.85 leaves a wide margin on both
 /// sides.
 pub const SAME_SIZE_RATIO: f64 = 0.85;
 
