@@ -47,7 +47,7 @@ pub const MIN_MOVED: f64 = 1e-4;
 /// the mesh's estimates), so a right map changes volumes by factors of a
 /// few (the demo's smallest `det J` is about 0.5 for every energy); a tet
 /// squashed to a ten-thousandth of its volume has collapsed, not flattened
-/// (`--energy mips` gave 4.5e-11 in a fetal-atlas case), and the images sampled
+/// (`--energy mips` gave 4.5e-11 on the demo), and the images sampled
 /// through it would be smeared.
 pub const MIN_DET_J: f64 = 1e-4;
 

@@ -225,7 +225,7 @@ pub struct Outcome {
 /// 0.97 on the two-opening LV of `tests/ventricle_two_openings.rs` with its
 /// mitral ring as the base, against 0.081 with its aortic ring as the base
 /// (the mitral opening capped: the mid ring's areas spread from 198 to
-/// 2451 mm^2, an MRI-fitted LV). The segments of one ring have equal angles, so a
+/// 2451 mm^2). The segments of one ring have equal angles, so a
 /// right map gives them areas of one order whatever the chamber's length
 /// (a hemisphere's rings differ tenfold from each other, which is why the
 /// rings are not compared); a quarter leaves a factor of three on the wrong
