@@ -14,21 +14,9 @@ mod fixtures;
 use common::*;
 use fixtures::*;
 
+/// `unfold mitral` on the valve files.
 fn run_files(files: &[PathBuf; 3], out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "mitral".to_string(),
-        "--anterior".into(),
-        s(&files[0]),
-        "--posterior".into(),
-        s(&files[1]),
-        "--annulus".into(),
-        s(&files[2]),
-        "-o".into(),
-        s(out),
-    ];
-    args.extend(extra.iter().map(|x| x.to_string()));
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    unfold(&refs)
+    mitral_on_files(files, out, extra)
 }
 
 #[test]

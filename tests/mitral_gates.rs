@@ -16,22 +16,9 @@ mod fixtures;
 use common::*;
 use fixtures::*;
 
+/// `unfold mitral` on the valve files, without figures.
 fn run_files(files: &[PathBuf; 3], out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "mitral".to_string(),
-        "--anterior".into(),
-        s(&files[0]),
-        "--posterior".into(),
-        s(&files[1]),
-        "--annulus".into(),
-        s(&files[2]),
-        "-o".into(),
-        s(out),
-        "--no-figures".into(),
-    ];
-    args.extend(extra.iter().map(|x| x.to_string()));
-    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    unfold(&refs)
+    mitral_on_files(files, out, &[&["--no-figures"], extra].concat())
 }
 
 fn compact(m: &TriMesh) -> TriMesh {

@@ -125,3 +125,22 @@ pub fn run_heart(
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     unfold(&refs)
 }
+
+/// Runs `unfold mitral` on the valve files `[anterior, posterior, annulus]`
+/// into `out`, with the `extra` flags.
+pub fn mitral_on_files(files: &[std::path::PathBuf; 3], out: &Path, extra: &[&str]) -> Output {
+    let (a, p, r, o) = (s(&files[0]), s(&files[1]), s(&files[2]), s(out));
+    let mut args = vec![
+        "mitral",
+        "--anterior",
+        &a,
+        "--posterior",
+        &p,
+        "--annulus",
+        &r,
+        "-o",
+        &o,
+    ];
+    args.extend_from_slice(extra);
+    unfold(&args)
+}

@@ -753,6 +753,25 @@ struct Grid {
     nv: usize,
 }
 
+/// The cells of every component but the largest (the first of the largest
+/// on a tie), in component order.
+fn all_but_the_largest(comps: Vec<Vec<usize>>) -> Vec<usize> {
+    let Some(big) = comps
+        .iter()
+        .enumerate()
+        .max_by(|(i, a), (j, b)| a.len().cmp(&b.len()).then(j.cmp(i)))
+        .map(|(i, _)| i)
+    else {
+        return Vec::new();
+    };
+    comps
+        .into_iter()
+        .enumerate()
+        .filter(|&(i, _)| i != big)
+        .flat_map(|(_, comp)| comp)
+        .collect()
+}
+
 impl Grid {
     /// The 4-neighbours of point (or square) `i`.
     fn neighbours(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
@@ -825,18 +844,8 @@ impl Grid {
     /// relabelled).
     fn clean(&self, code: &mut [u8], height: &mut [f64]) -> (usize, usize) {
         // the seen points' largest component
-        let comps = self.components(|i| code[i] != NONE);
-        if let Some(big) = comps.iter().map(Vec::len).max() {
-            let mut first = true;
-            for comp in &comps {
-                if comp.len() == big && first {
-                    first = false;
-                    continue;
-                }
-                for &i in comp {
-                    code[i] = NONE;
-                }
-            }
+        for i in all_but_the_largest(self.components(|i| code[i] != NONE)) {
+            code[i] = NONE;
         }
         // the outline regularized: notches filled, spurs cut
         let mut filled = 0;
@@ -988,35 +997,15 @@ impl Grid {
             let mut round = 0;
             // the valve: squares meeting only at a corner lose one
             round += self.corner_contacts(quads, |l| l != NONE, |_| NONE);
-            let comps = self.components(|q| quads[q] != NONE);
-            if let Some(big) = comps.iter().map(Vec::len).max() {
-                let mut first = true;
-                for comp in &comps {
-                    if comp.len() == big && first {
-                        first = false;
-                        continue;
-                    }
-                    for &q in comp {
-                        quads[q] = NONE;
-                        round += 1;
-                    }
-                }
+            for q in all_but_the_largest(self.components(|q| quads[q] != NONE)) {
+                quads[q] = NONE;
+                round += 1;
             }
             for l in [ANT, POST] {
                 round += self.corner_contacts(quads, |x| x == l, |_| other(l));
-                let comps = self.components(|q| quads[q] == l);
-                if let Some(big) = comps.iter().map(Vec::len).max() {
-                    let mut first = true;
-                    for comp in &comps {
-                        if comp.len() == big && first {
-                            first = false;
-                            continue;
-                        }
-                        for &q in comp {
-                            quads[q] = other(l);
-                            round += 1;
-                        }
-                    }
+                for q in all_but_the_largest(self.components(|q| quads[q] == l)) {
+                    quads[q] = other(l);
+                    round += 1;
                 }
                 // the other leaflet's pieces that `l` encloses
                 for comp in self.components(|q| quads[q] == other(l)) {
@@ -1157,6 +1146,14 @@ mod tests {
     use crate::mitral::SegmentationError as E;
     use crate::mitral::{MitralError, Pipeline, ValveInput};
     use unfold_mesh::shapes::{ValveLabelParams, valve_labels};
+
+    #[test]
+    fn all_but_the_first_largest_component_is_dropped() {
+        let comps = vec![vec![1], vec![2, 3, 4], vec![5, 6], vec![7, 8, 9]];
+        assert_eq!(all_but_the_largest(comps), vec![1, 5, 6, 7, 8, 9]);
+        assert!(all_but_the_largest(Vec::new()).is_empty());
+        assert!(all_but_the_largest(vec![vec![1, 2]]).is_empty());
+    }
 
     const LABELS: LeafletLabels = LeafletLabels {
         anterior: 2,
