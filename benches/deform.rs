@@ -139,8 +139,8 @@ impl Bowl {
         let (deformed, seconds) = self.solve(weight);
         let r = deformed.report;
         assert!(r.converged, "{case}: did not converge: {r:?}");
-        assert_eq!(r.inverted_tets, 0, "{case}: inverted tets: {r:?}");
-        assert_eq!(r.folded_faces, 0, "{case}: folded faces: {r:?}");
+        assert_eq!(r.end.inverted, 0, "{case}: inverted tets: {r:?}");
+        assert_eq!(r.end.folded, 0, "{case}: folded faces: {r:?}");
 
         // The same problem through `Deform::run_with` (the mesh needs no
         // repair), for the objective after every iteration.
@@ -277,7 +277,7 @@ fn deform(c: &mut Criterion) {
         println!(
             "  {case:<15} {tets:>6} tets: {med:8.3} s (median of {runs}), {:3} iterations, \
              E = {:.12e} (target term {:.3e}), {} inverted",
-            r.iterations, r.objective, r.target_term, r.inverted_tets
+            r.iterations, r.objective, r.target_term, r.end.inverted
         );
     }
     println!("  problem files and results in {}", dir.display());

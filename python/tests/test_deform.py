@@ -49,11 +49,11 @@ def test_report_has_the_cli_keys(both, problem):
     cli_report = json.loads((d / "out.vtu.report.json").read_text())
     assert set(result.report) == set(cli_report)
     for key in ("mesh", "targets_file", "iterations", "converged", "targets", "repair",
-                "inverted_tets"):
+                "end"):
         assert result.report[key] == cli_report[key], key
     assert abs(result.report["objective"] - cli_report["objective"]) <= 1e-12
     assert result.report["provenance"]["interface"] == "python"
-    assert result.report["converged"] and result.report["inverted_tets"] == 0
+    assert result.report["converged"] and result.report["end"]["inverted"] == 0
     _, vertices, targets = problem
     assert np.abs(result.points[vertices] - targets).max() < 0.5
 

@@ -110,7 +110,7 @@ pub fn run(a: &DeformArgs) -> Result<(), AppError> {
         report.seconds,
         report.objective,
         report.distortion,
-        report.inverted_tets
+        report.end.inverted
     );
     if !report.converged {
         return Err(AppError::NotConverged {

@@ -1,15 +1,26 @@
-//! Deformation towards soft positional targets with the least distortion
-//! (`unfold deform`): the general injective-deformation problem
+//! Deformation with the least distortion (`unfold deform`): the general
+//! injective-mapping problem
 //!
 //! ```text
 //! minimize  sum_k V_k D(J_k)  +  W sum_b |x_b - t_b|^2
+//! subject to  x_h = x0_h for the fixed vertices h,  det J_k > 0
 //! ```
 //!
-//! over the positions `x` of a tet mesh, with `V_k` the rest volumes
+//! over the positions `x` of a tet mesh mapped into space or a triangle mesh
+//! (planar or a surface) mapped to the plane, with `V_k` the rest measures
 //! normalized to sum 1, `D` a [`DistortionEnergy`] of the Jacobian `J_k`
-//! of tet `k` against its rest shape (the input), and `t_b` the targets of
-//! some vertices ([`PointTargets`]). Every iterate keeps every tet
-//! positively oriented.
+//! of element `k` against its rest shape (the input), `t_b` soft targets of
+//! some vertices ([`PointTargets`]) and hard constraints: fixed vertices,
+//! eliminated from the unknowns, so they keep their starting positions bit
+//! for bit.
+//!
+//! The start is the rest shape (tets) or positions given with
+//! [`Deform::start`], which may be tangled: then the [`Untangler`] first
+//! finds a flip-free map with the fixed vertices in place, and the solver
+//! lowers the distortion from there, every iterate flip-free. This is the
+//! problem of the Locally Injective Mappings benchmark (Du et al. 2020,
+//! "Lifting Simplices to Find Injectivity"): a rest mesh, a tangled
+//! initial embedding and handles that must stay where they are.
 //!
 //! [`Deform`] is the pipeline as a value, built from its pieces:
 //!
@@ -19,6 +30,7 @@
 //!     .solver(GradientDescent)
 //!     .line_search(Backtracking::paper())
 //!     .weight(10.0)
+//!     .start(positions).fixed(handles)   // a tangled start, hard handles
 //!     .run(&mesh, &targets)?
 //! ```
 
@@ -28,16 +40,18 @@ use crate::linesearch::LineSearch;
 use crate::metrics::{folded_count, inverted_count, min_det_j};
 use crate::solver::{Executor, Observer, ProjectedNewton, Solver, StopReason, Stopping};
 use crate::template::PointTargets;
+use crate::untangle::{UntangleReport, Untangler};
 use crate::{DistortionEnergy, Objective, ParamError, ParamMesh, TemplateTerm};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::time::Instant;
-use unfold_mesh::TetMesh;
 use unfold_mesh::nalgebra::Point3;
+use unfold_mesh::{TetMesh, TriMesh};
 
 /// The deformation pipeline: its pieces and settings. Defaults: symmetric
 /// Dirichlet, the identity start, projected Newton with its default line
-/// search and stopping rules, `W = 1`.
+/// search and stopping rules, `W = 1`, no fixed vertex, the default
+/// [`Untangler`].
 #[derive(Debug)]
 pub struct Deform {
     energy: Box<dyn DistortionEnergy>,
@@ -46,6 +60,9 @@ pub struct Deform {
     solver: Box<dyn Solver>,
     stopping: Option<Stopping>,
     weight: f64,
+    start: Option<Vec<f64>>,
+    fixed: Vec<usize>,
+    untangler: Untangler,
 }
 
 impl Default for Deform {
@@ -57,7 +74,49 @@ impl Default for Deform {
             solver: Box::new(ProjectedNewton::default()),
             stopping: None,
             weight: 1.0,
+            start: None,
+            fixed: Vec::new(),
+            untangler: Untangler::default(),
         }
+    }
+}
+
+/// The rest shape of a deformation.
+#[derive(Debug, Clone, Copy)]
+pub enum RestShape<'a> {
+    /// A tet mesh, mapped into space (every tet positively oriented).
+    Tets(&'a TetMesh),
+    /// A triangle mesh, planar or a surface, mapped to the plane.
+    Triangles(&'a TriMesh),
+}
+
+/// Inverted and folded elements of a map, and its smallest `det J`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlipCounts {
+    /// Elements with `det J <= 0`.
+    pub inverted: usize,
+    /// Interior faces (tets) or edges (triangles) whose two elements lie on
+    /// the same side ([`crate::metrics::folded_count`]).
+    pub folded: usize,
+    /// Smallest `det J`.
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub min_det_j: f64,
+}
+
+impl FlipCounts {
+    /// The counts of the map `x` of `mesh`.
+    pub fn of(mesh: &ParamMesh, x: &[f64]) -> Self {
+        FlipCounts {
+            inverted: inverted_count(mesh, x),
+            folded: folded_count(mesh, x),
+            min_det_j: min_det_j(mesh, x),
+        }
+    }
+
+    /// Whether nothing is inverted or folded.
+    pub fn injective(&self) -> bool {
+        self.inverted == 0 && self.folded == 0
     }
 }
 
@@ -65,32 +124,52 @@ impl Default for Deform {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DeformReport {
+    /// Whether the result inverts and folds nothing and every fixed vertex
+    /// is exactly at its start: a locally injective map.
+    pub injective: bool,
     /// `distortion + target_term` at the result.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub objective: f64,
-    /// `sum_k V_k D(J_k)` (volume weights summing to 1).
+    /// `sum_k V_k D(J_k)` (rest measures summing to 1); infinite when a
+    /// barrier energy meets an inverted element.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub distortion: f64,
     /// `W sum_b |x_b - t_b|^2`.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub target_term: f64,
-    /// Iterations taken.
+    /// Iterations of the distortion solve.
     pub iterations: usize,
-    /// Wall-clock seconds: rest data, objective set-up and the solve.
+    /// Wall-clock seconds: rest data, untangling, objective set-up and the
+    /// solve.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
     /// Whether the solver met its convergence test.
     pub converged: bool,
-    /// Tets with `det J <= 0` at the result (0 for a valid map).
-    pub inverted_tets: usize,
-    /// Interior faces of the result whose two tets lie on the same side
-    /// ([`crate::metrics::folded_count`]; 0 for an injective map).
-    pub folded_faces: usize,
+    /// `"tets"` (mapped into space) or `"triangles"` (mapped to the plane).
+    pub elements: Cow<'static, str>,
+    /// Number of elements.
+    pub element_count: usize,
+    /// The map at the start: the rest shape or the given positions.
+    pub start: FlipCounts,
+    /// The map at the result.
+    pub end: FlipCounts,
+    /// The untangling of a start that inverted elements (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub untangle: Option<UntangleReport>,
+    /// Whether the start was mirrored (`y -> -y`) for the solve and back:
+    /// triangles given clockwise in the plane.
+    pub mirrored: bool,
+    /// Number of fixed vertices (hard constraints).
+    pub fixed: usize,
+    /// Largest distance of a fixed vertex from its start (0: they are
+    /// eliminated from the unknowns).
+    #[serde(with = "unfold_mesh::nan_as_null")]
+    pub fixed_error_max: f64,
     /// The solver's name.
     pub solver: Cow<'static, str>,
     /// The distortion energy's name.
     pub energy: Cow<'static, str>,
-    /// The initializer's name.
+    /// The initializer's name (`untangle` for a given start).
     pub initializer: Cow<'static, str>,
     /// The line search's name.
     pub line_search: Cow<'static, str>,
@@ -109,9 +188,6 @@ pub struct DeformReport {
     /// `|grad|_F` at the result.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub grad_norm: f64,
-    /// Smallest `det J` at the result.
-    #[serde(with = "unfold_mesh::nan_as_null")]
-    pub min_det_j: f64,
     /// Largest distance of a target vertex from its target.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub target_error_max: f64,
@@ -123,7 +199,8 @@ pub struct DeformReport {
 /// The deformed positions and the report.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeformOutcome {
-    /// The deformed positions, one per input vertex.
+    /// The deformed positions, one per input vertex (`z = 0` for a triangle
+    /// mesh mapped to the plane).
     pub positions: Vec<Point3<f64>>,
     /// The report.
     pub report: DeformReport,
@@ -141,7 +218,8 @@ impl Deform {
         self
     }
 
-    /// The starting map (it gets no pins).
+    /// The starting map when no [`start`](Self::start) is given (it gets no
+    /// pins).
     pub fn initializer(mut self, initializer: impl Initializer + 'static) -> Self {
         self.initializer = Box::new(initializer);
         self
@@ -171,37 +249,83 @@ impl Deform {
         self
     }
 
+    /// The starting positions, flat, 3 per vertex for tets and 2 (in the
+    /// plane) for triangles; tangled or not.
+    pub fn start(mut self, positions: Vec<f64>) -> Self {
+        self.start = Some(positions);
+        self
+    }
+
+    /// Vertices held exactly at their starting positions (hard constraints).
+    pub fn fixed(mut self, vertices: Vec<usize>) -> Self {
+        self.fixed = vertices;
+        self
+    }
+
+    /// The untangler's settings.
+    pub fn untangler(mut self, untangler: Untangler) -> Self {
+        self.untangler = untangler;
+        self
+    }
+
     /// The stopping rules a run uses: those given, else the solver's.
     pub fn effective_stopping(&self) -> Stopping {
         self.stopping
             .unwrap_or_else(|| self.solver.default_stopping())
     }
 
-    /// Deforms `mesh` (its shape is the rest state) towards `targets`
-    /// (`(vertex, position)` pairs).
+    /// Deforms the tet mesh `mesh` (its shape is the rest state) towards
+    /// `targets` (`(vertex, position)` pairs).
     ///
     /// # Errors
-    /// As [`Deform::run_with`].
+    /// As [`Deform::run_shape`].
     pub fn run(
         &self,
         mesh: &TetMesh,
         targets: &[(usize, [f64; 3])],
     ) -> Result<DeformOutcome, ParamError> {
-        self.run_with(mesh, targets, &mut crate::solver::NoObserver)
+        self.run_shape(
+            RestShape::Tets(mesh),
+            targets,
+            &mut crate::solver::NoObserver,
+        )
     }
 
-    /// [`Deform::run`], reporting every iteration to `observer`. Vertices
-    /// used by no tet and without a target carry no term: they stay where
-    /// the initializer put them.
+    /// [`Deform::run_shape`] of a tet mesh.
     ///
     /// # Errors
-    /// [`ParamError::Setting`] for a weight that is not finite and `> 0`;
-    /// [`ParamError::Mesh`] for an unusable mesh (inverted or degenerate
-    /// tets, bad indices); the target errors of [`PointTargets::from_pairs`];
-    /// the initializer's and the solver's errors.
+    /// As [`Deform::run_shape`].
     pub fn run_with(
         &self,
         mesh: &TetMesh,
+        targets: &[(usize, [f64; 3])],
+        observer: &mut dyn Observer,
+    ) -> Result<DeformOutcome, ParamError> {
+        self.run_shape(RestShape::Tets(mesh), targets, observer)
+    }
+
+    /// Deforms `rest` towards `targets` (`(vertex, position)` pairs; for
+    /// triangles the first two coordinates), reporting every iteration of
+    /// the distortion solve to `observer`. Vertices used by no element and
+    /// without a target carry no term: they stay at their start.
+    ///
+    /// A start that inverts elements is untangled first; when the untangler
+    /// finds no flip-free map, the distortion is not minimized and the
+    /// report says so (`injective: false`, `stop_reason: not_untangled`,
+    /// the positions the untangler's last), which is not an error.
+    ///
+    /// # Errors
+    /// [`ParamError::Setting`] for a weight that is not finite and `> 0` or
+    /// bad untangler settings; [`ParamError::Mesh`] for an unusable mesh
+    /// (inverted or degenerate rest elements, bad indices);
+    /// [`ParamError::Length`] for a start of the wrong size;
+    /// [`ParamError::PinOutOfRange`] / [`ParamError::PinRepeated`] for bad
+    /// fixed vertices, [`ParamError::PinNotFinite`] for a start that is not
+    /// finite; the target errors of [`PointTargets::from_pairs`]; the
+    /// initializer's and the solver's errors.
+    pub fn run_shape(
+        &self,
+        rest: RestShape<'_>,
         targets: &[(usize, [f64; 3])],
         observer: &mut dyn Observer,
     ) -> Result<DeformOutcome, ParamError> {
@@ -212,74 +336,174 @@ impl Deform {
                 expected: "finite and > 0",
             });
         }
+        self.untangler.validate()?;
         let t0 = Instant::now();
-        let n = mesh.num_vertices();
-        let rest = ParamMesh::from_tets(mesh)?;
-        let point_targets = PointTargets::from_pairs(n, 3, targets)?;
+        let (mesh, elements) = match rest {
+            RestShape::Tets(m) => (ParamMesh::from_tets(m)?, "tets"),
+            RestShape::Triangles(m) => (ParamMesh::from_triangles(m)?, "triangles"),
+        };
+        let (n, d) = (mesh.num_vertices(), mesh.dim());
+        let point_targets = PointTargets::from_pairs(n, d, targets)?;
+        let (mut x, initializer) = match &self.start {
+            Some(start) => {
+                if start.len() != d * n {
+                    return Err(ParamError::Length {
+                        what: "starting positions",
+                        expected: d * n,
+                        found: start.len(),
+                    });
+                }
+                if let Some(v) =
+                    (0..n).find(|&v| !start[d * v..d * v + d].iter().all(|c| c.is_finite()))
+                {
+                    return Err(ParamError::PinNotFinite { vertex: v as u32 });
+                }
+                (start.clone(), "untangle")
+            }
+            None => (
+                self.initializer
+                    .initialize(&mesh, &Constraints::default())?
+                    .x,
+                self.initializer.name(),
+            ),
+        };
+        let mut fixed = vec![false; n];
+        for &v in &self.fixed {
+            if v >= n {
+                return Err(ParamError::PinOutOfRange {
+                    vertex: v as u32,
+                    vertices: n,
+                });
+            }
+            if std::mem::replace(&mut fixed[v], true) {
+                return Err(ParamError::PinRepeated { vertex: v as u32 });
+            }
+        }
+        // Triangles given clockwise in the plane: solve the mirror image
+        // (y -> -y is exact, so fixed positions stay bit for bit).
+        let mirrored = d == 2 && signed_area(&mesh, &x) < 0.0;
+        let mirror = |x: &mut [f64]| {
+            if mirrored {
+                x.iter_mut().skip(1).step_by(2).for_each(|y| *y = -*y);
+            }
+        };
+        mirror(&mut x);
+        let mirrored_targets: Vec<(usize, [f64; 3])>;
+        let targets = if mirrored {
+            mirrored_targets = targets
+                .iter()
+                .map(|&(v, t)| (v, [t[0], -t[1], t[2]]))
+                .collect();
+            &mirrored_targets[..]
+        } else {
+            targets
+        };
+        let point_targets = if mirrored {
+            PointTargets::from_pairs(n, d, targets)?
+        } else {
+            point_targets
+        };
+        let x0 = x.clone();
         let labels = vec![0u8; n];
         let mut weights = vec![0.0; n];
         for &(v, _) in targets {
             weights[v] = self.weight;
         }
         let mut used = vec![false; n];
-        for t in &mesh.tets {
-            for &v in t {
+        for e in 0..mesh.num_elements() {
+            for &v in mesh.element(e) {
                 used[v as usize] = true;
             }
         }
-        let fixed: Vec<bool> = (0..n).map(|v| !used[v] && weights[v] == 0.0).collect();
-        let fixed: &[bool] = if fixed.iter().any(|&f| f) {
+        for v in 0..n {
+            if !used[v] && weights[v] == 0.0 {
+                fixed[v] = true;
+            }
+        }
+        let start_counts = FlipCounts::of(&mesh, &x);
+        let fixed_flags: &[bool] = if fixed.iter().any(|&f| f) {
             &fixed
         } else {
             &[]
         };
+        let untangle =
+            if start_counts.inverted > 0 || start_counts.min_det_j < crate::objective::MIN_DET_J {
+                Some(self.untangler.run(&mesh, &mut x, fixed_flags)?)
+            } else {
+                None
+            };
+        let stopping = self.effective_stopping();
+        let default_line_search = self.solver.default_line_search();
+        let line_search = self.line_search.as_deref().unwrap_or(&*default_line_search);
         let term = TemplateTerm {
             template: &point_targets,
             labels: &labels,
             weights: &weights,
         };
-        let mut objective = Objective::new(&rest, self.energy.as_ref(), 1.0, Some(term), fixed)?;
-        let mut x = self
-            .initializer
-            .initialize(&rest, &Constraints::default())?
-            .x;
-        let stopping = self.effective_stopping();
-        let default_line_search = self.solver.default_line_search();
-        let line_search = self.line_search.as_deref().unwrap_or(&*default_line_search);
-        let solved = Executor::new(self.solver.as_ref())
-            .line_search(line_search)
-            .stopping(stopping)
-            .observer(observer)
-            .run(&mut objective, &mut x, &mut [])?;
+        let mut objective =
+            Objective::new(&mesh, self.energy.as_ref(), 1.0, Some(term), fixed_flags)?;
+        let solved = if untangle.as_ref().is_none_or(|u| u.untangled) {
+            let solved = Executor::new(self.solver.as_ref())
+                .line_search(line_search)
+                .stopping(stopping)
+                .observer(observer)
+                .run(&mut objective, &mut x, &mut [])?;
+            (
+                solved.iterations,
+                solved.converged,
+                solved.reason,
+                solved.grad_norm,
+            )
+        } else {
+            (0, false, StopReason::NotUntangled, f64::NAN)
+        };
         let seconds = t0.elapsed().as_secs_f64();
         let distortion = objective.distortion(&x);
         let target_term = objective.template_value(&x, &[]);
         let (mut err_max, mut err_sq) = (0.0f64, 0.0);
         for (v, t) in targets {
-            let d2: f64 = (0..3).map(|c| (x[3 * v + c] - t[c]).powi(2)).sum();
+            let d2: f64 = (0..d).map(|c| (x[d * v + c] - t[c]).powi(2)).sum();
             err_max = err_max.max(d2.sqrt());
             err_sq += d2;
         }
+        let fixed_error_max = self
+            .fixed
+            .iter()
+            .map(|&v| {
+                (0..d)
+                    .map(|c| (x[d * v + c] - x0[d * v + c]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max);
+        let end = FlipCounts::of(&mesh, &x);
+        mirror(&mut x);
         let report = DeformReport {
+            injective: end.injective() && end.min_det_j > 0.0 && fixed_error_max == 0.0,
             objective: distortion + target_term,
             distortion,
             target_term,
-            iterations: solved.iterations,
+            iterations: solved.0,
             seconds,
-            converged: solved.converged,
-            inverted_tets: inverted_count(&rest, &x),
-            folded_faces: folded_count(&rest, &x),
+            converged: solved.1,
+            elements: elements.into(),
+            element_count: mesh.num_elements(),
+            start: start_counts,
+            end,
+            untangle,
+            mirrored,
+            fixed: self.fixed.len(),
+            fixed_error_max,
             solver: self.solver.name().into(),
             energy: self.energy.name().into(),
-            initializer: self.initializer.name().into(),
+            initializer: initializer.into(),
             line_search: line_search.name().into(),
             weight: self.weight,
             targets: targets.len(),
             tol: stopping.grad_tol,
             max_iterations: stopping.max_iterations,
-            stop_reason: solved.reason,
-            grad_norm: solved.grad_norm,
-            min_det_j: min_det_j(&rest, &x),
+            stop_reason: solved.2,
+            grad_norm: solved.3,
             target_error_max: err_max,
             target_error_rms: if targets.is_empty() {
                 0.0
@@ -287,12 +511,19 @@ impl Deform {
                 (err_sq / targets.len() as f64).sqrt()
             },
         };
-        Ok(DeformOutcome {
-            positions: x
-                .chunks_exact(3)
-                .map(|p| Point3::new(p[0], p[1], p[2]))
-                .collect(),
-            report,
-        })
+        let positions = x
+            .chunks_exact(d)
+            .map(|p| Point3::new(p[0], p[1], if d == 3 { p[2] } else { 0.0 }))
+            .collect();
+        Ok(DeformOutcome { positions, report })
     }
+}
+
+/// `sum_k det J_k |T_k|`: the signed mapped area (triangles) or volume.
+fn signed_area(mesh: &ParamMesh, x: &[f64]) -> f64 {
+    crate::metrics::det_j(mesh, x)
+        .iter()
+        .zip(&mesh.measure)
+        .map(|(d, m)| d * m)
+        .sum()
 }

@@ -238,6 +238,19 @@ pub enum ParamError {
         /// Its error.
         error: PieceError,
     },
+    /// The untangler stopped with elements still inverted: no flip-free map
+    /// was found from this start with these fixed vertices.
+    #[error(
+        "no flip-free map found: {inverted} elements still inverted after {stages} untangling stages (smallest det J {min_det:e})"
+    )]
+    NotUntangled {
+        /// Elements with `det J <= 0` left.
+        inverted: usize,
+        /// Stages run.
+        stages: usize,
+        /// The smallest `det J` left.
+        min_det: f64,
+    },
     /// An internal invariant failed (a bug: please report).
     #[error("internal error: {what} (please report)")]
     Internal {

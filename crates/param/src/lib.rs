@@ -33,8 +33,9 @@ pub mod objective;
 pub mod rest;
 pub mod solver;
 pub mod template;
+pub mod untangle;
 
-pub use deform::{Deform, DeformOutcome, DeformReport};
+pub use deform::{Deform, DeformOutcome, DeformReport, FlipCounts, RestShape};
 pub use energy::DistortionEnergy;
 pub use error::{Elements, ParamError, PieceError};
 pub use initializer::{Constraints, InitialMap, Initializer, Pin};
@@ -49,3 +50,4 @@ pub use solver::{
 pub use template::Template;
 pub use unfold_linalg as linalg;
 pub use unfold_mesh as mesh;
+pub use untangle::{Untangle, UntangleReport, Untangler};

@@ -803,8 +803,14 @@ impl<'a> Objective<'a> {
     /// [`MIN_DET_J`] (or to half its current value when it is already
     /// below): the solvers' flip bound (ALGORITHMS 1.3) with a margin that
     /// keeps every accepted iterate's orientation above rounding noise.
+    /// Infinite for an energy that
+    /// [admits inversion](DistortionEnergy::admits_inversion) (the
+    /// untangler's steps go through flips).
     pub fn max_step(&self, x: &[f64], dir: &[f64]) -> f64 {
         use crate::linesearch::{max_step_tets_above, max_step_tris_above};
+        if self.energy.admits_inversion() {
+            return f64::INFINITY;
+        }
         match &self.mesh.elements {
             RestElements::Tets { tets, .. } => max_step_tets_above(tets, x, dir, &self.floors),
             RestElements::Tris { tris, .. } => max_step_tris_above(tris, x, dir, &self.floors),

@@ -189,6 +189,32 @@ impl ParamMesh {
         }
     }
 
+    /// The same elements at `c` times the size (`c > 0`): rest positions
+    /// times `c`, `Dm^-1 / c`, measures times `c^d`, the weights unchanged.
+    /// A map's `J` against the scaled rest is `J / c`.
+    pub fn scaled(&self, c: f64) -> ParamMesh {
+        let cd = c.powi(self.dim() as i32);
+        ParamMesh {
+            rest: self
+                .rest
+                .iter()
+                .map(|p| Point3::from(p.coords * c))
+                .collect(),
+            elements: match &self.elements {
+                RestElements::Tets { tets, dm_inv } => RestElements::Tets {
+                    tets: tets.clone(),
+                    dm_inv: dm_inv.iter().map(|m| m / c).collect(),
+                },
+                RestElements::Tris { tris, dm_inv } => RestElements::Tris {
+                    tris: tris.clone(),
+                    dm_inv: dm_inv.iter().map(|m| m / c).collect(),
+                },
+            },
+            measure: self.measure.iter().map(|m| m * cd).collect(),
+            weight: self.weight.clone(),
+        }
+    }
+
     /// The identity map: rest positions (tets) as a flat `n * 3` vector.
     /// For triangles there is no identity into the plane; use an
     /// initializer.

@@ -50,6 +50,7 @@ mod svd;
 mod symmetric_dirichlet;
 #[cfg(test)]
 mod test_support;
+mod untangling;
 
 pub use arap::Arap;
 pub use area_ratio::AreaRatio;
@@ -61,6 +62,7 @@ pub use mips::Mips;
 pub use registry::{EnergyKind, energy_by_name};
 pub use svd::{signed_svd2, signed_svd3};
 pub use symmetric_dirichlet::SymmetricDirichlet;
+pub use untangling::{Untangling, chi, chi_derivatives};
 
 /// Largest number of singular values an energy is evaluated on (tets).
 const MAX_DIM: usize = 3;
@@ -163,6 +165,15 @@ pub trait DistortionEnergy: Send + Sync + Debug {
     /// inversion). Energies without a barrier rely on the injective line
     /// search alone.
     fn is_barrier(&self) -> bool;
+    /// Whether the energy is finite and smooth through inverted elements
+    /// and meant to be minimized from tangled maps (the untangler's
+    /// [`Untangling`]): the [`Executor`](crate::Executor) then accepts a
+    /// start that inverts elements and the solvers' steps are not bounded
+    /// by the first flip ([`Objective::max_step`](crate::Objective::max_step)
+    /// is infinite). False by default.
+    fn admits_inversion(&self) -> bool {
+        false
+    }
 }
 
 /// A boxed energy is an energy (every method forwarded, so an energy's own
@@ -201,6 +212,9 @@ impl<E: DistortionEnergy + ?Sized> DistortionEnergy for Box<E> {
     }
     fn is_barrier(&self) -> bool {
         (**self).is_barrier()
+    }
+    fn admits_inversion(&self) -> bool {
+        (**self).admits_inversion()
     }
 }
 

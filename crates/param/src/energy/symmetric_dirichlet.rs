@@ -112,7 +112,7 @@ impl DistortionEnergy for SymmetricDirichlet {
 
 /// The cofactor matrix, `cof(F)_ij = (-1)^(i+j) M_ij` (`M_ij` the minor
 /// without row `i` and column `j`), so that `F^-1 = cof(F)^T / det F`.
-fn cofactor3(f: &Matrix3<f64>) -> Matrix3<f64> {
+pub(super) fn cofactor3(f: &Matrix3<f64>) -> Matrix3<f64> {
     Matrix3::new(
         f.m22 * f.m33 - f.m23 * f.m32,
         f.m23 * f.m31 - f.m21 * f.m33,

@@ -81,7 +81,8 @@ impl<'a> Executor<'a> {
     ///
     /// # Errors
     /// [`ParamError::Length`] for a wrong `x`;
-    /// [`ParamError::InvertedStart`] when the start inverts an element;
+    /// [`ParamError::InvertedStart`] when the start inverts an element (unless
+    /// the energy [admits inversion](crate::DistortionEnergy::admits_inversion));
     /// [`ParamError::Setting`] for bad solver or line-search settings;
     /// [`ParamError::ObjectiveNotFinite`] when `phi` stops being finite;
     /// the solver's own errors (a factorization that fails).
@@ -105,7 +106,9 @@ impl<'a> Executor<'a> {
             .stopping
             .unwrap_or_else(|| self.solver.default_stopping());
         objective.check_len(x)?;
-        check_no_flips(objective.mesh(), x)?;
+        if !objective.energy().admits_inversion() {
+            check_no_flips(objective.mesh(), x)?;
+        }
         let mut state = State::new(x.to_vec(), theta.to_vec());
         self.solver.init(objective, &mut state)?;
         objective.update_theta(&state.x, &mut state.theta);

@@ -55,6 +55,9 @@ pub enum StopReason {
     TimeLimit,
     /// The line search found no decreasing step (numerically stationary).
     LineSearchFailed,
+    /// The start inverts elements and the untangler found no flip-free map
+    /// from it ([`crate::untangle`]); the distortion was not minimized.
+    NotUntangled,
 }
 
 impl StopReason {
