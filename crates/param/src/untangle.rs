@@ -357,6 +357,10 @@ mod tests {
     type Problem = (ParamMesh, Vec<f64>, Vec<bool>, Vec<f64>);
     type OnBoundary = Box<dyn Fn(&[f64]) -> bool>;
 
+    pub(super) fn tangled_grid_pub(dim: usize, n: usize, seed: u64) -> Problem {
+        tangled_grid(dim, n, seed)
+    }
+
     fn tangled_grid(dim: usize, n: usize, seed: u64) -> Problem {
         let mut mix = Mix(seed);
         let (mesh, on_boundary): (ParamMesh, OnBoundary) = if dim == 2 {
@@ -422,6 +426,35 @@ mod tests {
                 }
             }
             eprintln!("{dim}D n={n}: {r:?}");
+        }
+    }
+}
+#[cfg(test)]
+mod scratch {
+    #[test]
+    fn scratch_sizes() {
+        for (dim, n) in [(2usize, 100usize), (3, 15), (3, 19)] {
+            let (mesh, mut x, fixed, _) = super::tests::tangled_grid_pub(dim, n, 3);
+            let t = std::time::Instant::now();
+            let r = super::Untangler::default()
+                .run(&mesh, &mut x, &fixed)
+                .unwrap();
+            let t1 = t.elapsed().as_secs_f64();
+            // then SD
+            let sd = crate::energy::SymmetricDirichlet;
+            let mut obj = crate::Objective::new(&mesh, &sd, 1.0, None, &fixed).unwrap();
+            let solved = crate::Executor::new(&crate::ProjectedNewton::default())
+                .run(&mut obj, &mut x, &mut [])
+                .unwrap();
+            eprintln!(
+                "{dim}D n={n} elems={} untangle {t1:.2}s stages {} its {} | SD {} its {:?} total {:.2}s",
+                mesh.num_elements(),
+                r.stages,
+                r.iterations,
+                solved.iterations,
+                solved.reason,
+                t.elapsed().as_secs_f64()
+            );
         }
     }
 }

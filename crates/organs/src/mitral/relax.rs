@@ -45,7 +45,7 @@ use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
 use unfold_param::{
     DistortionEnergy, Executor, HessianLayout, LineSearch, Objective, ParamMesh, ProjectedNewton,
-    SolveReport, Solver, Stopping,
+    SolveReport, Solver, Stopping, Untangler,
 };
 
 /// Largest move of a vertex in one [`spring`] step, as a fraction of its
@@ -192,6 +192,11 @@ pub struct RelaxReport {
     /// sign opposite to the input's majority (see the module docs). Always
     /// 0 after [`symmetric_dirichlet`].
     pub flipped_triangles: usize,
+    /// Triangles flipped (or of zero area) in the starting layout that the
+    /// untangler (ALGORITHMS 1.7) made flip-free before the symmetric
+    /// Dirichlet solve; 0 for a flip-free start and for [`spring`].
+    #[serde(default)]
+    pub untangled_triangles: usize,
     /// Wall-clock seconds, input checks included.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub seconds: f64,
@@ -345,6 +350,7 @@ pub fn spring(
         iterations,
         converged: f_max <= tol,
         flipped_triangles: flipped_indices(&twice_signed_areas_2d(uv, &mesh.triangles), sign).len(),
+        untangled_triangles: 0,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -368,14 +374,16 @@ pub fn spring(
 /// None, fixed)`. `D` is infinite at `det J -> 0`, so every accepted
 /// iterate is flip-free.
 ///
-/// `uv` must be flip-free: every triangle of the same (majority)
-/// orientation with nonzero area; a clockwise layout is mirrored for the
-/// solve and back (module docs). Vertices in no triangle stay where they
+/// A `uv` with flipped or zero-area triangles (against the majority
+/// orientation) is untangled first with the fixed vertices in place
+/// ([`Untangler`], ALGORITHMS 1.7; counted in `untangled_triangles`); a
+/// clockwise layout is mirrored for the solve and back (module docs). Vertices in no triangle stay where they
 /// are. With every vertex fixed nothing is done (0 iterations, converged). Stops as set by `config` ([`SdConfig`]).
 ///
 /// # Errors
 /// `Config` for a bad `grad_tol`; `Mitral` ([`RelaxError`]) for wrong
-/// lengths, non-finite uv, a start with flipped or zero-area triangles (or,
+/// lengths, non-finite uv, a start with flipped or zero-area triangles that
+/// the untangler cannot make flip-free (or,
 /// never expected, a result with flipped triangles:
 /// [`RelaxError::InternalFlippedResult`]); `Param` / `Mesh` for an
 /// unusable 3D mesh or a failed solve. On error `uv` is unchanged.
@@ -489,21 +497,6 @@ pub fn minimize(
     let areas = twice_signed_areas_2d(uv, &mesh.triangles);
     let sign = majority_sign(&areas);
     let bad = flipped_indices(&areas, sign);
-    if let Some(&first) = bad.first() {
-        return Err(RelaxError::FlippedStart {
-            flipped: bad.len(),
-            triangles: areas.len(),
-            first,
-        }
-        .into());
-    }
-    let done = |iterations: usize, converged: bool| RelaxReport {
-        method: "sd".into(),
-        iterations,
-        converged,
-        flipped_triangles: 0,
-        seconds: t0.elapsed().as_secs_f64(),
-    };
     // Vertices in no triangle have no energy (and a singular Hessian
     // block): they stay where they are, like the fixed ones.
     let mut pinned = vec![true; fixed.len()];
@@ -512,10 +505,32 @@ pub fn minimize(
             pinned[v as usize] = fixed[v as usize];
         }
     }
+    let mut x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
+    // A folded start is untangled first (ALGORITHMS 1.7), the fixed
+    // vertices in place; refused only when that finds no flip-free layout.
+    if let Some(&first) = bad.first() {
+        let untangled =
+            !pinned.iter().all(|&f| f) && Untangler::default().run(&pm, &mut x, &pinned)?.untangled;
+        if !untangled {
+            return Err(RelaxError::FlippedStart {
+                flipped: bad.len(),
+                triangles: areas.len(),
+                first,
+            }
+            .into());
+        }
+    }
+    let done = |iterations: usize, converged: bool| RelaxReport {
+        method: "sd".into(),
+        iterations,
+        converged,
+        flipped_triangles: 0,
+        untangled_triangles: bad.len(),
+        seconds: t0.elapsed().as_secs_f64(),
+    };
     if pinned.iter().all(|&f| f) {
         return Ok(done(0, true));
     }
-    let mut x: Vec<f64> = uv.iter().flat_map(|q| [sign * q[0], q[1]]).collect();
     let total_area: f64 = pm.measure.iter().sum();
     let mut objective = Objective::new(&pm, pieces.energy, 1.0, None, &pinned)?;
     if let Some(cache) = cache {
@@ -1101,10 +1116,16 @@ mod tests {
         let (uv_sd, r_sd) = sd(&c);
         assert!(r_sd.converged);
         assert_eq!((r_sd.flipped_triangles, inverted(&c.mesh, &uv_sd)), (0, 0));
-        // A flipped spring result is no valid start for sd.
-        let err = symmetric_dirichlet(&c.mesh, &mut uv.clone(), &c.fixed, &SdConfig::default())
-            .unwrap_err();
-        assert!(err.to_string().contains("flipped"), "{err}");
+        // A flipped spring result is untangled by sd first, then relaxed.
+        let mut from_spring = uv.clone();
+        let r =
+            symmetric_dirichlet(&c.mesh, &mut from_spring, &c.fixed, &SdConfig::default()).unwrap();
+        assert_eq!(r.untangled_triangles, inverted(&c.mesh, &uv), "{r:?}");
+        assert_eq!(
+            (r.flipped_triangles, inverted(&c.mesh, &from_spring)),
+            (0, 0)
+        );
+        assert_fixed_unchanged(&c, &from_spring);
     }
 
     #[test]
@@ -1220,20 +1241,43 @@ mod tests {
     }
 
     #[test]
-    fn sd_rejects_a_flipped_or_degenerate_start() {
+    fn sd_untangles_a_folded_start_and_refuses_one_it_cannot_move() {
         let c = leaflet(&coarse(), true);
         // Swap a free vertex with its neighbour down the column: the
-        // triangles between them flip.
-        let mut bad = c.uv.clone();
+        // triangles between them flip; a collapsed triangle has zero area.
         let s = mitral_valve(&coarse()).unwrap();
         let (a, b) = (
             s.anterior_longitudes[5][1] as usize,
             s.anterior_longitudes[5][2] as usize,
         );
+        let mut swapped = c.uv.clone();
+        swapped.swap(a, b);
+        let mut collapsed = c.uv.clone();
+        let t = c.mesh.triangles[7];
+        collapsed[t[2] as usize] = collapsed[t[1] as usize];
+        for start in [swapped, collapsed] {
+            let mut uv = start.clone();
+            let r = symmetric_dirichlet(&c.mesh, &mut uv, &c.fixed, &SdConfig::default()).unwrap();
+            assert!(r.untangled_triangles > 0, "{r:?}");
+            assert_eq!(r.flipped_triangles, 0);
+            let pm = ParamMesh::from_triangles(&c.mesh).unwrap();
+            let areas = twice_signed_areas_2d(&uv, &c.mesh.triangles);
+            let sign = majority_sign(&areas);
+            assert!(flipped_indices(&areas, sign).is_empty());
+            assert_eq!(pm.num_elements(), areas.len());
+            for (v, &f) in c.fixed.iter().enumerate() {
+                if f {
+                    assert_eq!(uv[v][0].to_bits(), start[v][0].to_bits());
+                    assert_eq!(uv[v][1].to_bits(), start[v][1].to_bits());
+                }
+            }
+        }
+        // With every vertex fixed nothing can move: refused, uv unchanged.
+        let mut bad = c.uv.clone();
         bad.swap(a, b);
         let before = bad.clone();
-        let err =
-            symmetric_dirichlet(&c.mesh, &mut bad, &c.fixed, &SdConfig::default()).unwrap_err();
+        let all = vec![true; c.fixed.len()];
+        let err = symmetric_dirichlet(&c.mesh, &mut bad, &all, &SdConfig::default()).unwrap_err();
         let OrganError::Mitral(MitralError::Relax(RelaxError::FlippedStart {
             flipped,
             triangles,
@@ -1245,19 +1289,9 @@ mod tests {
         assert!(flipped > 0 && first < triangles, "{err:?}");
         assert_eq!(triangles, c.mesh.triangles.len());
         let msg = err.to_string();
-        assert!(
-            msg.contains("flipped") && msg.contains("flip-free start"),
-            "{msg}"
-        );
+        assert!(msg.contains("flipped") && msg.contains("untangl"), "{msg}");
         assert!(!msg.contains('\n'));
         assert_eq!(flat(&bad), flat(&before));
-        // A collapsed triangle (zero area) is no valid start either.
-        let mut flat_tri = c.uv.clone();
-        let t = c.mesh.triangles[7];
-        flat_tri[t[2] as usize] = flat_tri[t[1] as usize];
-        let err = symmetric_dirichlet(&c.mesh, &mut flat_tri, &c.fixed, &SdConfig::default())
-            .unwrap_err();
-        assert!(err.to_string().contains("zero-area"), "{err}");
     }
 
     #[test]

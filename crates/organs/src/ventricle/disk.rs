@@ -31,6 +31,10 @@ pub struct DiskMap {
     /// The apex warp used: `"thin-plate spline"` (the rim kept in place), or
     /// `"mobius"` when the spline folded triangles (see [`lv_disk`]).
     pub apex_warp: &'static str,
+    /// Whether folds left by the warp were untangled with every pin fixed
+    /// (ALGORITHMS 1.7): `"yes"`, `"no"` (nothing folded) or `"failed"`
+    /// (the folds are counted in `flipped_triangles`).
+    pub untangled: &'static str,
 }
 
 /// The LV disk map (ALGORITHMS 3.2), by the disk initializer `disk`
@@ -119,6 +123,7 @@ fn map_disk(
         weights: start.detail("weights").unwrap_or(disk.name()),
         mirrored,
         apex_warp: start.detail("apex warp").unwrap_or(disk.name()),
+        untangled: start.detail("untangled").unwrap_or("no"),
     })
 }
 
@@ -389,6 +394,47 @@ mod tests {
                 "{q:?}"
             );
         }
+    }
+
+    #[test]
+    fn an_rv_apex_near_the_rim_is_untangled_with_every_pin_in_place() {
+        // No Mobius warp for the half disk: the spline that pulls an apex
+        // a few rings below the rim to (1.75, 0) folds, and the untangler
+        // makes the map flip-free with the rim and the apex exact.
+        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let s = &cup.surface;
+        let mut by_height: Vec<(f64, usize)> = s
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(v, p)| (p.z, v))
+            .collect();
+        by_height.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let apex = s.positions[by_height[by_height.len() / 20].1];
+        let l = Landmarks::resolve(
+            s,
+            &cup.anterior,
+            &cup.inferior,
+            Some(&apex),
+            DEFAULT_SNAP_MM,
+        )
+        .unwrap();
+        let d = rv_half_disk(s, &l, &HarmonicDisk).unwrap();
+        assert_eq!(d.apex_warp, "thin-plate spline");
+        assert_eq!(d.untangled, "yes");
+        assert_eq!(d.flipped_triangles, 0);
+        assert_eq!(d.uv[l.apex as usize], [1.75, 0.0]);
+        assert_eq!(d.uv[l.rim[l.anterior] as usize], [1.25, 1.0]);
+        for &v in &l.rim {
+            let q = d.uv[v as usize];
+            let on_edge = (q[0] - 1.25).abs() < 1e-12 && q[1].abs() <= 1.0 + 1e-12;
+            let on_arc = ((q[0] - 1.25).hypot(q[1]) - 1.0).abs() < 1e-12;
+            assert!(on_edge || on_arc, "{q:?}");
+        }
+        // The default apex needs no untangling.
+        let l0 =
+            Landmarks::resolve(s, &cup.anterior, &cup.inferior, None, DEFAULT_SNAP_MM).unwrap();
+        assert_eq!(rv_half_disk(s, &l0, &HarmonicDisk).unwrap().untangled, "no");
     }
 
     #[test]

@@ -23,7 +23,7 @@ use unfold_mesh::TriMesh;
 use unfold_mesh::geometry::flipped_triangles;
 use unfold_mesh::topology::disk_boundary_loop;
 use unfold_param::initializer::{DiskBoundary, TutteDisk, TutteWeights};
-use unfold_param::{Constraints, InitialMap, Initializer, ParamError, ParamMesh, Pin};
+use unfold_param::{Constraints, InitialMap, Initializer, ParamError, ParamMesh, Pin, Untangler};
 
 /// The label of the first rim landmark (the anterior RV insertion point of
 /// an LV, the first septal corner of an RV).
@@ -49,9 +49,13 @@ pub const APEX: u8 = 3;
 ///    slides along the circle; the map is then turned so that the bisector
 ///    of the [`ANTERIOR`] and [`INFERIOR`] landmarks is back on +x.
 ///
+/// 4. when folds remain, the untangler (ALGORITHMS 1.7) with every pin
+///    fixed, so the rim and the apex stay exactly where they are pinned.
+///
 /// Details: `("weights", "cotangent" | "mean-value")`,
-/// `("apex warp", "thin-plate spline" | "mobius" | "none")`. The result's
-/// flips are not an error here (the pipeline decides).
+/// `("apex warp", "thin-plate spline" | "mobius" | "none")`,
+/// `("untangled", "yes" | "no" | "failed")`. The result's flips are not an
+/// error here (the pipeline decides).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct HarmonicDisk;
 
@@ -122,11 +126,50 @@ impl Initializer for HarmonicDisk {
                 (warped, warp) = (m, "mobius");
             }
         }
-        let mut start = InitialMap::new(warped.iter().flatten().copied().collect());
+        let mut x: Vec<f64> = warped.iter().flatten().copied().collect();
+        let untangled = if flipped_triangles(&warped, &surface.triangles) > 0 {
+            untangle_with_pins(mesh, &mut x, constraints.pins)?
+        } else {
+            "no"
+        };
+        let mut start = InitialMap::new(x);
         start.details.push(("weights", weights));
         start.details.push(("apex warp", warp));
+        start.details.push(("untangled", untangled));
         Ok(start)
     }
+}
+
+/// Untangles the disk map `x` (flat uv) with every pin fixed (ALGORITHMS
+/// 1.7), in the orientation the map mostly has (a clockwise map is
+/// mirrored `v -> -v` for the untangler and back, exactly). `"yes"` when it
+/// ends flip-free (`x` replaced), `"failed"` otherwise (`x` kept).
+fn untangle_with_pins(
+    mesh: &ParamMesh,
+    x: &mut [f64],
+    pins: &[Pin],
+) -> Result<&'static str, ParamError> {
+    let dets = unfold_param::metrics::det_j(mesh, x);
+    let signed: f64 = dets.iter().zip(&mesh.measure).map(|(d, m)| d * m).sum();
+    let mut y = x.to_vec();
+    let mirror = |y: &mut [f64]| {
+        if signed < 0.0 {
+            y.iter_mut().skip(1).step_by(2).for_each(|v| *v = -*v);
+        }
+    };
+    mirror(&mut y);
+    let mut fixed = vec![false; mesh.num_vertices()];
+    for p in pins {
+        if let Some(f) = fixed.get_mut(p.vertex as usize) {
+            *f = true;
+        }
+    }
+    if !Untangler::default().run(mesh, &mut y, &fixed)?.untangled {
+        return Ok("failed");
+    }
+    mirror(&mut y);
+    x.copy_from_slice(&y);
+    Ok("yes")
 }
 
 /// `uv` warped by the thin-plate spline through the rim pins (kept) and the

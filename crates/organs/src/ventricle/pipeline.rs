@@ -175,6 +175,10 @@ pub struct Report {
     pub disk_weights: Cow<'static, str>,
     /// The apex warp (`thin-plate spline` or `mobius`).
     pub apex_warp: Cow<'static, str>,
+    /// Whether folds left by the apex warp were untangled with every pin
+    /// fixed (`yes`, `no`: nothing folded, `failed`; ALGORITHMS 1.7).
+    #[serde(default = "untangled_no")]
+    pub disk_untangled: Cow<'static, str>,
     /// What the repair of S changed.
     pub surface_repair: RepairReport,
     /// Distances from the given landmarks to the vertices they snapped to,
@@ -496,6 +500,7 @@ fn outcome(
         disk_map: disk_map.into(),
         disk_weights: chart.disk().weights.into(),
         apex_warp: chart.disk().apex_warp.into(),
+        disk_untangled: chart.disk().untangled.into(),
         surface_repair: *chart.repair(),
         landmark_snap_mm: chart.landmarks().snap_distances_mm,
         apex_mm: [apex.x, apex.y, apex.z],
@@ -527,4 +532,10 @@ fn outcome(
         disk,
         report,
     })
+}
+
+/// `"no"`: the default of `disk_untangled` in reports written before it
+/// existed.
+fn untangled_no() -> Cow<'static, str> {
+    "no".into()
 }

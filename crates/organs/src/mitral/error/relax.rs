@@ -33,10 +33,11 @@ pub enum RelaxError {
         uv: [f64; 2],
     },
     /// The symmetric Dirichlet relaxation got a start with flipped or
-    /// zero-area triangles.
+    /// zero-area triangles that the untangler could not make flip-free.
     #[error(
         "relax: the starting layout has {flipped} flipped or zero-area triangles of {triangles} \
-         (first: triangle {first}); the symmetric Dirichlet relaxation needs a flip-free start"
+         (first: triangle {first}) and untangling it with the annulus fixed found no flip-free \
+         layout; the symmetric Dirichlet relaxation needs a flip-free start"
     )]
     FlippedStart {
         /// Triangles not of the majority orientation (or zero or NaN area).
