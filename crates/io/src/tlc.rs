@@ -121,6 +121,34 @@ impl InjectivityProblem {
     }
 }
 
+impl From<&unfold_mesh::shapes::TangledCase> for InjectivityProblem {
+    /// A generated case as a benchmark problem: its rest mesh, its `init`,
+    /// its elements and its handles (`fixed`). Tets are 3D to 3D;
+    /// triangles map into the plane (`init_dim = 2`), from a 2D rest when
+    /// every rest `z` is 0 and a 3D one otherwise.
+    fn from(c: &unfold_mesh::shapes::TangledCase) -> Self {
+        let rest: Vec<[f64; 3]> = c.rest_positions.iter().map(|q| [q.x, q.y, q.z]).collect();
+        let (cells, rest_dim, init_dim) = if c.is_tets() {
+            (Cells::Tets(c.tets.clone()), 3, 3)
+        } else {
+            let flat = rest.iter().all(|x| x[2] == 0.0);
+            (
+                Cells::Triangles(c.triangles.clone()),
+                if flat { 2 } else { 3 },
+                2,
+            )
+        };
+        InjectivityProblem {
+            rest,
+            rest_dim,
+            init: c.init.clone(),
+            init_dim,
+            cells,
+            handles: c.fixed.clone(),
+        }
+    }
+}
+
 /// What is wrong with an injectivity problem file. `line` is 1-based.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
@@ -684,6 +712,94 @@ mod tests {
         // It round-trips bit for bit.
         let text = format_injectivity_problem(&p).unwrap();
         assert_eq!(parse_injectivity_problem(&text).unwrap(), p);
+    }
+
+    #[test]
+    fn the_vendored_example_is_a_disk_with_its_handles_on_the_boundary() {
+        use unfold_mesh::topology::{boundary_loops, euler_characteristic};
+        let p = read_injectivity_problem(Path::new(EXAMPLE)).unwrap();
+        let Cells::Triangles(t) = &p.cells else {
+            panic!("triangles expected")
+        };
+        let pts = p.rest.iter().map(|&x| x.into()).collect();
+        let mesh = unfold_mesh::TriMesh::new(pts, t.clone());
+        assert!(mesh.validate().is_ok());
+        assert_eq!(euler_characteristic(&mesh), 1);
+        let loops = boundary_loops(&mesh).unwrap();
+        assert_eq!(loops.len(), 1);
+        let on_boundary = |h: &u32| loops[0].contains(h);
+        let n_on = p.handles.iter().filter(|h| on_boundary(h)).count();
+        let zero = (0..p.cells.len())
+            .filter(|&c| p.init_signed_content(c) == 0.0)
+            .count();
+        println!(
+            "tlc-pn example: a disk, boundary loop of {} vertices, {n_on} of {} handles on it; \
+             {zero} init triangles of zero area",
+            loops[0].len(),
+            p.handles.len()
+        );
+        assert_eq!(n_on, p.handles.len());
+    }
+
+    #[test]
+    fn generated_cases_write_and_read_back() {
+        use unfold_mesh::shapes::{Handles, TangledKind, TangledParams, tangled_case};
+        let dir = tempfile::tempdir().unwrap();
+        for (kind, dims) in [
+            (TangledKind::Planar, (2, 2)),
+            (TangledKind::SurfaceToPlane, (3, 2)),
+            (TangledKind::Tets, (3, 3)),
+        ] {
+            let case = tangled_case(&TangledParams {
+                kind,
+                elements: 200,
+                handles: Handles::Sparse { fraction: 0.1 },
+                scramble: 0.5,
+                seed: 4,
+            })
+            .unwrap();
+            let p = InjectivityProblem::from(&case);
+            assert_eq!((p.rest_dim, p.init_dim), dims);
+            assert_eq!(p.inverted_in_init(), case.inverted_in_init());
+            let path = dir.path().join("case.input");
+            write_injectivity_problem(&path, &p).unwrap();
+            assert_eq!(read_injectivity_problem(&path).unwrap(), p);
+        }
+    }
+
+    /// The construction of TLC-QN's example problem (a 3 x 3 x 3 grid of
+    /// the unit cube, 6 tets per box; the 8 interior vertices reflected
+    /// through the centre, `p -> 1 - p`, in init; the 56 boundary vertices
+    /// are the handles), rebuilt from our own Kuhn grid: that repository
+    /// has no licence, so its file is not copied. Its layout (values
+    /// aligned with runs of spaces) is read by the same parser.
+    #[test]
+    fn the_tlc_qn_example_rebuilt_reads_back_tangled() {
+        let grid = unfold_mesh::shapes::kuhn_grid([3, 3, 3], [1.0 / 3.0; 3]);
+        let rest: Vec<[f64; 3]> = grid.positions.iter().map(|q| [q.x, q.y, q.z]).collect();
+        let interior = |x: &[f64; 3]| x.iter().all(|&c| c > 0.1 && c < 0.9);
+        let init: Vec<[f64; 3]> = rest
+            .iter()
+            .map(|x| if interior(x) { x.map(|c| 1.0 - c) } else { *x })
+            .collect();
+        let handles: Vec<u32> = (0..64).filter(|&v| !interior(&rest[v as usize])).collect();
+        let p = InjectivityProblem {
+            rest,
+            rest_dim: 3,
+            init,
+            init_dim: 3,
+            cells: Cells::Tets(grid.tets.clone()),
+            handles,
+        };
+        let text = format_injectivity_problem(&p).unwrap().replace('\t', "   ");
+        let q = parse_injectivity_problem(&text).unwrap();
+        assert_eq!(q, p);
+        assert_eq!((q.cells.len(), q.handles.len()), (162, 56));
+        let inverted = q.inverted_in_init();
+        println!(
+            "the TLC-QN example rebuilt: 64 vertices, 162 tets, 56 handles, {inverted} tets inverted in init"
+        );
+        assert!(inverted > 0);
     }
 
     #[test]
