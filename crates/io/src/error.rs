@@ -113,6 +113,15 @@ pub enum IoError {
         /// What is wrong with it.
         source: crate::markups::MarkupsError,
     },
+    /// The file is not a usable injectivity problem (the benchmark's
+    /// rest / init / simplices / handles file).
+    #[error("{path}: {source}")]
+    Tlc {
+        /// The file.
+        path: FilePath,
+        /// What is wrong with it, and on which line.
+        source: crate::tlc::TlcError,
+    },
 }
 
 impl IoError {
@@ -142,7 +151,8 @@ impl IoError {
             | IoError::Unsupported { path, .. }
             | IoError::Mesh { path, .. }
             | IoError::DecompressedSize { path, .. }
-            | IoError::Markups { path, .. } => path,
+            | IoError::Markups { path, .. }
+            | IoError::Tlc { path, .. } => path,
         }
     }
 

@@ -4,8 +4,11 @@
 //! VTK XML `.vtu` / `.vtp` (ASCII, inline base64, appended raw or base64,
 //! zlib), PLY, OBJ, STL, OFF, Medit `.mesh`, Gmsh `.msh` (read). Images:
 //! NIfTI-1 `.nii` / `.nii.gz`, NRRD `.nrrd` / `.nhdr` / `.seg.nrrd`.
-//! Landmarks: 3D Slicer markups `.mrk.json` and `.fcsv` ([`markups`]). The
-//! format is chosen by file extension. An image's header can be read alone
+//! Landmarks: 3D Slicer markups `.mrk.json` and `.fcsv` ([`markups`]).
+//! The format is chosen by file extension. Injectivity problems, the TLC
+//! benchmark's rest / init / simplices / handles text file, have no
+//! extension of their own and are read by [`read_injectivity_problem`]
+//! ([`tlc`]). An image's header can be read alone
 //! ([`read_image_header`]) and its values streamed in bounded memory
 //! ([`scan_image_values`], [`image_value_summary`]).
 //!
@@ -31,6 +34,7 @@ pub mod off;
 mod options;
 pub mod ply;
 pub mod stl;
+pub mod tlc;
 pub mod vtk_legacy;
 pub mod vtk_xml;
 
@@ -46,3 +50,7 @@ pub use image_values::{ValueSummary, image_value_summary, scan_image_values};
 pub use markups::{Markups, MarkupsError, read_markups};
 pub use nifti::{Datatype, NiftiImage};
 pub use options::{LegacyVersion, WriteOptions, XmlEncoding};
+pub use tlc::{
+    Cells, InjectivityProblem, TlcError, format_injectivity_problem, parse_injectivity_problem,
+    read_injectivity_problem, write_injectivity_problem,
+};

@@ -15,11 +15,17 @@
 //!   landmarks ([`VentricleShape`]).
 //! - [`mitral_valve`]: a saddle-shaped D annulus with two longitude-structured
 //!   leaflets that coapt without intersecting ([`ValveShape`]).
+//! - [`tangled_case`]: an untangling problem that is feasible by
+//!   construction: a planar, surface or tet rest mesh, a known injective
+//!   map of it, and a tangled start that agrees with it at the handles
+//!   ([`TangledCase`]). Its randomness is a seeded [`SplitMix64`], so it too
+//!   is deterministic.
 
 mod layered;
 mod placenta;
 pub mod primitives;
 mod shell;
+mod tangled;
 mod valve;
 mod valve_labels;
 mod ventricle;
@@ -30,6 +36,7 @@ mod test_util;
 pub use placenta::{PlacentaParams, PlacentaShape, placenta_slab, side};
 pub use primitives::{grid_disk, kuhn_grid, uv_sphere};
 pub use shell::{ShellParams, ShellShape, bowl_shell};
+pub use tangled::{Handles, SplitMix64, TangledCase, TangledKind, TangledParams, tangled_case};
 pub use valve::{ValveParams, ValveShape, mitral_valve};
 pub use valve_labels::{ValveLabelParams, valve_labels};
 pub use ventricle::{VentricleParams, VentricleShape, ventricle_cup};
