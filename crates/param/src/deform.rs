@@ -379,9 +379,10 @@ impl Deform {
                 return Err(ParamError::PinRepeated { vertex: v as u32 });
             }
         }
-        // Triangles given clockwise in the plane: solve the mirror image
-        // (y -> -y is exact, so fixed positions stay bit for bit).
-        let mirrored = d == 2 && signed_area(&mesh, &x) < 0.0;
+        // Triangles given clockwise in the plane (more than 3/4 of them
+        // inverted: a scrambled start inverts about half): solve the mirror
+        // image (y -> -y is exact, so fixed positions stay bit for bit).
+        let mirrored = d == 2 && 4 * inverted_count(&mesh, &x) > 3 * mesh.num_elements();
         let mirror = |x: &mut [f64]| {
             if mirrored {
                 x.iter_mut().skip(1).step_by(2).for_each(|y| *y = -*y);
@@ -517,13 +518,4 @@ impl Deform {
             .collect();
         Ok(DeformOutcome { positions, report })
     }
-}
-
-/// `sum_k det J_k |T_k|`: the signed mapped area (triangles) or volume.
-fn signed_area(mesh: &ParamMesh, x: &[f64]) -> f64 {
-    crate::metrics::det_j(mesh, x)
-        .iter()
-        .zip(&mesh.measure)
-        .map(|(d, m)| d * m)
-        .sum()
 }
