@@ -836,7 +836,8 @@ fn deform_without_an_injective_map_exits_3_with_the_outputs_marked() {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(
         err.contains("no injective map found: ")
-            && err.contains("elements still inverted")
+            && err.contains(" still inverted")
+            && err.contains("(smallest det J -")
             && err.contains(&format!("{out} and its report are marked injective: false"))
             && err.contains("fewer fixed vertices"),
         "{err}"

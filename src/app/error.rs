@@ -73,9 +73,10 @@ pub enum AppError {
     /// The deformation found no injective map; the outputs are written and
     /// marked `injective: false` (exit code 3).
     #[error(
-        "no injective map found: {inverted} elements still inverted{} (smallest det J {min_det_j:e}); \
-         {output} and its report are marked injective: false; fewer fixed vertices or a start \
-         closer to a valid map (--init) may help",
+        "no injective map found: {inverted} element{} still inverted{} (smallest det J \
+         {min_det_j:.3e}); {output} and its report are marked injective: false; fewer fixed \
+         vertices or a start closer to a valid map (--init) may help",
+        if *inverted == 1 { "" } else { "s" },
         if *folded > 0 { format!(", {folded} interior facets folded") } else { String::new() }
     )]
     NotInjective {

@@ -121,14 +121,17 @@ pub fn run(a: &DeformArgs) -> Result<(), AppError> {
     } else {
         format!("NOT converged ({})", stop_name(report.stop_reason))
     };
+    let stages = |n: usize| format!("{n} stage{}", if n == 1 { "" } else { "s" });
     let untangle = match &report.untangle {
         Some(u) if u.untangled => format!(
-            ", untangled in {} stages ({} iterations)",
-            u.stages, u.iterations
+            ", untangled in {} ({} iterations)",
+            stages(u.stages),
+            u.iterations
         ),
         Some(u) => format!(
-            ", NOT untangled after {} stages ({} iterations)",
-            u.stages, u.iterations
+            ", NOT untangled after {} ({} iterations)",
+            stages(u.stages),
+            u.iterations
         ),
         None => String::new(),
     };
