@@ -22,6 +22,7 @@ pub struct DeformArgs {
     /// space, every tet positively oriented) or a triangle mesh, planar or
     /// a surface (.obj .off .ply .stl .vtk .vtu ...; mapped to the plane
     /// z = 0). Without --init a tet mesh is also the start.
+    #[arg(value_name = "REST")]
     mesh: PathBuf,
     /// Soft targets: CSV lines `vertex,x,y,z` (0-based vertex index; z = 0
     /// for a triangle mesh); blank lines, `#` comments and a `vertex,x,y,z`
@@ -43,9 +44,10 @@ pub struct DeformArgs {
     #[arg(long)]
     fixed_boundary: bool,
     /// Output mesh: REST's cells at the mapped positions, with the cell
-    /// arrays det_j and inverted (1 where det J <= 0). Tets: .vtu .vtk
-    /// .mesh; triangles also .ply .obj .off .vtp. The report is written
-    /// beside it as OUT.report.json.
+    /// arrays det_j and inverted (1 where det J <= 0) in the formats that
+    /// hold arrays (.vtu .vtk .vtp .ply). Tets: .vtu .vtk .mesh; triangles
+    /// also .ply .obj .off .vtp. The report is written beside it as
+    /// OUT.report.json.
     #[arg(short, long, value_name = "OUT")]
     output: PathBuf,
     /// Weight W of the target term `W sum_b |x_b - t_b|^2` (the distortion

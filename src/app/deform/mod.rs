@@ -46,7 +46,8 @@
 //! positions replaced (`z = 0` for triangles) and two cell arrays: `det_j`
 //! (f64, mapped over rest volume or area) and `inverted` (u8, 1 where
 //! `det_j <= 0`), so a viewer shows where the map fails
-//! ([`run::flip_arrays`]). `OUT.report.json` beside it holds the files and
+//! ([`run::flip_arrays`]; formats without arrays, .obj .off .mesh, keep the
+//! positions and cells only). `OUT.report.json` beside it holds the files and
 //! the library's report: `injective`, inverted and folded counts at the
 //! `start` and the `end`, the `untangle` stages and iterations, `fixed` and
 //! `fixed_error_max`, `objective`, `iterations`, `converged`, ... Finding no
