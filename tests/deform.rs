@@ -806,6 +806,46 @@ fn deform_untangles_a_tet_map_with_exact_handles() {
     let p = tet_problem(dir.path());
     let out = dir.path().join("out.vtu").display().to_string();
     solve_and_check(&p, &out, true);
+
+    // Without INIT the handles are fixed at REST (which is repaired, its
+    // vertex numbers kept) while a soft target pulls an interior vertex.
+    let rest = read_mesh(&p.rest).unwrap();
+    let free = (0..rest.num_points())
+        .find(|v| !p.fixed.contains(v))
+        .unwrap();
+    let q = rest.positions[free];
+    let tfile = dir.path().join("t.csv");
+    std::fs::write(&tfile, format!("{free},{},{},{}\n", q.x + 0.3, q.y, q.z)).unwrap();
+    let out2 = dir.path().join("pulled.vtu").display().to_string();
+    let o = unfold(&[
+        "deform",
+        &p.rest,
+        "--fixed",
+        &p.handles,
+        "--targets",
+        &tfile.display().to_string(),
+        "-o",
+        &out2,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = report(&out2);
+    assert_eq!(
+        (r["injective"].clone(), r["fixed"].clone()),
+        (true.into(), p.fixed.len().into())
+    );
+    assert_eq!(r["repair"]["welded_vertices"], 0, "{r}");
+    assert_eq!(r["init"], serde_json::Value::Null, "{r}");
+    let m = read_mesh(&out2).unwrap();
+    for &v in &p.fixed {
+        assert_eq!(m.positions[v], rest.positions[v], "handle {v} moved");
+    }
+    assert!(
+        m.positions[free].x > q.x + 0.05,
+        "{} vs {}",
+        m.positions[free].x,
+        q.x
+    );
+    assert!(signed_volumes(&m).iter().all(|&v| v > 0.0));
 }
 
 #[test]
@@ -914,6 +954,23 @@ fn deform_benchmark_inputs_errors_are_one_line() {
             &needle,
         );
     }
+
+    // A degenerate rest triangle (vertex 14 on vertex 13): named at REST.
+    let mut flat = rest.clone();
+    flat.positions[14] = flat.positions[13];
+    let flat_file = write_cells(&dir.path().join("flat.vtu"), &flat);
+    assert_one_line_error(
+        &unfold(&[
+            "deform",
+            &flat_file,
+            "--init",
+            &p.init,
+            "--fixed-boundary",
+            "-o",
+            &out,
+        ]),
+        &format!("{flat_file}: element 1 is degenerate (rest area or volume 0e0); REST is"),
+    );
 
     // Nothing to do; a triangle REST without a start.
     assert_one_line_error(

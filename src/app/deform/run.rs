@@ -106,6 +106,16 @@ fn deform_problem(
                  so every tet must be positively oriented (a tangled start goes in --init)"
             ),
         ),
+        ParamError::Mesh(MeshError::DegenerateElement {
+            element, measure, ..
+        }) => at(
+            mesh,
+            format!(
+                "element {element} is degenerate (rest area or volume {measure:e}); REST is the \
+                 rest shape, so every element must have a positive size: remove it (from REST \
+                 and INIT alike) or give REST without it"
+            ),
+        ),
         e @ (ParamError::TargetNotFinite { .. } | ParamError::TargetRepeated { .. }) => {
             at(targets, e)
         }
