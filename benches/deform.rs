@@ -53,7 +53,7 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use summary::{Runs, Summary};
-use unfold::app::deform::{Deformed, Settings as DeformSettings, deform_mesh};
+use unfold::app::deform::{Deformed, Inputs, Rest, Settings as DeformSettings, deform_mesh};
 use unfold::io::{WriteOptions, write_mesh};
 use unfold::mesh::shapes::{ShellParams, ShellShape, bowl_shell};
 use unfold::mesh::{CellMesh, TetMesh};
@@ -113,23 +113,26 @@ impl Bowl {
     /// The command's library call with weight `weight`; the mesh is copied
     /// before the clock starts (the command owns the mesh it read).
     fn solve(&self, weight: f64) -> (Deformed, f64) {
-        let cells = self.cells.clone();
+        let inputs = Inputs {
+            mesh: self.name.into(),
+            targets: Some("targets".into()),
+            init: None,
+            fixed_file: None,
+            cells: self.cells.clone(),
+            rest: Rest::Tets(self.tets.clone()),
+            pairs: self.targets.clone(),
+            start: None,
+            handles: Vec::new(),
+            fixed_boundary: false,
+        };
         let settings = DeformSettings {
             weight,
             tol: TOL,
             ..DeformSettings::default()
         };
         let t0 = Instant::now();
-        let deformed = deform_mesh(
-            cells,
-            &self.tets,
-            &self.targets,
-            &settings,
-            Path::new(self.name),
-            Path::new("targets"),
-            &mut unfold::app::observer::Quiet,
-        )
-        .expect("deform runs");
+        let deformed =
+            deform_mesh(inputs, &settings, &mut unfold::app::observer::Quiet).expect("deform runs");
         (deformed, t0.elapsed().as_secs_f64())
     }
 

@@ -17,7 +17,8 @@ its defaults and its one-line error messages:
 * :func:`mitral`: ``unfold mitral`` on one valve, returning a
   :class:`MitralResult`; :func:`mitral_seg` the same from a label map
   (``unfold mitral --seg``);
-* :func:`deform`: ``unfold deform`` on a tet mesh and targets, returning a
+* :func:`deform`: ``unfold deform`` on a tet or triangle mesh with soft
+  targets, a start (tangled or not) and fixed vertices, returning a
   :class:`DeformResult`;
 * :class:`Template`: a placenta template written in Python (value,
   gradient, Hessian and parameter gradient as numpy), checked by

@@ -205,10 +205,13 @@ def mitral_seg(
 ) -> MitralResult: ...
 def deform(
     points: np.ndarray,
-    tets: Union[np.ndarray, Mapping[str, np.ndarray]],
-    vertices: np.ndarray,
-    targets: np.ndarray,
+    cells: Union[np.ndarray, Mapping[str, np.ndarray]],
+    vertices: Optional[np.ndarray] = ...,
+    targets: Optional[np.ndarray] = ...,
     *,
+    init: Optional[np.ndarray] = ...,
+    fixed: Optional[np.ndarray] = ...,
+    fixed_boundary: bool = ...,
     weight: float = ...,
     energy: str = ...,
     solver: str = ...,
@@ -218,4 +221,6 @@ def deform(
     cell_data: Optional[Mapping[str, np.ndarray]] = ...,
     name: str = ...,
     targets_name: str = ...,
+    init_name: str = ...,
+    fixed_name: str = ...,
 ) -> DeformResult: ...

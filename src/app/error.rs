@@ -70,6 +70,25 @@ pub enum AppError {
         /// Where the outputs are.
         output: String,
     },
+    /// The deformation found no injective map; the outputs are written and
+    /// marked `injective: false` (exit code 3).
+    #[error(
+        "no injective map found: {inverted} element{} still inverted{} (smallest det J \
+         {min_det_j:.3e}); {output} and its report are marked injective: false; fewer fixed \
+         vertices or a start closer to a valid map (--init) may help",
+        if *inverted == 1 { "" } else { "s" },
+        if *folded > 0 { format!(", {folded} interior facets folded") } else { String::new() }
+    )]
+    NotInjective {
+        /// Elements with `det J <= 0` at the end.
+        inverted: usize,
+        /// Interior faces (edges) whose two elements lie on the same side.
+        folded: usize,
+        /// The smallest `det J` at the end.
+        min_det_j: f64,
+        /// The output mesh.
+        output: String,
+    },
     /// A stage would take more memory than the run may use.
     #[error(transparent)]
     Memory(Box<MemoryRefusal>),

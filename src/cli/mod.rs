@@ -48,7 +48,9 @@ enum Command {
     /// Write the built-in synthetic shapes (and their info) to a directory, and run the
     /// placenta, ventricle and mitral pipelines on them.
     Demo(demo::DemoArgs),
-    /// Deform a tet mesh towards soft point targets with the least distortion, flip-free.
+    /// Map a tet mesh (into space) or a triangle mesh (to the plane) with the least distortion,
+    /// flip-free, from any start: untangles a folded start, keeps fixed vertices exactly,
+    /// pulls towards soft targets.
     Deform(deform::DeformArgs),
     /// Repair a mesh exported by another tool: weld coincident vertices, drop repeated and
     /// degenerate elements, orient consistently, drop unused vertices.
@@ -153,7 +155,8 @@ fn one_line_usage_error(e: &clap::Error) -> String {
 /// The `unfold` program on the command line `argv` (program name first):
 /// parses it, runs it, prints a failure as one line `unfold: error: ...` on
 /// stderr and returns the exit code: 0 done, 1 failed, 2 a usage error, 3
-/// outputs written but the solver did not converge. The `unfold` binary
+/// outputs written but the solver did not converge (or `unfold deform`
+/// found no injective map). The `unfold` binary
 /// is this function; the Python package runs it as `python -m unfold`.
 pub fn main(argv: Vec<std::ffi::OsString>) -> u8 {
     use clap::error::ErrorKind;
@@ -186,8 +189,12 @@ pub fn main(argv: Vec<std::ffi::OsString>) -> u8 {
             // One line on stderr, so scripts and users see exactly what failed.
             let msg = e.to_string();
             eprintln!("unfold: error: {}", printable(&msg));
-            // 3: outputs written, but the solver did not converge
-            if matches!(e, AppError::NotConverged { .. }) {
+            // 3: outputs written, but the solver did not converge or found
+            // no injective map
+            if matches!(
+                e,
+                AppError::NotConverged { .. } | AppError::NotInjective { .. }
+            ) {
                 3
             } else {
                 1

@@ -1,7 +1,9 @@
-//! A deformation's files: the tet mesh, the targets file and the output
-//! mesh (its report `OUT.report.json` beside it); checked before anything
-//! is read (no output over an input, an output format that holds tets),
-//! then read into [`Inputs`].
+//! A deformation's files: REST (a tet or triangle mesh), the targets file,
+//! INIT, HANDLES and the output mesh (its report `OUT.report.json` beside
+//! it); checked before anything is read (something to do, no output over
+//! an input, a full-precision output format), then read into [`Inputs`]
+//! (an output format that holds REST's cells). HANDLES' format is in
+//! [`super::fixed`].
 //!
 //! Targets file: CSV, one `vertex,x,y,z` per line (0-based vertex index,
 //! coordinates in the mesh's units). Blank lines and lines starting with `#`
@@ -12,19 +14,27 @@
 //! line: a wrong field count, a bad vertex index or coordinate (coordinates
 //! must be finite), a vertex out of range, a vertex listed twice, no targets.
 
+use super::fixed::parse_handles;
+use super::shape::{Rest, check_same_cells, rest_of, start_of};
 use crate::app::error::{AppError, at};
 use crate::app::run::files::canonical;
 use crate::io::{FileKind, read_mesh};
-use crate::mesh::{CellMesh, MeshError, TetMesh};
+use crate::mesh::CellMesh;
 use std::path::{Path, PathBuf};
 
 /// The files of a deformation, as given.
 #[derive(Debug, Clone, Default)]
 pub struct Files {
-    /// The tet mesh: the rest state and the starting point.
+    /// REST: the tet or triangle mesh of the rest shape.
     pub mesh: PathBuf,
-    /// The targets file.
-    pub targets: PathBuf,
+    /// The targets file (soft targets), if any.
+    pub targets: Option<PathBuf>,
+    /// INIT: the start (REST's cells at other positions), if any.
+    pub init: Option<PathBuf>,
+    /// HANDLES: the fixed vertices, one index per line, if any.
+    pub fixed: Option<PathBuf>,
+    /// Whether every boundary vertex is fixed too.
+    pub fixed_boundary: bool,
     /// The output mesh.
     pub output: PathBuf,
 }
@@ -35,17 +45,42 @@ impl Files {
         report_path(&self.output)
     }
 
-    /// Checks the files before anything is read: neither output (the mesh
-    /// or its report) is an input, and the output's format holds a tet
-    /// mesh.
+    /// The input files given: REST, then the targets, INIT and HANDLES.
+    pub fn inputs(&self) -> Vec<&Path> {
+        let mut v = vec![self.mesh.as_path()];
+        v.extend(
+            [&self.targets, &self.init, &self.fixed]
+                .into_iter()
+                .flatten()
+                .map(PathBuf::as_path),
+        );
+        v
+    }
+
+    /// Checks the files before anything is read: there is something to do
+    /// (targets, a start, or fixed vertices), neither output (the mesh or
+    /// its report) is an input, and the output's format can be written
+    /// with its positions in full precision (which cells it must hold is
+    /// checked once REST is read, [`check_output_holds`]).
     ///
     /// # Errors
-    /// [`AppError::Usage`] naming the output, or an output whose kind is
-    /// unknown.
+    /// [`AppError::Usage`] naming the flags or the output, or an output
+    /// whose kind is unknown.
     pub fn check(&self) -> Result<(), AppError> {
+        if self.targets.is_none()
+            && self.init.is_none()
+            && self.fixed.is_none()
+            && !self.fixed_boundary
+        {
+            return Err(AppError::Usage(
+                "nothing to do: give --targets FILE, --init INIT, --fixed HANDLES or \
+                 --fixed-boundary (see unfold deform --help)"
+                    .into(),
+            ));
+        }
         let report_file = self.report();
         let (out, rep) = (canonical(&self.output), canonical(&report_file));
-        for input in [&self.mesh, &self.targets] {
+        for input in self.inputs() {
             let c = canonical(input);
             if c == out || c == rep {
                 return Err(at(
@@ -55,12 +90,31 @@ impl Files {
             }
         }
         match FileKind::from_path(&self.output)? {
-            FileKind::Mesh(f) if f.writable() && f.holds_volume_cells() => Ok(()),
+            FileKind::Mesh(f) if f.writable() && !f.single_precision() => Ok(()),
+            FileKind::Mesh(f) if f.writable() => Err(at(
+                &self.output,
+                "stores single-precision positions, so the fixed vertices would move; write \
+                 .vtu, .vtk, .mesh, .ply, .obj or .off",
+            )),
             _ => Err(at(
                 &self.output,
-                "cannot hold a tet mesh; write .vtu, .vtk or .mesh",
+                "is not a mesh format unfold writes; write .vtu, .vtk or .mesh",
             )),
         }
+    }
+}
+
+/// Checks that the output `out` can hold the cells of `rest`: tets need a
+/// volume format (.vtu .vtk .mesh); triangles any mesh format.
+///
+/// # Errors
+/// [`AppError::Usage`] naming the output.
+pub fn check_output_holds(out: &Path, rest: &Rest) -> Result<(), AppError> {
+    match (FileKind::from_path(out)?, rest) {
+        (FileKind::Mesh(f), Rest::Tets(_)) if !f.holds_volume_cells() => {
+            Err(at(out, "cannot hold a tet mesh; write .vtu, .vtk or .mesh"))
+        }
+        _ => Ok(()),
     }
 }
 
@@ -74,56 +128,85 @@ pub fn report_path(out: &Path) -> PathBuf {
 /// What a deformation works on, read and checked.
 #[derive(Debug, Clone)]
 pub struct Inputs {
-    /// The mesh's name in messages and the report (its path, or what
-    /// Python calls it).
+    /// REST's name in messages and the report (its path, or what Python
+    /// calls it).
     pub mesh: PathBuf,
-    /// The targets' name in messages and the report.
-    pub targets: PathBuf,
-    /// The mesh as read (its cells and arrays are the output's).
+    /// The targets' name in messages and the report, if any.
+    pub targets: Option<PathBuf>,
+    /// INIT's name in messages and the report, if any.
+    pub init: Option<PathBuf>,
+    /// HANDLES' name in messages and the report, if any.
+    pub fixed_file: Option<PathBuf>,
+    /// REST as read (its cells and arrays are the output's).
     pub cells: CellMesh,
-    /// Its tets ([`tet_mesh_of`]).
-    pub tets: TetMesh,
+    /// Its elements ([`rest_of`]).
+    pub rest: Rest,
     /// `(vertex, target)` pairs, vertices of `cells`, each at most once.
     pub pairs: Vec<(usize, [f64; 3])>,
+    /// The start from INIT ([`start_of`]), if any.
+    pub start: Option<Vec<f64>>,
+    /// The vertices of HANDLES, each once.
+    pub handles: Vec<usize>,
+    /// Whether every boundary vertex is fixed too.
+    pub fixed_boundary: bool,
 }
 
-/// Reads the mesh (its tets, [`tet_mesh_of`]), then the targets file
-/// ([`parse_targets`]).
+/// Reads REST (its tets or triangles, [`rest_of`]), then INIT (checked to
+/// have REST's cells, [`check_same_cells`]; its positions the start,
+/// [`start_of`]), HANDLES ([`parse_handles`]) and the targets file
+/// ([`parse_targets`]), each if given.
 ///
 /// # Errors
-/// Reading either file, a mesh that is not a tet mesh, a bad targets file.
+/// Reading any file, a REST that is neither tets nor triangles, a triangle
+/// REST without INIT, an INIT with other cells or off the plane, a bad
+/// HANDLES or targets file, an output that cannot hold REST's cells.
 pub fn read(files: &Files) -> Result<Inputs, AppError> {
     let cells = read_mesh(&files.mesh)?;
-    let tets = tet_mesh_of(&cells, &files.mesh)?;
-    let n = tets.num_vertices();
-    let text = std::fs::read_to_string(&files.targets).map_err(|source| AppError::Fs {
-        path: files.targets.display().to_string(),
-        source,
-    })?;
-    let pairs = parse_targets(&text, &files.targets, n)?;
+    let name = files.mesh.display().to_string();
+    let rest = rest_of(&cells, &name)?;
+    check_output_holds(&files.output, &rest)?;
+    if matches!(rest, Rest::Triangles(_)) && files.init.is_none() {
+        return Err(at(
+            &files.mesh,
+            "a triangle mesh is mapped to the plane: give its start with --init (REST's cells \
+             at positions in z = 0)",
+        ));
+    }
+    let n = rest.num_vertices();
+    let start = match &files.init {
+        Some(init) => {
+            let init_cells = read_mesh(init)?;
+            let init_name = init.display().to_string();
+            check_same_cells(&cells, &init_cells, &init_name)?;
+            Some(start_of(&rest, &init_cells.positions, &init_name)?)
+        }
+        None => None,
+    };
+    let read_text = |path: &Path| {
+        std::fs::read_to_string(path).map_err(|source| AppError::Fs {
+            path: path.display().to_string(),
+            source,
+        })
+    };
+    let handles = match &files.fixed {
+        Some(f) => parse_handles(&read_text(f)?, f, n)?,
+        None => Vec::new(),
+    };
+    let pairs = match &files.targets {
+        Some(t) => parse_targets(&read_text(t)?, t, n)?,
+        None => Vec::new(),
+    };
     Ok(Inputs {
         mesh: files.mesh.clone(),
         targets: files.targets.clone(),
+        init: files.init.clone(),
+        fixed_file: files.fixed.clone(),
         cells,
-        tets,
+        rest,
         pairs,
-    })
-}
-
-/// The tets of `cells` (named `mesh` in messages).
-///
-/// # Errors
-/// A mesh with other cells than tets ("not a tetrahedral mesh"), or bad
-/// indices, at `mesh`.
-pub fn tet_mesh_of(cells: &CellMesh, mesh: &Path) -> Result<TetMesh, AppError> {
-    cells.to_tet_mesh().map_err(|e| match e {
-        MeshError::WrongCellType { cell, found, .. } => at(
-            mesh,
-            format!(
-                "not a tetrahedral mesh (cell {cell} is a {found:?}); unfold deform needs a tet mesh"
-            ),
-        ),
-        e => at(mesh, e),
+        start,
+        handles,
+        fixed_boundary: files.fixed_boundary,
     })
 }
 
