@@ -407,12 +407,8 @@ mod tests {
         assert_eq!(case.inverted_in(&positions), 0, "{:?}", out.report);
         for &h in &case.fixed {
             let h = h as usize;
-            for c in 0..d {
-                assert_eq!(
-                    positions[h][c].to_bits(),
-                    case.init[h][c].to_bits(),
-                    "handle {h}"
-                );
+            for (p, q) in positions[h][..d].iter().zip(&case.init[h][..d]) {
+                assert_eq!(p.to_bits(), q.to_bits(), "handle {h}");
             }
         }
         out.report
