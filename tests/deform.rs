@@ -999,3 +999,80 @@ fn deform_benchmark_inputs_errors_are_one_line() {
     );
     assert!(!PathBuf::from(&out).exists() && !PathBuf::from(&obj).exists());
 }
+
+/// The TLC-PN example of the Locally Injective Mappings benchmark
+/// (`tests/data/tlc`, MIT; a 3D disk of 2,000 triangles mapped to the
+/// plane, 42 of them inverted in its start, its 46 boundary vertices the
+/// handles): untangled with every handle exact, from the problem file and
+/// from the same problem split into REST, INIT and HANDLES, bit for bit
+/// the same. The distortion solve is left out (`--max-iterations 0`, so
+/// exit 3 with `converged: false`): it takes 359 Newton iterations, too
+/// long for an unoptimized test build; the untangled map is what is
+/// checked here.
+#[test]
+fn deform_untangles_the_public_benchmark_example_with_its_handles_exact() {
+    use unfold::io::tlc::read_injectivity_problem;
+    use unfold::mesh::CellType;
+    let file = "tests/data/tlc/tlc-pn-example.input";
+    let problem = read_injectivity_problem(Path::new(file)).unwrap();
+    let unfold::io::tlc::Cells::Triangles(tris) = &problem.cells else {
+        panic!("the example maps triangles");
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let mut rest = CellMesh::from_points(problem.rest.iter().map(|p| Point3::from(*p)).collect());
+    for t in tris {
+        rest.push_cell(CellType::Triangle, t);
+    }
+    let rest_file = write_cells(Path::new(&at("rest.vtu")), &rest);
+    let mut init = rest.clone();
+    init.positions = problem
+        .init
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], 0.0))
+        .collect();
+    let init_file = write_cells(Path::new(&at("init.vtu")), &init);
+    let handles: String = problem.handles.iter().map(|h| format!("{h}\n")).collect();
+    std::fs::write(at("handles.txt"), handles).unwrap();
+
+    let (a, b, c, h) = (at("a.vtu"), at("b.vtu"), at("c.vtu"), at("handles.txt"));
+    let runs = [
+        vec!["deform", file, "-o", &a, "--max-iterations", "0"],
+        vec![
+            "deform",
+            &rest_file,
+            "--init",
+            &init_file,
+            "--fixed",
+            &h,
+            "-o",
+            &b,
+            "--max-iterations",
+            "0",
+        ],
+    ];
+    let mut results = Vec::new();
+    for (args, out) in runs.iter().zip([&a, &b]) {
+        let o = unfold(args);
+        assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+        assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
+        let r = report(out);
+        assert_eq!(r["injective"], true, "{r}");
+        assert_eq!(r["start"]["inverted"], 42, "{r}");
+        assert_eq!(r["end"]["inverted"], 0, "{r}");
+        assert_eq!(r["fixed"], 46, "{r}");
+        assert_eq!(r["fixed_error_max"], 0.0, "{r}");
+        let m = read_mesh(out).unwrap();
+        let worst = signed_areas(&m).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(worst > 0.0, "smallest signed area {worst}");
+        for &h in &problem.handles {
+            let (p, q) = (m.positions[h as usize], problem.init[h as usize]);
+            assert_eq!([p.x, p.y], [q[0], q[1]], "handle {h} moved");
+        }
+        results.push(m.positions);
+    }
+    assert_eq!(results[0], results[1]);
+    // A problem file holds its own start.
+    let o = unfold(&["deform", file, "--init", &init_file, "-o", &c]);
+    assert_one_line_error(&o, "holds its own start; drop --init");
+}

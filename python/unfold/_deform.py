@@ -90,7 +90,7 @@ def deform(
             registry ("symmetric-dirichlet", the default, "mips", "arap", ...).
         solver: "newton" (default) or "gd" (``--solver``).
         tol: gradient norm to stop at (``--tol``).
-        max_iterations: ``--max-iterations`` (None: 200 for newton, 100000
+        max_iterations: ``--max-iterations`` (None: 1000 for newton, 100000
             for gd).
         point_data: point arrays kept on the output. cell_data: cell arrays.
         name: what messages and ``report["mesh"]`` call the mesh.

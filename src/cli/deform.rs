@@ -21,7 +21,9 @@ pub struct DeformArgs {
     /// REST: the rest shape, a tet mesh (.vtu .vtk .mesh .msh; mapped into
     /// space, every tet positively oriented) or a triangle mesh, planar or
     /// a surface (.obj .off .ply .stl .vtk .vtu ...; mapped to the plane
-    /// z = 0). Without --init a tet mesh is also the start.
+    /// z = 0). Without --init a tet mesh is also the start. A problem file
+    /// of the Locally Injective Mappings benchmark (.input or .tlc: rest,
+    /// start, cells and handles in one file) gives REST, INIT and HANDLES.
     #[arg(value_name = "REST")]
     mesh: PathBuf,
     /// Soft targets: CSV lines `vertex,x,y,z` (0-based vertex index; z = 0
@@ -63,7 +65,7 @@ pub struct DeformArgs {
     /// Stop when the gradient norm |grad|_F falls below this.
     #[arg(long, value_name = "TOL", default_value_t = 1e-4)]
     tol: f64,
-    /// Iteration limit [default: 200 for newton, 100000 for gd].
+    /// Iteration limit [default: 1000 for newton, 100000 for gd].
     #[arg(long, value_name = "N")]
     max_iterations: Option<usize>,
 }

@@ -71,6 +71,7 @@ impl Files {
             && self.init.is_none()
             && self.fixed.is_none()
             && !self.fixed_boundary
+            && !is_problem_file(&self.mesh)
         {
             return Err(AppError::Usage(
                 "nothing to do: give --targets FILE, --init INIT, --fixed HANDLES or \
@@ -161,6 +162,9 @@ pub struct Inputs {
 /// REST without INIT, an INIT with other cells or off the plane, a bad
 /// HANDLES or targets file, an output that cannot hold REST's cells.
 pub fn read(files: &Files) -> Result<Inputs, AppError> {
+    if is_problem_file(&files.mesh) {
+        return read_problem(files);
+    }
     let cells = read_mesh(&files.mesh)?;
     let name = files.mesh.display().to_string();
     let rest = rest_of(&cells, &name)?;
@@ -182,12 +186,6 @@ pub fn read(files: &Files) -> Result<Inputs, AppError> {
         }
         None => None,
     };
-    let read_text = |path: &Path| {
-        std::fs::read_to_string(path).map_err(|source| AppError::Fs {
-            path: path.display().to_string(),
-            source,
-        })
-    };
     let handles = match &files.fixed {
         Some(f) => parse_handles(&read_text(f)?, f, n)?,
         None => Vec::new(),
@@ -205,6 +203,78 @@ pub fn read(files: &Files) -> Result<Inputs, AppError> {
         rest,
         pairs,
         start,
+        handles,
+        fixed_boundary: files.fixed_boundary,
+    })
+}
+
+/// The text of the file `path`.
+fn read_text(path: &Path) -> Result<String, AppError> {
+    std::fs::read_to_string(path).map_err(|source| AppError::Fs {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Whether `path` names a problem file of the Locally Injective Mappings
+/// benchmark (Du et al. 2020, "Lifting Simplices to Find Injectivity"):
+/// extension `.input` or `.tlc` ([`crate::io::tlc`]).
+pub fn is_problem_file(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("input") || e.eq_ignore_ascii_case("tlc"))
+}
+
+/// Reads a benchmark problem file as REST: its rest positions and cells,
+/// its init positions as the start and its handles as fixed vertices
+/// (with those of `--fixed`, if given). `--init` is refused beside it.
+///
+/// # Errors
+/// Reading or parsing the file (its line named), `--init` given too, a
+/// 2D init of tets, the HANDLES and targets files' errors.
+fn read_problem(files: &Files) -> Result<Inputs, AppError> {
+    use crate::io::tlc::{Cells, read_injectivity_problem};
+    use crate::mesh::CellType;
+    use crate::mesh::nalgebra::Point3;
+    if files.init.is_some() {
+        return Err(at(
+            &files.mesh,
+            "a benchmark problem file holds its own start; drop --init",
+        ));
+    }
+    let problem = read_injectivity_problem(&files.mesh)?;
+    let mut cells = CellMesh::from_points(problem.rest.iter().map(|p| Point3::from(*p)).collect());
+    match &problem.cells {
+        Cells::Triangles(t) => t
+            .iter()
+            .for_each(|c| cells.push_cell(CellType::Triangle, c)),
+        Cells::Tets(t) => t.iter().for_each(|c| cells.push_cell(CellType::Tetra, c)),
+    }
+    let name = files.mesh.display().to_string();
+    let rest = rest_of(&cells, &name)?;
+    check_output_holds(&files.output, &rest)?;
+    let init: Vec<Point3<f64>> = problem.init.iter().map(|p| Point3::from(*p)).collect();
+    let start = start_of(&rest, &init, &name)?;
+    let n = rest.num_vertices();
+    let mut handles: Vec<usize> = problem.handles.iter().map(|&h| h as usize).collect();
+    if let Some(f) = &files.fixed {
+        handles.extend(parse_handles(&read_text(f)?, f, n)?);
+        handles.sort_unstable();
+        handles.dedup();
+    }
+    let pairs = match &files.targets {
+        Some(t) => parse_targets(&read_text(t)?, t, n)?,
+        None => Vec::new(),
+    };
+    Ok(Inputs {
+        mesh: files.mesh.clone(),
+        targets: files.targets.clone(),
+        init: Some(files.mesh.clone()),
+        fixed_file: files.fixed.clone(),
+        cells,
+        rest,
+        pairs,
+        start: Some(start),
         handles,
         fixed_boundary: files.fixed_boundary,
     })

@@ -203,9 +203,7 @@ pub fn deform_mesh(
     let solver = settings.solver.build();
     let mut stopping = solver.default_stopping();
     stopping.grad_tol = settings.tol;
-    if let Some(n) = settings.max_iterations {
-        stopping.max_iterations = n;
-    }
+    stopping.max_iterations = settings.iteration_limit();
     let pipeline = Deform::new()
         .weight(settings.weight)
         .stopping(stopping)

@@ -21,13 +21,19 @@ pub struct Settings {
     pub solver: SolverKind,
     /// Stop when the gradient norm falls below this.
     pub tol: f64,
-    /// The iteration limit (none: the solver's default).
+    /// The iteration limit (none: [`Settings::iteration_limit`]'s default).
     pub max_iterations: Option<usize>,
 }
 
+/// Newton's default iteration limit for a deformation: a map just out of
+/// the untangler (some elements barely positive) with a distortion far
+/// from its rest shape converges slowly at first (the TLC-PN benchmark
+/// example took 359 iterations).
+pub const NEWTON_ITERATIONS: usize = 1000;
+
 impl Default for Settings {
     /// The command line's defaults: W = 1, symmetric Dirichlet, Newton,
-    /// tol 1e-4, the solver's iteration limit.
+    /// tol 1e-4, [`Settings::iteration_limit`]'s default.
     fn default() -> Self {
         Settings {
             weight: 1.0,
@@ -40,6 +46,15 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// The iteration limit: `max_iterations`, else
+    /// [`NEWTON_ITERATIONS`] for Newton and the solver's default otherwise.
+    pub fn iteration_limit(&self) -> usize {
+        self.max_iterations.unwrap_or_else(|| match self.solver {
+            SolverKind::Newton => NEWTON_ITERATIONS,
+            other => other.build().default_stopping().max_iterations,
+        })
+    }
+
     /// Checks every setting.
     ///
     /// # Errors
