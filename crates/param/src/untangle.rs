@@ -39,7 +39,7 @@ use crate::initializer::{Constraints, InitialMap, Initializer};
 use crate::linesearch::Backtracking;
 use crate::metrics::det_j;
 use crate::objective::MIN_DET_J;
-use crate::solver::{Executor, ProjectedNewton, Stopping};
+use crate::solver::{ProjectedNewton, Solver, State, Step};
 use crate::{Objective, ParamError, ParamMesh};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -184,6 +184,9 @@ impl Untangler {
         let cd = scale.powi(mesh.dim() as i32);
         let mut d_min = min_det_start / cd;
         let mut eps = (1e-12 + 0.04 * d_min.min(0.0).powi(2)).sqrt().max(1e-3);
+        if let Some(k) = std::env::var("EPSCAP").ok().and_then(|v| v.parse::<f64>().ok()) {
+            eps = eps.min(k);
+        }
         report.eps_start = eps;
         // The exact Hessian of the regularized energy is indefinite around
         // inverted elements: trying it first would cost failed factorizations.
@@ -193,37 +196,41 @@ impl Untangler {
         };
         let line_search = Backtracking::default();
         let mut layout = None;
-        while report.stages < self.max_stages {
-            let elapsed = t0.elapsed().as_secs_f64();
-            if elapsed >= self.max_seconds {
-                break;
-            }
+        // One solver state through all stages: the Newton workspace (the
+        // factor's storage) is allocated once.
+        let mut state = State::new(x.to_vec(), Vec::new());
+        while report.stages < self.max_stages && t0.elapsed().as_secs_f64() < self.max_seconds {
             let energy = Untangling {
                 eps,
                 theta: self.theta,
             };
             let mut objective = Objective::new(&scaled, &energy, 1.0, None, fixed)?;
-            if let Some(l) = layout.clone() {
-                objective = objective.with_layout(l)?;
+            match layout.clone() {
+                Some(l) => objective = objective.with_layout(l)?,
+                None => {
+                    solver.init(&mut objective, &mut state)?;
+                    layout = Some(objective.layout()?);
+                }
             }
-            let e_prev = objective.value(x, &[]);
-            let solved = Executor::new(&solver)
-                .line_search(&line_search)
-                .stopping(Stopping {
-                    grad_tol: 0.0,
-                    decrement_tol: 1e-9,
-                    max_iterations: self.stage_iterations,
-                    max_seconds: self.max_seconds - elapsed,
-                })
-                .run(&mut objective, x, &mut [])?;
-            if layout.is_none() {
-                layout = Some(objective.layout()?);
+            let mut e_prev = f64::NAN;
+            for k in 0..self.stage_iterations {
+                state.value = objective.value_gradient(&state.x, &[], &mut state.grad);
+                if k == 0 {
+                    e_prev = state.value;
+                }
+                match solver.next_iter(&mut objective, &mut state, &line_search)? {
+                    Step::Moved => {
+                        state.iteration += 1;
+                        report.iterations += 1;
+                    }
+                    Step::Stalled { .. } => break,
+                }
             }
             report.stages += 1;
-            report.iterations += solved.iterations;
-            let e = objective.value(x, &[]);
-            let dets = det_j(&scaled, x);
-            d_min = dets.iter().copied().fold(f64::INFINITY, f64::min);
+            let e = objective.value(&state.x, &[]);
+            d_min = det_j(&scaled, &state.x)
+                .into_iter()
+                .fold(f64::INFINITY, f64::min);
             report.eps_end = eps;
             if d_min * cd >= MIN_DET_J {
                 break;
@@ -234,6 +241,7 @@ impl Untangler {
                 eps = 2.0 * (mu * (mu - d_min)).sqrt();
             }
         }
+        x.copy_from_slice(&state.x);
         let dets = det_j(mesh, x);
         let (inverted_end, min_det_end) = inverted_and_min(&dets);
         report.inverted_end = inverted_end;

@@ -64,8 +64,12 @@ impl Untangling {
     fn parts(&self, q: f64, det: f64, d: usize) -> [f64; 5] {
         let (chi, c1, c2) = chi_derivatives(det, self.eps);
         let a = 2.0 / d as f64;
-        // u = chi^-a, v = 1 / chi.
-        let u = chi.powf(-a);
+        // u = chi^-a, v = 1 / chi (chi^(-2/3) through cbrt: no pow).
+        let u = if d == 3 {
+            1.0 / (chi.cbrt() * chi.cbrt())
+        } else {
+            chi.powf(-a)
+        };
         let u1 = -a * u / chi * c1;
         let u2 = a * (a + 1.0) * u / (chi * chi) * c1 * c1 - a * u / chi * c2;
         let v = 1.0 / chi;
