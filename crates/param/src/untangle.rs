@@ -184,9 +184,6 @@ impl Untangler {
         let cd = scale.powi(mesh.dim() as i32);
         let mut d_min = min_det_start / cd;
         let mut eps = (1e-12 + 0.04 * d_min.min(0.0).powi(2)).sqrt().max(1e-3);
-        if let Some(k) = std::env::var("EPSCAP").ok().and_then(|v| v.parse::<f64>().ok()) {
-            eps = eps.min(k);
-        }
         report.eps_start = eps;
         // The exact Hessian of the regularized energy is indefinite around
         // inverted elements: trying it first would cost failed factorizations.
