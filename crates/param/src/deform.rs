@@ -343,7 +343,6 @@ impl Deform {
             RestShape::Triangles(m) => (ParamMesh::from_triangles(m)?, "triangles"),
         };
         let (n, d) = (mesh.num_vertices(), mesh.dim());
-        let point_targets = PointTargets::from_pairs(n, d, targets)?;
         let (mut x, initializer) = match &self.start {
             Some(start) => {
                 if start.len() != d * n {
@@ -399,11 +398,7 @@ impl Deform {
         } else {
             targets
         };
-        let point_targets = if mirrored {
-            PointTargets::from_pairs(n, d, targets)?
-        } else {
-            point_targets
-        };
+        let point_targets = PointTargets::from_pairs(n, d, targets)?;
         let x0 = x.clone();
         let labels = vec![0u8; n];
         let mut weights = vec![0.0; n];

@@ -186,14 +186,7 @@ pub fn read(files: &Files) -> Result<Inputs, AppError> {
         }
         None => None,
     };
-    let handles = match &files.fixed {
-        Some(f) => parse_handles(&read_text(f)?, f, n)?,
-        None => Vec::new(),
-    };
-    let pairs = match &files.targets {
-        Some(t) => parse_targets(&read_text(t)?, t, n)?,
-        None => Vec::new(),
-    };
+    let (handles, pairs) = handles_and_targets(files, n)?;
     Ok(Inputs {
         mesh: files.mesh.clone(),
         targets: files.targets.clone(),
@@ -207,6 +200,23 @@ pub fn read(files: &Files) -> Result<Inputs, AppError> {
         fixed_boundary: files.fixed_boundary,
     })
 }
+
+/// HANDLES' vertices and the targets file's pairs (each empty when the
+/// file is not given), for a REST of `n` vertices.
+fn handles_and_targets(files: &Files, n: usize) -> Result<HandlesAndTargets, AppError> {
+    let handles = match &files.fixed {
+        Some(f) => parse_handles(&read_text(f)?, f, n)?,
+        None => Vec::new(),
+    };
+    let pairs = match &files.targets {
+        Some(t) => parse_targets(&read_text(t)?, t, n)?,
+        None => Vec::new(),
+    };
+    Ok((handles, pairs))
+}
+
+/// Fixed vertices and `(vertex, target)` pairs.
+type HandlesAndTargets = (Vec<usize>, Vec<(usize, [f64; 3])>);
 
 /// The text of the file `path`.
 fn read_text(path: &Path) -> Result<String, AppError> {
@@ -256,16 +266,10 @@ fn read_problem(files: &Files) -> Result<Inputs, AppError> {
     let init: Vec<Point3<f64>> = problem.init.iter().map(|p| Point3::from(*p)).collect();
     let start = start_of(&rest, &init, &name)?;
     let n = rest.num_vertices();
-    let mut handles: Vec<usize> = problem.handles.iter().map(|&h| h as usize).collect();
-    if let Some(f) = &files.fixed {
-        handles.extend(parse_handles(&read_text(f)?, f, n)?);
-        handles.sort_unstable();
-        handles.dedup();
-    }
-    let pairs = match &files.targets {
-        Some(t) => parse_targets(&read_text(t)?, t, n)?,
-        None => Vec::new(),
-    };
+    let (mut handles, pairs) = handles_and_targets(files, n)?;
+    handles.extend(problem.handles.iter().map(|&h| h as usize));
+    handles.sort_unstable();
+    handles.dedup();
     Ok(Inputs {
         mesh: files.mesh.clone(),
         targets: files.targets.clone(),

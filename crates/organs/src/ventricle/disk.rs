@@ -319,10 +319,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn an_apex_near_the_rim_falls_back_to_the_mobius_warp() {
-        // A given apex a few rings below the rim: the spline that keeps the
-        // rim and pulls it to the centre folds; the Mobius warp does not.
+    /// The default cup with a given apex a few rings below its rim (the
+    /// vertex a twentieth of the way down the heights).
+    fn cup_with_apex_near_the_rim() -> (unfold_mesh::shapes::VentricleShape, Landmarks) {
         let cup = ventricle_cup(&VentricleParams::default()).unwrap();
         let s = &cup.surface;
         let mut by_height: Vec<(f64, usize)> = s
@@ -341,6 +340,15 @@ mod tests {
             DEFAULT_SNAP_MM,
         )
         .unwrap();
+        (cup, l)
+    }
+
+    #[test]
+    fn an_apex_near_the_rim_falls_back_to_the_mobius_warp() {
+        // A given apex a few rings below the rim: the spline that keeps the
+        // rim and pulls it to the centre folds; the Mobius warp does not.
+        let (cup, l) = cup_with_apex_near_the_rim();
+        let s = &cup.surface;
         let d = lv_disk(s, &l, &HarmonicDisk).unwrap();
         assert_eq!(d.apex_warp, "mobius");
         assert_eq!(d.flipped_triangles, 0);
@@ -401,24 +409,8 @@ mod tests {
         // No Mobius warp for the half disk: the spline that pulls an apex
         // a few rings below the rim to (1.75, 0) folds, and the untangler
         // makes the map flip-free with the rim and the apex exact.
-        let cup = ventricle_cup(&VentricleParams::default()).unwrap();
+        let (cup, l) = cup_with_apex_near_the_rim();
         let s = &cup.surface;
-        let mut by_height: Vec<(f64, usize)> = s
-            .positions
-            .iter()
-            .enumerate()
-            .map(|(v, p)| (p.z, v))
-            .collect();
-        by_height.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let apex = s.positions[by_height[by_height.len() / 20].1];
-        let l = Landmarks::resolve(
-            s,
-            &cup.anterior,
-            &cup.inferior,
-            Some(&apex),
-            DEFAULT_SNAP_MM,
-        )
-        .unwrap();
         let d = rv_half_disk(s, &l, &HarmonicDisk).unwrap();
         assert_eq!(d.apex_warp, "thin-plate spline");
         assert_eq!(d.untangled, "yes");
