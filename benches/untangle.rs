@@ -21,7 +21,9 @@
 //! each kind, each in a process of its own (`support/peak.rs`).
 //!
 //! Run: `cargo bench --bench untangle` (several minutes on 2 cores);
-//! `UNTANGLE_BENCH_QUICK=1` keeps the sizes up to 4k.
+//! `UNTANGLE_BENCH_QUICK=1` keeps the sizes up to 4k;
+//! `UNTANGLE_BENCH_ONLY="tets sparse 12000"` runs the cases whose
+//! `kind handles size` line starts so.
 
 #[path = "support/peak.rs"]
 mod peak;
@@ -126,6 +128,7 @@ fn main() {
         assert!(solve(&c, &c.init).injective);
     });
     let quick = std::env::var_os("UNTANGLE_BENCH_QUICK").is_some();
+    let only = std::env::var("UNTANGLE_BENCH_ONLY").unwrap_or_default();
     let sizes: Vec<usize> = SIZES
         .iter()
         .copied()
@@ -155,6 +158,14 @@ fn main() {
         for sparse in [false, true] {
             for &elements in &sizes {
                 for &scramble in &SCRAMBLES {
+                    let name = format!(
+                        "{} {} {elements}",
+                        kind_name(kind),
+                        if sparse { "sparse" } else { "boundary" }
+                    );
+                    if !name.starts_with(only.as_str()) {
+                        continue;
+                    }
                     let case = tangled_case(&params(kind, sparse, elements, scramble)).unwrap();
                     let s = solve(&case, &case.init);
                     let free = solve(&case, &case.solution);
