@@ -17,6 +17,8 @@ mod error;
 pub mod fit;
 pub mod permutation;
 mod shuffles;
+#[cfg(test)]
+mod tests;
 
 pub use design::{Design, Regressor, RegressorValues, StatisticKind};
 pub use error::GlmError;
