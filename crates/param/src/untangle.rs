@@ -18,7 +18,10 @@
 //! ```
 //!
 //! so the regularized determinant of the worst element shrinks by the
-//! stage's relative progress. It stops as soon as every `det J >=`
+//! stage's relative progress. When `eps` falls below [`RESTART_EPS`] with
+//! elements still inverted (the schedule ran ahead of the map), it starts
+//! again from `eps = max(|D_min| / 5, 1e-3)`, at most [`MAX_RESTARTS`]
+//! times. It stops as soon as every `det J >=`
 //! [`MIN_DET_J`](crate::objective::MIN_DET_J) (an orientation certain
 //! above rounding): the caller's flip-free solve takes over from there.
 //!
@@ -43,6 +46,12 @@ use crate::solver::{ProjectedNewton, Solver, State, Step};
 use crate::{Objective, ParamError, ParamMesh};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
+
+/// Below this `eps` with elements still inverted, the schedule restarts
+/// from `eps = max(D_min / 5, 1e-3)` (the start's rule).
+pub const RESTART_EPS: f64 = 1e-6;
+/// Restarts of the `eps` schedule at most.
+pub const MAX_RESTARTS: usize = 3;
 
 /// The untangler's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -94,6 +103,9 @@ pub struct UntangleReport {
     /// The last `eps`.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub eps_end: f64,
+    /// Restarts of the `eps` schedule (at most [`MAX_RESTARTS`]).
+    #[serde(default)]
+    pub restarts: usize,
     /// The rest mesh's scale `c` for the solve.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub scale: f64,
@@ -171,6 +183,7 @@ impl Untangler {
             iterations: 0,
             eps_start: f64::NAN,
             eps_end: f64::NAN,
+            restarts: 0,
             scale,
             seconds: 0.0,
             untangled: min_det_start >= MIN_DET_J,
@@ -236,6 +249,13 @@ impl Untangler {
             let mu = (1.0 - sigma) * chi(d_min, eps);
             if d_min < mu {
                 eps = 2.0 * (mu * (mu - d_min)).sqrt();
+            }
+            if eps < RESTART_EPS && report.restarts < MAX_RESTARTS {
+                // Stuck: eps has vanished with elements still inverted,
+                // the energy's barrier now holds them. Start the schedule
+                // again from the remaining inversion.
+                report.restarts += 1;
+                eps = (0.2 * d_min.abs()).max(1e-3);
             }
         }
         x.copy_from_slice(&state.x);
