@@ -11,6 +11,8 @@ use unfold::mesh::CellMesh;
 use unfold::mesh::shapes::{PlacentaParams, placenta_slab};
 
 mod common;
+#[path = "common/scan.rs"]
+mod scan;
 use common::*;
 
 fn slab(dir: &Path, name: &str, cells_radial: usize) {
@@ -233,4 +235,185 @@ fn a_spreadsheet_export_runs() {
         .position(|c| c == "ga_weeks")
         .expect("ga_weeks");
     assert_eq!(rows[1][col], "31");
+}
+
+/// The BIDS file-name pattern `sub-<label>(_<key>-<value>)*_<suffix>.<ext>`
+/// (labels, values and the suffix alphanumeric).
+fn is_bids_name(name: &str) -> bool {
+    let alnum = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric());
+    let Some((stem, ext)) = name.split_once('.') else {
+        return false;
+    };
+    let parts: Vec<&str> = stem.split('_').collect();
+    let Some((suffix, entities)) = parts.split_last() else {
+        return false;
+    };
+    alnum(suffix)
+        && ext.split('.').all(alnum)
+        && entities.first().is_some_and(|e| e.starts_with("sub-"))
+        && entities
+            .iter()
+            .all(|e| e.split_once('-').is_some_and(|(k, v)| alnum(k) && alnum(v)))
+}
+
+/// `unfold batch --layout bids`: two placentas with a T2w image give a
+/// BIDS derivative dataset: `dataset_description.json` with its required
+/// keys, every subject's files named by the BIDS pattern (the pulled-back
+/// image, the meshes, the report, the displacement field as an `xfm`
+/// file holding what `--displacement` writes), the group maps at the top,
+/// the default layout's files in `OUT/work/`.
+#[test]
+fn a_bids_batch_writes_a_derivative_dataset() {
+    use unfold::mesh::nalgebra::Vector3;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let grid = "-100,100,-100,100,-30,30";
+    let mut manifest_text = "id,organ,input,image,grid,spacing-mm,no-figures\n".to_string();
+    for (id, n) in [("p-1", 5), ("p_2", 6)] {
+        let sd = d.join("in").join(id);
+        std::fs::create_dir_all(&sd).unwrap();
+        slab(&sd, "mesh.vtu", n);
+        let mesh = unfold::io::read_tet_mesh(sd.join("mesh.vtu")).unwrap();
+        let img = scan::image_around(&mesh, [2.0; 3], 1, Vector3::zeros(), |p, _| p.x);
+        unfold::io::write_image(sd.join("t2w.nii.gz"), &img).unwrap();
+        manifest_text.push_str(&format!(
+            "{id},placenta,in/{id}/mesh.vtu,in/{id}/t2w.nii.gz,\"{grid}\",4,true\n"
+        ));
+    }
+    let manifest = d.join("m.csv");
+    std::fs::write(&manifest, &manifest_text).unwrap();
+    let out = d.join("out");
+    let o = unfold(&[
+        "batch",
+        &s(&manifest),
+        "-o",
+        &s(&out),
+        "--jobs",
+        "2",
+        "--layout",
+        "bids",
+    ]);
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let desc: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("dataset_description.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(desc["BIDSVersion"], "1.9.0");
+    assert_eq!(desc["DatasetType"], "derivative");
+    assert!(desc["Name"].is_string());
+    assert_eq!(desc["GeneratedBy"][0]["Name"], "unfold");
+    assert_eq!(desc["GeneratedBy"][0]["Version"], env!("CARGO_PKG_VERSION"));
+    assert!(
+        desc["GeneratedBy"][0]["Description"]
+            .as_str()
+            .unwrap()
+            .contains("--layout bids")
+    );
+    for label in ["p1", "p2"] {
+        let sub = out.join(format!("sub-{label}"));
+        for f in [
+            "desc-unfold_report.json",
+            "desc-original_mesh.vtu",
+            "space-placentaTemplate_desc-flattened_mesh.vtu",
+            "space-placentaTemplate_T2w.nii.gz",
+            "space-placentaTemplate_desc-t2wZ_stat.nii.gz",
+            "from-native_to-placentaTemplate_mode-image_xfm.nii.gz",
+        ] {
+            let p = sub.join(format!("sub-{label}_{f}"));
+            assert!(p.is_file(), "{}", p.display());
+        }
+        for e in std::fs::read_dir(&sub).unwrap() {
+            let name = e.unwrap().file_name().into_string().unwrap();
+            assert!(name.starts_with('.') || is_bids_name(&name), "{name}");
+            assert!(name.starts_with('.') || name.starts_with(&format!("sub-{label}_")));
+        }
+    }
+    for stat in ["Mean", "Std", "Count"] {
+        let p = out
+            .join("group")
+            .join(format!("space-placentaTemplate_desc-t2w{stat}_stat.nii.gz"));
+        assert!(p.is_file(), "{}", p.display());
+    }
+    // a rerun skips both (the displacement field is an output, not an
+    // input of the run hash) and writes the tree again
+    let again = unfold(&[
+        "batch",
+        &s(&manifest),
+        "-o",
+        &s(&out),
+        "--jobs",
+        "2",
+        "--layout",
+        "bids",
+    ]);
+    assert!(again.status.success(), "{}", stderr(&again));
+    assert!(stdout(&again).contains("2 skipped"), "{}", stdout(&again));
+    assert!(
+        out.join("sub-p1")
+            .join("sub-p1_desc-unfold_report.json")
+            .is_file()
+    );
+    // the default layout's files in OUT/work/
+    assert!(out.join("work").join("p-1").join("report.json").is_file());
+    assert!(out.join("work").join("cohort.csv").is_file());
+    assert!(!out.join("p-1").exists());
+    // the xfm is what `unfold placenta --displacement` writes
+    let single = d.join("single");
+    let field = d.join("field.nii.gz");
+    let sd = d.join("in").join("p-1");
+    let o = unfold(&[
+        "placenta",
+        &s(&sd.join("mesh.vtu")),
+        "--image",
+        &s(&sd.join("t2w.nii.gz")),
+        "--grid",
+        grid,
+        "--spacing-mm",
+        "4",
+        "--no-figures",
+        "--displacement",
+        &s(&field),
+        "-o",
+        &s(&single),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let xfm = out
+        .join("sub-p1")
+        .join("sub-p1_from-native_to-placentaTemplate_mode-image_xfm.nii.gz");
+    let (a, b) = (
+        unfold::io::read_image(&xfm).unwrap().volume,
+        unfold::io::read_image(&field).unwrap().volume,
+    );
+    assert_eq!(a.dims(), b.dims());
+    assert_eq!(a.affine(), b.affine());
+    assert_eq!(a.data(), b.data());
+}
+
+/// A bad `--layout` and ids whose BIDS labels collide (or are empty) are
+/// refused in one line before anything runs.
+#[test]
+fn bad_layouts_and_colliding_labels_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let manifest = d.join("m.csv");
+    std::fs::write(&manifest, "id,organ,input\np1,placenta,a.vtu\n").unwrap();
+    let out = d.join("out");
+    let o = unfold(&["batch", &s(&manifest), "-o", &s(&out), "--layout", "bidz"]);
+    assert_one_line_error(&o, "bidz");
+    assert!(stderr(&o).contains("bids"), "{}", stderr(&o));
+    for (rows, needle) in [
+        (
+            "p_1,placenta,a.vtu\np-1,placenta,a.vtu\n",
+            "subject ids 'p_1' and 'p-1' both become sub-p1",
+        ),
+        (
+            "__,placenta,a.vtu\n",
+            "subject id '__' has no letter or digit",
+        ),
+    ] {
+        std::fs::write(&manifest, format!("id,organ,input\n{rows}")).unwrap();
+        let o = unfold(&["batch", &s(&manifest), "-o", &s(&out), "--layout", "bids"]);
+        assert_one_line_error(&o, needle);
+        assert!(!out.exists());
+    }
 }

@@ -111,10 +111,11 @@ fn runaway_mesher_flags_are_refused_before_allocating() {
         assert!((peak as f64) < 200.0 * MIB, "peak {peak} B");
     }
     assert!(!out.exists());
-    // an anisotropic mask (voxels 1000 x 1 x 1 mm): `unfold mesh` and
-    // `placenta --seg --dense` mesh at the smallest spacing, so the lattice
-    // spans metres at 1 mm (`placenta --seg`'s default size follows the
-    // mask's volume and thickness instead)
+    // an anisotropic mask (voxels 1000 x 1 x 1 mm): `placenta --seg
+    // --dense` would mesh at the smallest spacing, a lattice spanning
+    // metres at 1 mm; an organ 20 m across is refused before any
+    // prediction or meshing (the prediction's own refusal:
+    // placenta_gates.rs)
     let mask = ball_mask(dir.path(), 24, 10.0, [1000.0, 1.0, 1.0]);
     let (o, peak) = unfold_measured(&[
         "placenta",
@@ -126,12 +127,12 @@ fn runaway_mesher_flags_are_refused_before_allocating() {
         "--max-memory",
         "2G",
     ]);
-    // refused before meshing, by the prediction from the mask
-    assert_one_line_error(
-        &o,
-        "flattening the placenta (predicted from the mask before meshing) would need about",
+    assert_one_line_error(&o, "larger than any organ unfold maps");
+    assert!(
+        stderr(&o).contains("check the voxel size"),
+        "{}",
+        stderr(&o)
     );
-    assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
     assert!((peak as f64) < 200.0 * MIB, "peak {peak} B");
 }
 

@@ -275,3 +275,61 @@ fn info_notes_a_mesh_smaller_than_an_organ() {
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert!(j.get("units_note").is_none(), "{j}");
 }
+
+/// A mask of 1000 x 1 x 1 mm voxels whose organ is 16 voxels long (16 m)
+/// is refused at once with one line naming the extent and the voxel size,
+/// and nothing is meshed or written.
+#[test]
+fn a_placenta_mask_over_a_metre_is_refused_before_meshing() {
+    use unfold::io::{NiftiImage, write_image};
+    use unfold::mesh::Volume;
+    use unfold::mesh::nalgebra::Matrix4;
+    let dir = tempfile::tempdir().unwrap();
+    let (nx, ny, nz) = (20, 12, 12);
+    let mut data = vec![0f32; nx * ny * nz];
+    for k in 2..10 {
+        for j in 2..10 {
+            for i in 2..18 {
+                data[i + nx * (j + ny * k)] = 1.0;
+            }
+        }
+    }
+    let affine = Matrix4::new_nonuniform_scaling(&[1000.0, 1.0, 1.0].into());
+    let vol = Volume::new([nx, ny, nz, 1], affine, data).unwrap();
+    let mask = dir.path().join("long.nii.gz");
+    write_image(&mask, &NiftiImage::new(vol)).unwrap();
+    let out = dir.path().join("p");
+    let o = unfold(&[
+        "placenta",
+        "--seg",
+        &s(&mask),
+        "-o",
+        &s(&out),
+        "--no-figures",
+    ]);
+    assert_one_line_error(&o, "the organ is 16000 mm across");
+    let err = stderr(&o);
+    assert!(err.contains(&s(&mask)), "{err}");
+    assert!(
+        err.contains("check the voxel size in the image's header (1000 x 1 x 1 mm"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+/// A placenta mesh 100 times too large (in tenths of a millimetre, about
+/// 13 m across) is refused before the run with one line naming its units.
+#[test]
+fn a_placenta_mesh_over_a_metre_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = write_divided(dir.path(), "slab_big.vtu", &slab(), 0.01);
+    let out = dir.path().join("p");
+    let o = unfold(&["placenta", &s(&big), "-o", &s(&out), "--no-figures"]);
+    assert_one_line_error(&o, "larger than any organ unfold maps (1000 mm)");
+    assert!(
+        stderr(&o).contains("check the file's units"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}

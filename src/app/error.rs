@@ -125,6 +125,23 @@ pub enum AppError {
         /// The unit it is likely in.
         unit: super::run::units::LengthUnit,
     },
+    /// An input larger than any organ
+    /// ([`super::run::units::LARGEST_ORGAN_MM`] across), refused before
+    /// anything is meshed or solved: a wrong voxel size or a file in other
+    /// units.
+    #[error(
+        "{path}: the organ is {side_mm:.0} mm across (its bounding box's largest side), larger \
+         than any organ unfold maps ({} mm), and unfold reads millimetres: {fix}",
+        super::run::units::LARGEST_ORGAN_MM
+    )]
+    LargerThanAnOrgan {
+        /// The input.
+        path: String,
+        /// Its bounding box's largest side, mm.
+        side_mm: f64,
+        /// What to check.
+        fix: String,
+    },
 }
 
 /// `e` naming the paths a staged output will have after the commit

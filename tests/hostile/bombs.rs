@@ -148,3 +148,41 @@ fn a_gigabyte_of_gzipped_zeros_is_read_only_if_it_fits() {
         output: Some(out),
     });
 }
+
+/// A VTK XML file of 27 Float64 points whose one zlib block declares the
+/// 648 bytes they take but holds a stream of 4 MiB of zeros (4 kB on disk):
+/// inflation stops one byte past the declared size.
+fn vtu_overrunning_block(path: &std::path::Path) {
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    std::io::Write::write_all(&mut z, &vec![0u8; 4 << 20]).unwrap();
+    let stream = z.finish().unwrap();
+    let mut bytes = br#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="27" NumberOfCells="0">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="appended" offset="0"/></Points>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+ _"#
+    .to_vec();
+    for w in [1u64, 648, 648, stream.len() as u64] {
+        bytes.extend_from_slice(&w.to_le_bytes());
+    }
+    bytes.extend_from_slice(&stream);
+    bytes.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_vtu_block_inflating_past_its_declared_size_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let bomb = dir.path().join("overrun.vtu");
+    vtu_overrunning_block(&bomb);
+    run(&Case {
+        name: "vtu block overrunning 648 bytes: info",
+        args: args(&["info", &s(&bomb)]),
+        expect: "compressed bytes) inflates to more than the 648 bytes its header declares",
+        max_peak_mib: 100.0,
+        inputs: vec![bomb.clone()],
+        output: None,
+    });
+}

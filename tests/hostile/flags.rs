@@ -94,7 +94,7 @@ fn mesher_flags() {
         inputs: vec![big.clone()],
         output: Some(out.clone()),
     });
-    // a mask of 1000 x 1 x 1 mm voxels: the default element size is 1 mm
+    // a mask of 1000 x 1 x 1 mm voxels (a ball 16 voxels across: 16 m)
     let wide = dir.path().join("wide.nii.gz");
     mask(&wide, [1000.0, 1.0, 1.0]);
     let p = dir.path().join("p");
@@ -112,8 +112,8 @@ fn mesher_flags() {
             "--max-memory",
             "2G",
         ]),
-        // refused before meshing, by the prediction from the mask
-        expect: "flattening the placenta (predicted from the mask before meshing) would need about",
+        // refused before meshing: a 16 m organ (its voxel size is wrong)
+        expect: "the organ is 16000 mm across",
         max_peak_mib: 150.0,
         inputs: vec![wide.clone()],
         output: Some(p),

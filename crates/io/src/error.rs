@@ -105,6 +105,26 @@ pub enum IoError {
         /// Decompressed bytes found (at most `declared + 1`).
         found: u64,
     },
+    /// A zlib block of a VTK XML array inflates to a size other than its
+    /// block header declares. Inflation stops one byte past the declared
+    /// size, so `found` is at most `declared + 1`, which means "more than
+    /// declared" (a stream that would inflate to gigabytes is never
+    /// inflated further).
+    #[error("{path}: {location}{}", block_size_message(*.block, *.compressed, *.declared, *.found))]
+    BlockSize {
+        /// The file.
+        path: FilePath,
+        /// Where the array's data starts.
+        location: Location,
+        /// The block (0-based) of the array's data.
+        block: usize,
+        /// The block's compressed bytes (as the block header declares).
+        compressed: u64,
+        /// The block's uncompressed bytes (as the block header declares).
+        declared: u64,
+        /// Bytes the block inflates to (at most `declared + 1`).
+        found: u64,
+    },
     /// The file is not a usable markups (landmarks) file.
     #[error("{path}: {source}")]
     Markups {
@@ -151,6 +171,7 @@ impl IoError {
             | IoError::Unsupported { path, .. }
             | IoError::Mesh { path, .. }
             | IoError::DecompressedSize { path, .. }
+            | IoError::BlockSize { path, .. }
             | IoError::Markups { path, .. }
             | IoError::Tlc { path, .. } => path,
         }
@@ -186,6 +207,21 @@ fn decompressed_size_message(declared: u64, found: u64) -> String {
         format!(
             "the compressed data decompresses to only {found} bytes, but the header declares \
              {declared}: the file is truncated or the header's dimensions or type are wrong"
+        )
+    }
+}
+
+/// The message of [`IoError::BlockSize`].
+fn block_size_message(block: usize, compressed: u64, declared: u64, found: u64) -> String {
+    if found > declared {
+        format!(
+            "zlib block {block} ({compressed} compressed bytes) inflates to more than the \
+             {declared} bytes its header declares: the file is corrupt or hostile"
+        )
+    } else {
+        format!(
+            "zlib block {block} ({compressed} compressed bytes) inflates to only {found} bytes, \
+             but its header declares {declared}: the file is truncated or corrupt"
         )
     }
 }

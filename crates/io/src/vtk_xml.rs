@@ -662,9 +662,7 @@ impl<'a> Doc<'a> {
             let payload = total
                 .and_then(|t| b.get(h..)?.get(..t))
                 .ok_or_else(|| bad("the data ends inside a compressed array"))?;
-            inflate(payload, &sizes, bs, last, limit)
-                .map(Cow::Owned)
-                .map_err(|m| bad(&m))
+            inflate(payload, &sizes, bs, last, limit, at).map(Cow::Owned)
         }
     }
 
@@ -729,7 +727,7 @@ impl<'a> Doc<'a> {
                 all
             };
             let payload = payload.get(..total).ok_or_else(short)?;
-            inflate(payload, &sizes, bs, last, limit).map_err(|m| bad(&m))
+            inflate(payload, &sizes, bs, last, limit, at)
         }
     }
 
@@ -907,34 +905,41 @@ impl<'a> Doc<'a> {
 /// uncompressed; the last `last` bytes, or `bs` when 0). The uncompressed
 /// total the header announces must be at most `limit` bytes (what the
 /// array can hold): checked before anything is inflated, so a small file
-/// cannot announce gigabytes (a compression bomb).
+/// cannot announce gigabytes (a compression bomb). Each block's stream
+/// must end exactly at its declared size: inflation stops one byte past
+/// it, and a stream running over (or ending short) is
+/// [`IoError::BlockSize`], so a small block declaring a few bytes cannot
+/// hide a stream that inflates to gigabytes. `at`: the file offset of the
+/// array's data, for messages.
 fn inflate(
     payload: &[u8],
     sizes: &[usize],
     bs: usize,
     last: usize,
     limit: usize,
-) -> Result<Vec<u8>, String> {
+    at: usize,
+) -> Result<Vec<u8>, IoError> {
+    let bad = |m: String| IoError::malformed(Location::Byte(at as u64), m);
     let nb = sizes.len();
     let mut expected = Vec::with_capacity(nb);
     for (i, &c) in sizes.iter().enumerate() {
         let e = if i + 1 == nb && last != 0 { last } else { bs };
         // Deflate expands at most ~1032:1.
         if e > c.saturating_mul(1032).saturating_add(64) {
-            return Err(format!(
+            return Err(bad(format!(
                 "compressed block {i} of {c} bytes cannot hold the {e} bytes it announces"
-            ));
+            )));
         }
         expected.push(e);
     }
     let total = expected.iter().fold(0usize, |s, &e| s.saturating_add(e));
     if total > limit {
-        return Err(format!(
+        return Err(bad(format!(
             "the compressed array announces {total} bytes, more than the {limit} bytes its \
              values can take"
-        ));
+        )));
     }
-    crate::decode_limit::claim(total as u64)?;
+    crate::decode_limit::claim(total as u64).map_err(bad)?;
     // Grown block by block, so a corrupt block fails before the memory its
     // successors announce is allocated.
     let mut out = Vec::with_capacity(total.min(payload.len().saturating_mul(4) + 4096));
@@ -944,17 +949,32 @@ fn inflate(
         let input = payload
             .get(i_in..)
             .and_then(|r| r.get(..c))
-            .ok_or_else(|| format!("zlib block {i} is cut off"))?;
-        out.resize(i_out + e, 0);
+            .ok_or_else(|| bad(format!("zlib block {i} is cut off")))?;
+        // One byte of room past the declared size: a stream that fills it
+        // runs over, and nothing more of it is inflated.
+        out.resize(i_out + e + 1, 0);
         d.reset(true);
-        d.decompress(input, &mut out[i_out..], FlushDecompress::Finish)
-            .map_err(|err| format!("zlib block {i} is corrupt: {err}"))?;
-        if d.total_out() as usize != e {
-            return Err(format!(
-                "zlib block {i} inflates to {} bytes, expected {e}",
-                d.total_out()
-            ));
+        let status = d
+            .decompress(input, &mut out[i_out..], FlushDecompress::Finish)
+            .map_err(|err| bad(format!("zlib block {i} is corrupt: {err}")))?;
+        let found = d.total_out();
+        if found != e as u64 {
+            return Err(IoError::BlockSize {
+                path: Default::default(),
+                location: Location::Byte(at as u64),
+                block: i,
+                compressed: c as u64,
+                declared: e as u64,
+                found,
+            });
         }
+        if status != Status::StreamEnd {
+            return Err(bad(format!(
+                "zlib block {i} ({c} compressed bytes) stops at its declared {e} bytes without \
+                 the end of its stream: the file is truncated or corrupt"
+            )));
+        }
+        out.truncate(i_out + e);
         i_in += c;
         i_out += e;
     }
@@ -1887,6 +1907,72 @@ mod tests {
         let e = read(&b).unwrap_err().to_string();
         assert!(
             e.contains("announces 4294967296 bytes, more than the 324 bytes"),
+            "{e}"
+        );
+    }
+
+    /// A 27-point Float64 `.vtu` whose one zlib block declares 648 bytes
+    /// and holds a stream of `zeros` zero bytes.
+    fn vtu_one_block(zeros: usize) -> Vec<u8> {
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), Compression::best());
+        std::io::Write::write_all(&mut z, &vec![0u8; zeros]).unwrap();
+        let stream = z.finish().unwrap();
+        let mut b = r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<UnstructuredGrid><Piece NumberOfPoints="27" NumberOfCells="0">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="appended" offset="0"/></Points>
+</Piece></UnstructuredGrid>
+<AppendedData encoding="raw">
+ _"#
+            .as_bytes()
+            .to_vec();
+        for w in [1u64, 648, 648, stream.len() as u64] {
+            b.extend_from_slice(&w.to_le_bytes());
+        }
+        b.extend_from_slice(&stream);
+        b.extend_from_slice(b"\n</AppendedData>\n</VTKFile>\n");
+        b
+    }
+
+    /// A zlib block must inflate to exactly the size its header declares:
+    /// a stream running over (4 MiB behind a 648-byte header) or ending
+    /// short is a typed error naming the block and the sizes.
+    #[test]
+    fn a_zlib_block_must_end_at_its_declared_size() {
+        assert_eq!(read(&vtu_one_block(648)).unwrap().positions.len(), 27);
+        let e = read(&vtu_one_block(4 << 20)).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IoError::BlockSize {
+                    block: 0,
+                    declared: 648,
+                    found: 649,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .contains("inflates to more than the 648 bytes its header declares"),
+            "{e}"
+        );
+        let e = read(&vtu_one_block(600)).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IoError::BlockSize {
+                    declared: 648,
+                    found: 600,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .contains("inflates to only 600 bytes, but its header declares 648"),
             "{e}"
         );
     }

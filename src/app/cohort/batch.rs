@@ -26,7 +26,7 @@
 //! loop over them.
 
 use super::finish::{Counts, finish, prepare_output};
-use super::manifest::plan;
+use super::manifest::{Plan, plan};
 use super::subject::{Ended, Program, Subject, run_subject};
 use crate::app::AppError;
 use crate::app::observer::Observer;
@@ -59,7 +59,20 @@ pub fn run_manifest(
     jobs: Option<usize>,
     observer: &mut dyn BatchObserver,
 ) -> Result<(), AppError> {
-    let plan = plan(manifest)?;
+    run_plan(&plan(manifest)?, out, jobs, observer)
+}
+
+/// Runs the subjects of `plan` (a manifest read and checked) into `out`,
+/// as [`run_manifest`].
+///
+/// # Errors
+/// As [`run_manifest`], after the manifest is read.
+pub fn run_plan(
+    plan: &Plan,
+    out: &Path,
+    jobs: Option<usize>,
+    observer: &mut dyn BatchObserver,
+) -> Result<(), AppError> {
     let subjects = &plan.subjects;
     let jobs = match jobs {
         Some(0) => return Err(AppError::Usage("--jobs must be at least 1".into())),
@@ -113,7 +126,7 @@ pub fn run_manifest(
         not_converged: unconverged,
         skipped,
         failed,
-    } = finish(out, &plan, &ended, &mut *observer)?;
+    } = finish(out, plan, &ended, &mut *observer)?;
     observer.info(&format!(
         "batch: {total} subjects, {ran} run, {unconverged} not converged (outputs written), \
          {skipped} skipped (done before with the same inputs), {failed} failed; wrote {}",

@@ -4,9 +4,11 @@
 //! placentas ([`images`]), the AHA-segment statistics of the ventricles
 //! ([`segments`]), the mitral measurements and mean maps ([`mitral`],
 //! [`mitral_maps`]), the cohort figures ([`figures`]) and the report page
-//! ([`report_page`]); every subject's report read typed ([`reports`]).
+//! ([`report_page`]); every subject's report read typed ([`reports`]);
+//! `--layout bids` as a BIDS derivative dataset ([`bids`]).
 
 pub mod batch;
+pub mod bids;
 pub mod columns;
 pub mod figures;
 pub mod finish;
@@ -21,7 +23,8 @@ pub mod segments;
 pub mod subject;
 pub mod table;
 
-pub use batch::{BatchObserver, run_manifest};
+pub use batch::{BatchObserver, run_manifest, run_plan};
+pub use bids::{Layout, run_manifest_bids};
 pub use columns::{OrganColumns, organ_columns};
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};

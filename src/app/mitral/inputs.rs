@@ -253,7 +253,9 @@ pub fn read(files: &ValveFiles, label: String, pipeline: &Pipeline) -> Result<In
 /// Reading the file, or [`leaflet_of`]'s.
 pub fn read_leaflet(path: &Path) -> Result<TriMesh, AppError> {
     refuse_image(path)?;
-    let mesh = leaflet_of(&read_mesh(path)?, path)?;
+    let cells = read_mesh(path)?;
+    crate::app::run::units::refuse_mesh_larger_than_an_organ(path, &cells.positions)?;
+    let mesh = leaflet_of(&cells, path)?;
     refuse_closed(&mesh, &path.display().to_string())?;
     Ok(mesh)
 }
@@ -369,6 +371,7 @@ pub fn read_ring(path: &Path) -> Result<Vec<Point3<f64>>, AppError> {
         return parse_points(&text, path);
     }
     let cells = read_mesh(path)?;
+    crate::app::run::units::refuse_mesh_larger_than_an_organ(path, &cells.positions)?;
     let lines = cells.polylines();
     match lines.len() {
         1 => Ok(lines[0]

@@ -241,6 +241,7 @@ pub fn read(
         None => {
             let frame = mesh_frame(settings.mesh_frame, input)?;
             let cells = read_mesh(input)?;
+            crate::app::run::units::refuse_mesh_larger_than_an_organ(input, &cells.positions)?;
             let mut mesh = cells.volume_tets().map_err(|e| at(input, e))?;
             // Into RAS: negate x and y of an LPS mesh (a half turn about z,
             // so no tet changes orientation).

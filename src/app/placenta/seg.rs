@@ -154,6 +154,8 @@ pub fn mesh_segmentation(
     let m = &settings.mask;
     let label = seg.display().to_string();
     let mask = m.read_mask(seg)?;
+    // A mask larger than any organ (a wrong voxel size) before any meshing.
+    crate::app::run::units::refuse_mask_larger_than_an_organ(seg, &mask)?;
     let spacing = mask.spacing();
     let (size_mm, size_from) =
         seg_cube_side(&mask, m.size_mm, settings.dense).map_err(|e| at(seg, e))?;

@@ -12,7 +12,9 @@
 //! that name, such as an earlier run's output, lies); for an argument naming a
 //! directory (`mitral --series DIR`), the path and SHA-256 of every file
 //! directly in it, sorted by name. Paths are taken as given: the same files
-//! under other names hash differently.
+//! under other names hash differently. An output file named by a flag
+//! (`--displacement FILE`, [`OUTPUT_FILE_FLAGS`]) counts by its path only:
+//! its contents, an earlier run's output, are not an input.
 
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -110,6 +112,10 @@ pub fn this_run() -> Provenance {
     })
 }
 
+/// Flags whose value is a file the run writes: their path bears on the
+/// outputs, their contents do not.
+pub const OUTPUT_FILE_FLAGS: [&str; 1] = ["--displacement"];
+
 /// The arguments that bear on the outputs: all but the output path and
 /// `--max-memory`.
 fn significant(args: &[String]) -> Vec<&str> {
@@ -171,11 +177,20 @@ pub fn run_hash(args: &[String]) -> (String, Vec<InputHash>) {
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update([0]);
     let mut inputs = Vec::new();
+    let mut output_next = false;
     for (k, a) in significant(args).into_iter().enumerate() {
         h.update(a.as_bytes());
         h.update([0]);
         if k == 0 {
             continue; // the subcommand
+        }
+        let output = std::mem::take(&mut output_next)
+            || OUTPUT_FILE_FLAGS
+                .iter()
+                .any(|f| a.strip_prefix(f).is_some_and(|v| v.starts_with('=')));
+        output_next = OUTPUT_FILE_FLAGS.contains(&a);
+        if output {
+            continue;
         }
         let candidate = a.split_once('=').map_or(a, |(_, v)| v);
         let p = Path::new(candidate);
@@ -260,6 +275,25 @@ mod tests {
             "x",
         ]);
         assert_eq!(run_hash(&flag).1.len(), 1);
+    }
+
+    /// A displacement field written by an earlier run is an output: its
+    /// path counts, its contents (there or not) do not.
+    #[test]
+    fn an_output_file_counts_by_its_path_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let field = dir.path().join("field.nii.gz");
+        let f = field.display().to_string();
+        let eq = v(&["placenta", "m.vtu", &format!("--displacement={f}")]);
+        let sep = v(&["placenta", "m.vtu", "--displacement", &f]);
+        let (before_eq, before_sep) = (run_hash(&eq).0, run_hash(&sep).0);
+        std::fs::write(&field, b"written").unwrap();
+        let (after, inputs) = run_hash(&eq);
+        assert_eq!(after, before_eq);
+        assert!(inputs.is_empty());
+        assert_eq!(run_hash(&sep), (before_sep, Vec::new()));
+        let elsewhere = v(&["placenta", "m.vtu", "--displacement=other.nii.gz"]);
+        assert_ne!(run_hash(&elsewhere).0, before_eq);
     }
 
     #[test]

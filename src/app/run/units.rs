@@ -11,9 +11,16 @@
 //! ([`OrganSize::likely_unit`]) and how to scale it (`unfold convert IN OUT
 //! --scale 10` for centimetres, `1000` for metres). Runs that succeed are
 //! not second-guessed.
+//!
+//! An input larger than any organ ([`LARGEST_ORGAN_MM`] across: a mask
+//! whose voxel size is wrong, a mesh in micrometres) is refused before
+//! anything is meshed or solved ([`refuse_larger_than_an_organ`],
+//! [`mask_side_mm`]): such a run would otherwise mesh or flatten for
+//! minutes at the wrong scale.
 
 use crate::app::AppError;
 use crate::io::read_mesh;
+use crate::mesh::Volume;
 use crate::mesh::geometry::bounding_box;
 use crate::mesh::nalgebra::Point3;
 use std::path::{Path, PathBuf};
@@ -21,6 +28,111 @@ use std::path::{Path, PathBuf};
 /// No organ unfold maps is smaller than this across (mm): a mitral annulus
 /// is about 30 mm wide, a ventricle 50-120 mm long, a placenta 150-250 mm.
 pub const SMALLEST_ORGAN_MM: f64 = 10.0;
+
+/// No organ unfold maps is larger than this across (mm): a placenta is at
+/// most about 350 mm, a dilated heart chamber 150 mm.
+pub const LARGEST_ORGAN_MM: f64 = 1000.0;
+
+/// The largest side of the bounding box of `positions` (mm) when it is
+/// finite and over [`LARGEST_ORGAN_MM`]; `None` otherwise (an infinite
+/// coordinate is left to the checks of the run).
+pub fn too_large(positions: &[Point3<f64>]) -> Option<f64> {
+    let side = bounding_box(positions)?.extent().max();
+    (side.is_finite() && side > LARGEST_ORGAN_MM).then_some(side)
+}
+
+/// The largest side (mm) of the world bounding box of the voxels set in
+/// the first frame of `mask`, each voxel taken as the box of half a voxel
+/// about its centre (the 8 corners of the index box `[min - 1/2, max +
+/// 1/2]` mapped by the affine); `None` for an empty mask.
+pub fn mask_side_mm(mask: &Volume<bool>) -> Option<f64> {
+    let [nx, ny, _, _] = mask.dims();
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (n, _) in mask
+        .data()
+        .iter()
+        .take(mask.frame_len())
+        .enumerate()
+        .filter(|(_, set)| **set)
+    {
+        let ijk = [n % nx, (n / nx) % ny, n / (nx * ny)];
+        for a in 0..3 {
+            lo[a] = lo[a].min(ijk[a]);
+            hi[a] = hi[a].max(ijk[a]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return None;
+    }
+    let corners: Vec<Point3<f64>> = (0..8)
+        .map(|c: usize| {
+            let pick = |a: usize| {
+                if c >> a & 1 == 0 {
+                    lo[a] as f64 - 0.5
+                } else {
+                    hi[a] as f64 + 0.5
+                }
+            };
+            mask.voxel_to_world(&Point3::new(pick(0), pick(1), pick(2)))
+        })
+        .collect();
+    Some(bounding_box(&corners)?.extent().max())
+}
+
+/// Refuses an input `path` whose organ spans `side_mm` (its bounding box's
+/// largest side) when that is over [`LARGEST_ORGAN_MM`]
+/// ([`AppError::LargerThanAnOrgan`], `fix` saying what to check).
+///
+/// # Errors
+/// [`AppError::LargerThanAnOrgan`].
+pub fn refuse_larger_than_an_organ(
+    path: &Path,
+    side_mm: Option<f64>,
+    fix: impl FnOnce() -> String,
+) -> Result<(), AppError> {
+    match side_mm {
+        Some(side) if side.is_finite() && side > LARGEST_ORGAN_MM => {
+            Err(AppError::LargerThanAnOrgan {
+                path: path.display().to_string(),
+                side_mm: side,
+                fix: fix(),
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// [`refuse_larger_than_an_organ`] for a mesh file `path` with these
+/// points: the fix is to check its units.
+///
+/// # Errors
+/// [`AppError::LargerThanAnOrgan`].
+pub fn refuse_mesh_larger_than_an_organ(
+    path: &Path,
+    positions: &[Point3<f64>],
+) -> Result<(), AppError> {
+    refuse_larger_than_an_organ(path, too_large(positions), || {
+        format!(
+            "check the file's units (`unfold convert {} OUT --scale S` scales it to millimetres)",
+            path.display()
+        )
+    })
+}
+
+/// [`refuse_larger_than_an_organ`] for a mask `path`: the fix is to check
+/// the voxel size its header gives.
+///
+/// # Errors
+/// [`AppError::LargerThanAnOrgan`].
+pub fn refuse_mask_larger_than_an_organ(path: &Path, mask: &Volume<bool>) -> Result<(), AppError> {
+    refuse_larger_than_an_organ(path, mask_side_mm(mask), || {
+        let [a, b, c] = mask.spacing();
+        format!(
+            "check the voxel size in the image's header ({a} x {b} x {c} mm; a size in other \
+             units or a wrong one makes the organ this large)"
+        )
+    })
+}
 
 /// A length unit a mesh file may have been written in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -239,6 +351,45 @@ mod tests {
             proptest::prop_assume!(side < organ.smallest_mm);
             proptest::prop_assert_eq!(organ.likely_unit(side), unit);
         }
+    }
+
+    /// A mask of 1000 x 1 x 1 mm voxels whose organ is 16 voxels long is
+    /// 16 m across and refused, naming the extent and the voxel size; the
+    /// same organ at 1 mm voxels is not; an empty mask has no extent.
+    #[test]
+    fn an_organ_over_a_metre_is_refused() {
+        use crate::mesh::nalgebra::Matrix4;
+        let dims = [20, 4, 4, 1];
+        let mut data = vec![false; 20 * 16];
+        for i in 2..18 {
+            data[i + 20 + 20 * 4] = true;
+        }
+        let affine = Matrix4::new_nonuniform_scaling(&[1000.0, 1.0, 1.0].into());
+        let long = Volume::new(dims, affine, data.clone()).unwrap();
+        assert_eq!(mask_side_mm(&long), Some(16_000.0));
+        let e = refuse_mask_larger_than_an_organ(Path::new("m.nii.gz"), &long).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, AppError::LargerThanAnOrgan { .. }), "{msg}");
+        assert!(
+            msg.contains("m.nii.gz: the organ is 16000 mm across"),
+            "{msg}"
+        );
+        assert!(msg.contains("check the voxel size in the image's header (1000 x 1 x 1 mm"));
+        let mm = Volume::new(dims, Matrix4::identity(), data).unwrap();
+        assert_eq!(mask_side_mm(&mm), Some(16.0));
+        assert!(refuse_mask_larger_than_an_organ(Path::new("m"), &mm).is_ok());
+        let empty = Volume::filled(dims, Matrix4::identity(), false).unwrap();
+        assert_eq!(mask_side_mm(&empty), None);
+        // meshes: over a metre refused, a metre and infinities left alone
+        let p = |x: f64| [Point3::origin(), Point3::new(x, 0.0, 0.0)];
+        assert_eq!(too_large(&p(1500.0)), Some(1500.0));
+        assert_eq!(too_large(&p(1000.0)), None);
+        assert_eq!(too_large(&p(f64::INFINITY)), None);
+        let e = refuse_mesh_larger_than_an_organ(Path::new("a.vtu"), &p(2e4)).unwrap_err();
+        assert!(
+            e.to_string().contains("unfold convert a.vtu OUT --scale S"),
+            "{e}"
+        );
     }
 
     #[test]

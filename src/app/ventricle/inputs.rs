@@ -205,6 +205,7 @@ pub struct Inputs {
 /// Reading the file; a frame marker that contradicts `frame`.
 pub fn read_surface(path: &Path, frame: MeshFrame) -> Result<TriMesh, AppError> {
     let mut m = read_tri_mesh(path)?;
+    crate::app::run::units::refuse_mesh_larger_than_an_organ(path, &m.positions)?;
     to_ras(mesh_frame(frame, path)?, &mut m.positions);
     Ok(m)
 }
@@ -252,6 +253,7 @@ pub fn read(
 ) -> Result<Inputs, AppError> {
     let path = files.anatomy.as_path();
     let mut anatomy = read_mesh(path)?;
+    crate::app::run::units::refuse_mesh_larger_than_an_organ(path, &anatomy.positions)?;
     to_ras(
         mesh_frame(settings.mesh_frame, path)?,
         &mut anatomy.positions,

@@ -3,11 +3,12 @@
 //! ([`crate::app::cohort`]), its progress drawn (a bar on a terminal, a
 //! line per subject otherwise: cluster job logs).
 
+use super::choice::named;
 use super::progress::Progress;
 use crate::app::AppError;
 #[cfg(test)]
 use crate::app::cohort::OrganColumns;
-use crate::app::cohort::{BatchObserver, Ended, PlotSpec, Subject};
+use crate::app::cohort::{BatchObserver, Ended, Layout, PlotSpec, Subject};
 use crate::app::observer::Observer;
 use crate::app::run::printable::printable;
 use crate::organs::PipelineObserver;
@@ -28,6 +29,11 @@ pub struct BatchArgs {
     /// Subjects run at a time [default: the number of CPUs].
     #[arg(long, value_name = "N")]
     jobs: Option<usize>,
+    /// How OUT is laid out: `default`, or `bids` (a BIDS derivative dataset:
+    /// `OUT/dataset_description.json`, `OUT/sub-<label>/`, `OUT/group/`; the
+    /// default layout's files in `OUT/work/`).
+    #[arg(long, value_parser = named::<Layout>(), default_value = "default")]
+    layout: Layout,
 }
 
 /// `unfold cohort`.
@@ -98,7 +104,23 @@ impl BatchObserver for BatchProgress {
 
 /// Runs `unfold batch`.
 pub fn run(a: &BatchArgs) -> Result<(), AppError> {
-    run_manifest(&a.manifest, &a.output, a.jobs)
+    match a.layout {
+        Layout::Default => run_manifest(&a.manifest, &a.output, a.jobs),
+        Layout::Bids => {
+            let command_line: Vec<String> = std::env::args().collect();
+            let mut progress = BatchProgress {
+                bar: None,
+                lines: Progress::new(false),
+            };
+            crate::app::cohort::run_manifest_bids(
+                &a.manifest,
+                &a.output,
+                a.jobs,
+                &command_line,
+                &mut progress,
+            )
+        }
+    }
 }
 
 /// Runs the subjects of `manifest` into `out` ([`crate::app::cohort::run_manifest`]).
