@@ -14,7 +14,8 @@ the scanner point that the run's map gives (the barycentric map through the
 tets of OUT/<id>/flattened.vtu and OUT/<id>/original.vtu, computed here with
 numpy from the files read by meshio) within one voxel of the scan shown, and
 a click on that marker in the scan must give the template point back within
-one voxel. Prints a one-line summary; exits 1 with the problems otherwise.
+one voxel; and for the first ventricle, a click on its disk must mark its
+rendering (some clicks may land on the far side). Prints a one-line summary; exits 1 with the problems otherwise.
 """
 
 import base64
@@ -139,6 +140,34 @@ def check_viewer(page, out, placentas, problems):
             f"(voxel {voxel:.1f} mm)")
 
 
+def check_ventricle(page, ventricles, problems):
+    """The first ventricle viewer: clicks on the disk (a spiral of pixels from
+    the centre) until one shows a marker on the rendering; returns the
+    summary's words, or None when the page has no ventricle viewer."""
+    viewers = page.locator("div.lvv")
+    if viewers.count() == 0:
+        if ventricles:
+            problems.append(f"no linked viewer on the page for {len(ventricles)} ventricle(s)")
+        return None
+    root = viewers.first
+    sid = root.get_attribute("data-subject")
+    n = json.loads(root.locator("script.lv-data").text_content())["disk"]["n"]
+    canvases = root.locator("canvas")
+    readout = root.locator("p.lv-readout")
+    zoom = canvases.nth(0).evaluate("c => c.width") / n
+    states = []
+    for r, a in ((r, a) for r in (0.1, 0.3, 0.5) for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)):
+        i, j = (n / 2) * (1 + r * np.cos(a)), (n / 2) * (1 - r * np.sin(a))
+        canvas_click(page, canvases.nth(0), i * zoom, j * zoom)
+        states.append(readout.get_attribute("data-state"))
+        if canvases.nth(1).get_attribute("data-marker-px"):
+            return (f"ventricle {sid}: a disk click marked the rendering "
+                    f"({states.count('far')} on the far side before)")
+    problems.append(f"linked viewer {sid}: {len(states)} disk clicks marked nothing on the "
+                    f"rendering (states {states})")
+    return None
+
+
 def main() -> int:
     args = sys.argv[1:]
     if not args or args[0].startswith("-"):
@@ -157,6 +186,7 @@ def main() -> int:
         rows = list(csv.DictReader(f))
     ids = [row["id"] for row in rows]
     placentas = [row["id"] for row in rows if row.get("organ") == "placenta"]
+    ventricles = [row["id"] for row in rows if row.get("organ") == "ventricle"]
 
     chromium = os.environ.get("UNFOLD_CHROMIUM", "/usr/bin/chromium")
     if not Path(chromium).is_file():
@@ -183,6 +213,7 @@ def main() -> int:
         sections = page.eval_on_selector_all(
             "section.subject", "ss => ss.map(s => s.id)")
         viewer = check_viewer(page, out, placentas, problems)
+        disk = check_ventricle(page, ventricles, problems)
         if screenshot:
             page.screenshot(path=screenshot, full_page=False)
         browser.close()
@@ -199,7 +230,7 @@ def main() -> int:
               f"{len(images)} images", file=sys.stderr)
         return 1
     print(f"index.html: {len(sections)} sections, {len(images)} images, all loaded"
-          + (f"; {viewer}" if viewer else ""))
+          + (f"; {viewer}" if viewer else "") + (f"; {disk}" if disk else ""))
     return 0
 
 

@@ -128,6 +128,46 @@
     flat.draw(fval, 0, null);
     showScan(null);
   }
+  // A ventricle: a click on the disk marks the surface point on the rendering.
+  function setupVentricle(root) {
+    var d = JSON.parse(root.querySelector("script.lv-data").textContent);
+    var D = d.disk, R = d.render, n = D.n;
+    var dval = bytes(D.values), surf = coords(D.surface, D.surface_scale);
+    var rpx = coords(D.render_px, D.render_px_scale), rval = bytes(R.values);
+    var disk = view(n, n, "disk (AHA segments)");
+    var ren = view(R.w, R.h, "surface (scanner space), seen from the side");
+    var out = document.createElement("p");
+    out.className = "lv-readout";
+    out.textContent = "Click a point of the disk.";
+    root.appendChild(disk.fig); root.appendChild(ren.fig); root.appendChild(out);
+    disk.canvas.addEventListener("click", function (e) {
+      var uv = disk.at(e), i = Math.round(uv[0]), j = Math.round(uv[1]), p = i + n * j;
+      var xz = [-1 + (uv[0] + 0.5) * 2 / n, 1 - (uv[1] + 0.5) * 2 / n];
+      disk.draw(dval, 0, uv);
+      out.setAttribute("data-disk", fmt(xz));
+      if (i < 0 || j < 0 || i >= n || j >= n || isNaN(surf[3 * p])) {
+        ren.draw(rval, 0, null);
+        out.setAttribute("data-scanner-mm", ""); out.setAttribute("data-state", "outside");
+        out.textContent = "disk " + fmt(xz) + ": outside the disk";
+        return;
+      }
+      var x = [surf[3 * p], surf[3 * p + 1], surf[3 * p + 2]];
+      out.setAttribute("data-scanner-mm", fmt(x));
+      if (isNaN(rpx[2 * p])) {
+        ren.draw(rval, 0, null);
+        out.setAttribute("data-state", "far");
+        out.textContent = "disk " + fmt(xz) + " \u2194 scanner " + fmt(x) + " mm: on the far side of this view";
+        return;
+      }
+      ren.draw(rval, 0, [rpx[2 * p] - 0.5, rpx[2 * p + 1] - 0.5]);
+      out.setAttribute("data-state", "inside");
+      out.textContent = "disk " + fmt(xz) + " \u2194 scanner " + fmt(x) + " mm";
+    });
+    disk.draw(dval, 0, null);
+    ren.draw(rval, 0, null);
+  }
   var roots = document.querySelectorAll("div.lv");
   for (var r = 0; r < roots.length; r++) setup(roots[r]);
+  roots = document.querySelectorAll("div.lvv");
+  for (r = 0; r < roots.length; r++) setupVentricle(roots[r]);
 })();

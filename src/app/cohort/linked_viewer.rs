@@ -19,6 +19,14 @@
 //!   [`MAX_BYTES`], and, per voxel inside the mesh, the template point of
 //!   its centre (stored for those voxels only, with a mask).
 //!
+//! A ventricle gets the same between its disk and its surface
+//! ([`surface_view`]): per pixel of the disk (`xi`, `zeta` of
+//! `anatomy.vtu`) the surface point through the triangle containing it,
+//! and that point's pixel in an orthographic rendering of the surface
+//! (drawn here with `unfold_render`) where it faces the viewer (its depth
+//! within two pixels of the rendering's depth there), so a click on the
+//! disk marks the rendering or says the point is on the far side.
+//!
 //! Values are quantized to bytes (the range of the values shown), the
 //! coordinates to little-endian `i16` in units of `scale` mm (the largest
 //! magnitude over 32000: 0.01 mm for a box within 320 mm of the origin;
@@ -30,9 +38,9 @@ use super::report_page::escape;
 use super::reports::SubjectReport;
 use crate::app::placenta::inputs::flat_name;
 use crate::io::{read_image, read_mesh};
-use crate::mesh::nalgebra::{Matrix4, Point3};
-use crate::mesh::spatial::TetLocator;
-use crate::mesh::{TetMesh, Volume};
+use crate::mesh::nalgebra::{Matrix3, Matrix4, Point3, Vector3};
+use crate::mesh::spatial::{PlanarTriLocator, TetLocator};
+use crate::mesh::{TetMesh, TriMesh, Volume};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -76,6 +84,9 @@ pub enum ViewerError {
         /// Which image.
         what: &'static str,
     },
+    /// The surface could not be rendered.
+    #[error("cannot render the surface: {0}")]
+    Render(String),
     /// Even the coarsest downsampling of the scan is over the cap.
     #[error("the scan's viewer data ({bytes} bytes at step {step}) is over the cap of {cap} bytes")]
     TooLarge {
@@ -464,13 +475,19 @@ pub fn placenta_data(
     Ok((slice, stack))
 }
 
-/// The linked viewer of subject `id` (its folder `OUT/<id>`), for a
-/// placenta whose report names an image: its first image's flat image in
-/// the folder and the scan the report says it came from. Nothing for
-/// other organs and for a placenta without images.
+/// The linked viewer of subject `id` (its folder `OUT/<id>`): for a
+/// placenta whose report names an image, its first image's flat image in
+/// the folder and the scan the report says it came from; for a ventricle,
+/// its disk and surface ([`ventricle_data`]). Nothing for other organs and
+/// for a placenta without images.
 pub fn subject_viewer(html: &mut String, out: &Path, id: &str, report: Option<&SubjectReport>) {
-    let Some(SubjectReport::Placenta(r)) = report else {
-        return;
+    let r = match report {
+        Some(SubjectReport::Placenta(r)) => r,
+        Some(SubjectReport::Ventricle(_)) => {
+            surface_html(html, &escape(id), ventricle_data(&out.join(id)));
+            return;
+        }
+        _ => return,
     };
     let Some(image) = r.report.images.first() else {
         return;
@@ -489,7 +506,7 @@ pub fn subject_viewer(html: &mut String, out: &Path, id: &str, report: Option<&S
 /// The viewer's style and script, once at the end of a page that has a
 /// viewer (an element of class `lv`).
 pub fn page_assets(html: &mut String) {
-    if html.contains("<div class=\"lv\"") {
+    if html.contains("<div class=\"lv\"") || html.contains("<div class=\"lvv\"") {
         let _ = writeln!(
             html,
             "<style>{VIEWER_CSS}</style><script>{VIEWER_JS}</script>"
@@ -527,6 +544,215 @@ pub fn viewer_html(
                     )
                 },
                 viewer_json(name, &slice, &stack),
+            );
+        }
+        Err(e) => {
+            let _ = writeln!(
+                html,
+                "<p class=\"warn\">No linked viewer: {}</p>",
+                escape(&e.to_string())
+            );
+        }
+    }
+}
+
+/// Pixels per side of the ventricle's disk image (over `[-1, 1]^2`).
+pub const DISK_PIXELS: usize = 100;
+
+/// Pixels per side of the ventricle's surface rendering.
+pub const RENDER_PIXELS: u32 = 200;
+
+/// A ventricle's disk and an orthographic rendering of its surface, linked:
+/// per disk pixel the surface point and, where it faces the viewer, its
+/// pixel in the rendering.
+#[derive(Debug, Clone)]
+pub struct SurfaceView {
+    /// The disk image, `i + n j` (`j` down, `zeta` up): `40 + 12 s` for a
+    /// pixel in AHA segment `s` (0 without a segment), 0 outside the disk.
+    pub disk: Vec<u8>,
+    /// The surface point (scanner mm) of each disk pixel's centre, 3 per
+    /// pixel, NaN outside the disk.
+    pub surface: Vec<f32>,
+    /// Where that point is in the rendering (pixel coordinates, the centre
+    /// of pixel `(i, j)` at `(i + 0.5, j + 0.5)`), 2 per pixel, NaN where
+    /// another part of the surface hides it (the far side) or outside.
+    pub render_px: Vec<f32>,
+    /// The rendering's grey levels, `RENDER_PIXELS` square, row-major.
+    pub render: Vec<u8>,
+}
+
+/// The disk `(xi, zeta)` of `mesh`'s point data `xi` and `zeta`.
+fn disk_coordinates(mesh: &TriMesh) -> Result<Vec<[f64; 2]>, ViewerError> {
+    let field = |name: &str| {
+        mesh.point_data
+            .get(name)
+            .ok_or_else(|| ViewerError::Read(format!("anatomy.vtu has no point array '{name}'")))
+    };
+    let (xi, zeta) = (field("xi")?, field("zeta")?);
+    (0..mesh.positions.len())
+        .map(|i| match (xi.get(i, 0), zeta.get(i, 0)) {
+            (Some(x), Some(z)) if x.is_finite() && z.is_finite() => Ok([x, z]),
+            _ => Err(ViewerError::Read(format!(
+                "anatomy.vtu: point {i} has no finite disk coordinates"
+            ))),
+        })
+        .collect()
+}
+
+/// The disk image of `mesh` (its disk coordinates `disk`, one per vertex)
+/// and the rendering of `mesh` seen along `view_dir` with `up` up: a disk
+/// pixel's centre `(xi, zeta)` lies in a triangle of the disk with
+/// barycentric coordinates `b`; its surface point is `sum_i b_i x_i` over
+/// the same triangle's corners in `mesh`; it is visible where its depth is
+/// within two pixels of the rendering's depth at its pixel.
+///
+/// # Errors
+/// [`ViewerError::Render`] for a mesh the renderer refuses (no finite
+/// points, `up` along `view_dir`).
+pub fn surface_view(
+    mesh: &TriMesh,
+    disk: &[[f64; 2]],
+    view_dir: Vector3<f64>,
+    up: Vector3<f64>,
+) -> Result<SurfaceView, ViewerError> {
+    use crate::figures::render::{
+        Camera, Coloring, Lens, Projection, Renderer, Rgb, Rgba, Shading,
+    };
+    let failed = |e: crate::figures::render::RenderError| ViewerError::Render(e.to_string());
+    let size = RENDER_PIXELS;
+    let camera = Camera::frame(
+        &mesh.positions,
+        view_dir,
+        up,
+        Lens::Orthographic,
+        size,
+        size,
+        0.05,
+    )
+    .map_err(failed)?;
+    let mut renderer = Renderer::new(size, size, Rgba::BLACK, camera).map_err(failed)?;
+    renderer
+        .draw_mesh(
+            &mesh.positions,
+            &mesh.triangles,
+            Coloring::Uniform(Rgb::new(220, 220, 220)),
+            Shading::Smooth,
+        )
+        .map_err(failed)?;
+    let pixel_mm = match camera.projection() {
+        Projection::Orthographic { half_height } => 2.0 * half_height / f64::from(size),
+        Projection::Perspective { .. } => 0.0,
+    };
+    let aha = mesh.point_data.get("aha");
+    let locator = PlanarTriLocator::new(disk, &mesh.triangles);
+    let n = DISK_PIXELS;
+    let mut view = SurfaceView {
+        disk: Vec::with_capacity(n * n),
+        surface: Vec::with_capacity(3 * n * n),
+        render_px: Vec::with_capacity(2 * n * n),
+        render: renderer
+            .image()
+            .as_bytes()
+            .chunks(4)
+            .map(|p| p[0])
+            .collect(),
+    };
+    for j in 0..n {
+        for i in 0..n {
+            let h = 2.0 / n as f64;
+            let uv = [-1.0 + (i as f64 + 0.5) * h, 1.0 - (j as f64 + 0.5) * h];
+            let Some((t, b)) = locator.locate(uv) else {
+                view.disk.push(0);
+                view.surface.extend([f32::NAN; 3]);
+                view.render_px.extend([f32::NAN; 2]);
+                continue;
+            };
+            let tri = mesh.triangles[t];
+            let x = (0..3).fold(Point3::origin(), |x, c| {
+                x + mesh.positions[tri[c] as usize].coords * b[c]
+            });
+            let nearest = (0..3).max_by(|&a, &c| b[a].total_cmp(&b[c])).unwrap_or(0);
+            let segment = aha
+                .and_then(|f| f.get(tri[nearest] as usize, 0))
+                .filter(|s| (1.0..=17.0).contains(s))
+                .unwrap_or(0.0);
+            view.disk.push(40 + 12 * segment as u8);
+            view.surface.extend([x.x as f32, x.y as f32, x.z as f32]);
+            let seen = renderer.project(&x).filter(|p| {
+                renderer
+                    .depth_at(p.x.floor() as i64, p.y.floor() as i64)
+                    .is_some_and(|z| p.depth <= z + 2.0 * pixel_mm)
+            });
+            match seen {
+                Some(p) => view.render_px.extend([p.x as f32, p.y as f32]),
+                None => view.render_px.extend([f32::NAN; 2]),
+            }
+        }
+    }
+    Ok(view)
+}
+
+/// The direction of the largest spread of `points` (the long axis of a
+/// ventricle) and a direction across it to look along.
+fn side_view(points: &[Point3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let n = points.len().max(1) as f64;
+    let c = points.iter().fold(Vector3::zeros(), |c, p| c + p.coords) / n;
+    let cov = points.iter().fold(Matrix3::zeros(), |m, p| {
+        let d = p.coords - c;
+        m + d * d.transpose()
+    });
+    let eig = cov.symmetric_eigen();
+    let k = eig.eigenvalues.imax();
+    let axis: Vector3<f64> = eig.eigenvectors.column(k).into();
+    let least = (0..3)
+        .min_by(|&a, &b| axis[a].abs().total_cmp(&axis[b].abs()))
+        .unwrap_or(0);
+    let across = axis.cross(&Vector3::ith(least, 1.0));
+    (across, axis)
+}
+
+/// A ventricle subject's data from its folder: `anatomy.vtu` (scanner
+/// space) with its disk coordinates.
+///
+/// # Errors
+/// [`ViewerError`]'s.
+pub fn ventricle_data(dir: &Path) -> Result<SurfaceView, ViewerError> {
+    let mesh = read_mesh(dir.join("anatomy.vtu"))
+        .map_err(|e| ViewerError::Read(e.to_string()))?
+        .to_tri_mesh()
+        .map_err(|e| ViewerError::Read(format!("anatomy.vtu: {e}")))?;
+    let disk = disk_coordinates(&mesh)?;
+    let (view_dir, up) = side_view(&mesh.positions);
+    surface_view(&mesh, &disk, view_dir, up)
+}
+
+/// The ventricle viewer's data as JSON (`<` written `\u003c`).
+pub fn surface_json(view: &SurfaceView) -> String {
+    let (surface, surface_scale) = b64_coords(&view.surface);
+    let (render_px, render_px_scale) = b64_coords(&view.render_px);
+    let value = serde_json::json!({
+        "disk": {
+            "n": DISK_PIXELS, "values": b64(&view.disk),
+            "surface": surface, "surface_scale": surface_scale,
+            "render_px": render_px, "render_px_scale": render_px_scale,
+        },
+        "render": {"w": RENDER_PIXELS, "h": RENDER_PIXELS, "values": b64(&view.render)},
+    });
+    value.to_string().replace('<', "\\u003c")
+}
+
+/// The ventricle viewer's HTML, or the reason it is missing.
+fn surface_html(html: &mut String, id_attr: &str, data: Result<SurfaceView, ViewerError>) {
+    html.push_str("<h3>Linked viewer</h3>\n");
+    match data {
+        Ok(view) => {
+            let _ = write!(
+                html,
+                "<p>Click the disk (the AHA segments): the rendering of the surface (scanner \
+                 space, seen from the side) marks the same point, or says it is on the far \
+                 side.</p>\n<div class=\"lvv\" data-subject=\"{id_attr}\">\
+                 <script type=\"application/json\" class=\"lv-data\">{}</script></div>\n",
+                surface_json(&view),
             );
         }
         Err(e) => {
@@ -741,6 +967,89 @@ mod tests {
             scan_stack(&scan, &original, &flattened, pixels, 1000),
             Err(ViewerError::TooLarge { .. })
         ));
+    }
+
+    /// A ventricle cup cut below its equator (a graph over the x-y plane,
+    /// axis z, apex down) with the disk `(x, y) / r_max`, its AHA array all 1.
+    fn cup() -> (TriMesh, Vec<[f64; 2]>) {
+        use crate::mesh::shapes::{VentricleParams, ventricle_cup};
+        let mut mesh = ventricle_cup(&VentricleParams {
+            base_above_equator: -0.2,
+            ..VentricleParams::default()
+        })
+        .unwrap()
+        .surface;
+        let r = mesh
+            .positions
+            .iter()
+            .map(|p| p.x.hypot(p.y))
+            .fold(0.0, f64::max);
+        let disk: Vec<[f64; 2]> = mesh.positions.iter().map(|p| [p.x / r, p.y / r]).collect();
+        mesh.point_data.insert(crate::mesh::Field::scalars(
+            "aha",
+            vec![1.0; mesh.positions.len()],
+        ));
+        (mesh, disk)
+    }
+
+    #[test]
+    fn a_disk_pixel_maps_to_the_surface_and_shows_where_it_faces_the_viewer() {
+        let (mesh, disk) = cup();
+        let r = disk.iter().zip(&mesh.positions).find(|(d, _)| d[0] != 0.0);
+        let scale = r.map_or(1.0, |(d, p)| p.x / d[0]);
+        // seen along +y: the near wall is y < 0
+        let view = surface_view(&mesh, &disk, Vector3::y(), Vector3::z()).unwrap();
+        let n = DISK_PIXELS;
+        let (mut near, mut far) = (0, 0);
+        for j in 0..n {
+            for i in 0..n {
+                let k = i + n * j;
+                let Some(x) = at(&view.surface, k) else {
+                    assert_eq!(view.disk[k], 0);
+                    continue;
+                };
+                assert_eq!(view.disk[k], 52, "segment 1's grey");
+                // the disk is (x, y) / r: the pixel centre's (x, y) back
+                let h = 2.0 / n as f64;
+                let uv = [-1.0 + (i as f64 + 0.5) * h, 1.0 - (j as f64 + 0.5) * h];
+                assert!((x.x - uv[0] * scale).abs() < 1e-3 && (x.y - uv[1] * scale).abs() < 1e-3);
+                let shown = view.render_px[2 * k].is_finite();
+                if x.y < -0.3 * scale {
+                    assert!(shown, "near point {x} not shown");
+                    let (px, py) = (view.render_px[2 * k], view.render_px[2 * k + 1]);
+                    let size = RENDER_PIXELS as f32;
+                    assert!((0.0..size).contains(&px) && (0.0..size).contains(&py));
+                    let grey = view.render[py as usize * RENDER_PIXELS as usize + px as usize];
+                    assert!(grey > 0, "the marker's pixel is the surface's");
+                    near += 1;
+                } else if x.y > 0.3 * scale {
+                    assert!(!shown, "far point {x} shown");
+                    far += 1;
+                }
+            }
+        }
+        assert!(near > 100 && far > 100, "{near} near, {far} far");
+        assert!(surface_json(&view).len() < MAX_BYTES / 2);
+    }
+
+    #[test]
+    fn a_surface_without_disk_coordinates_is_refused() {
+        let (mut mesh, _) = cup();
+        let err = disk_coordinates(&mesh).unwrap_err();
+        assert!(err.to_string().contains("'xi'"), "{err}");
+        let (xi, zeta) = (
+            vec![0.0; mesh.positions.len()],
+            vec![f64::NAN; mesh.positions.len()],
+        );
+        mesh.point_data
+            .insert(crate::mesh::Field::scalars("xi", xi));
+        mesh.point_data
+            .insert(crate::mesh::Field::scalars("zeta", zeta));
+        let err = disk_coordinates(&mesh).unwrap_err();
+        assert!(
+            err.to_string().contains("no finite disk coordinates"),
+            "{err}"
+        );
     }
 
     #[test]
