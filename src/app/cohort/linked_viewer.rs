@@ -49,6 +49,11 @@ use std::path::Path;
 /// says by how much).
 pub const MAX_BYTES: usize = 1_000_000;
 
+/// The cap on the whole page: a subject whose viewer could pass it gets a
+/// line saying so instead (a cohort of a hundred placentas keeps a page a
+/// browser opens; each subject's files are in its folder).
+pub const MAX_PAGE_BYTES: usize = 30_000_000;
+
 /// The viewer's script (plain JavaScript, no library).
 pub const VIEWER_JS: &str = include_str!("linked_viewer.js");
 
@@ -481,6 +486,20 @@ pub fn placenta_data(
 /// its disk and surface ([`ventricle_data`]). Nothing for other organs and
 /// for a placenta without images.
 pub fn subject_viewer(html: &mut String, out: &Path, id: &str, report: Option<&SubjectReport>) {
+    if matches!(
+        report,
+        Some(SubjectReport::Placenta(_) | SubjectReport::Ventricle(_))
+    ) && html.len() + MAX_BYTES > MAX_PAGE_BYTES
+    {
+        let _ = writeln!(
+            html,
+            "<h3>Linked viewer</h3>\n<p class=\"warn\">No linked viewer: the page holds {} MB \
+             already, its cap is {} MB.</p>",
+            html.len() / 1_000_000,
+            MAX_PAGE_BYTES / 1_000_000
+        );
+        return;
+    }
     let r = match report {
         Some(SubjectReport::Placenta(r)) => r,
         Some(SubjectReport::Ventricle(_)) => {
