@@ -13,6 +13,7 @@ pub mod columns;
 pub mod figures;
 pub mod finish;
 pub mod images;
+pub mod linked_viewer;
 pub mod manifest;
 pub mod mitral;
 pub mod mitral_maps;

@@ -1,7 +1,8 @@
 //! `OUT/index.html`: the cohort's visual report (issue 19), written at the
 //! end of [`super::cohort::write_cohort`].
 //!
-//! One static, self-contained page (inline CSS, no JavaScript, no network):
+//! One static, self-contained page (inline CSS, no JavaScript but the
+//! linked viewer's, [`super::linked_viewer`], no network):
 //! a header (the unfold version, the time, how many subjects are ok, not
 //! converged, failed or missing, the covariates), a navigation list, a
 //! cohort section (the key columns of `cohort.csv`, the cohort figures
@@ -13,6 +14,7 @@
 //! anywhere; every text read from a file is HTML-escaped. The page is the
 //! same for the same outputs apart from its timestamp.
 
+use super::linked_viewer::{page_assets, subject_viewer};
 use super::reports::{REPORT, SubjectReport, subject_report};
 use super::scalars::flatten;
 use super::subject::SubjectRow;
@@ -602,8 +604,10 @@ pub fn write_report(
                 );
             }
         }
+        subject_viewer(&mut h, out, &s.id, report.as_ref());
         h.push_str("</section>\n");
     }
+    page_assets(&mut h);
     h.push_str("</body></html>\n");
     let path = out.join("index.html");
     crate::io::atomic_write(&path, h.as_bytes())?;
