@@ -27,8 +27,21 @@ fn slab(cells_radial: usize) -> TetMesh {
 }
 
 /// Writes `dir/<id>/mesh.vtu` and `dir/<id>/t2.nii.gz` (values
-/// `value(p)`) and returns the manifest row.
+/// `value(p)`) and returns the manifest row (the common `--grid`, 4 mm).
 fn subject(dir: &Path, id: &str, mesh: &TetMesh, value: impl Fn(&Point3<f64>) -> f64) -> String {
+    subject_on(dir, id, mesh, GRID, 4.0, value)
+}
+
+/// [`subject`] with the row's `grid` (empty: none, the pull-back covers
+/// the subject's own box) and `spacing-mm`.
+fn subject_on(
+    dir: &Path,
+    id: &str,
+    mesh: &TetMesh,
+    grid: &str,
+    spacing: f64,
+    value: impl Fn(&Point3<f64>) -> f64,
+) -> String {
     let d = dir.join("in").join(id);
     std::fs::create_dir_all(&d).unwrap();
     write_mesh(
@@ -39,12 +52,19 @@ fn subject(dir: &Path, id: &str, mesh: &TetMesh, value: impl Fn(&Point3<f64>) ->
     .unwrap();
     let img = scan::image_around(mesh, [2.0; 3], 1, Vector3::zeros(), |p, _| value(p));
     write_image(d.join("t2.nii.gz"), &img).unwrap();
-    format!("{id},placenta,in/{id}/mesh.vtu,in/{id}/t2.nii.gz,\"{GRID}\",4,true\n")
+    format!("{id},placenta,in/{id}/mesh.vtu,in/{id}/t2.nii.gz,\"{grid}\",{spacing},true\n")
 }
 
 fn batch(dir: &Path, rows: &[String]) -> std::path::PathBuf {
+    batch_with(dir, rows, "").0
+}
+
+/// Runs the batch of `rows` with the covariate columns `covariates`
+/// (`",group"`: each row ends with its values); the output directory and
+/// the batch's stdout.
+fn batch_with(dir: &Path, rows: &[String], covariates: &str) -> (std::path::PathBuf, String) {
     let manifest = dir.join("manifest.csv");
-    let mut text = "id,organ,input,image,grid,spacing-mm,no-figures\n".to_string();
+    let mut text = format!("id,organ,input,image,grid,spacing-mm,no-figures{covariates}\n");
     for r in rows {
         text.push_str(r);
     }
@@ -52,7 +72,7 @@ fn batch(dir: &Path, rows: &[String]) -> std::path::PathBuf {
     let out = dir.join("out");
     let o = unfold(&["batch", &s(&manifest), "-o", &s(&out), "--jobs", "2"]);
     assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
-    out
+    (out, stdout(&o))
 }
 
 fn values(path: &Path) -> Vec<f32> {
@@ -89,6 +109,15 @@ fn constant_images_have_that_mean_and_no_spread() {
         }
     }
     assert!(covered > 100, "{covered} voxels covered");
+    // the subjects' shared grid, unchanged
+    let grid = grid_json(&stats);
+    assert_eq!(grid["t2"]["resampled"], false, "{grid}");
+    assert_eq!(grid["t2"]["subjects"], 3, "{grid}");
+    assert_eq!(
+        grid["t2"]["dims"],
+        serde_json::json!([51, 51, 16]),
+        "{grid}"
+    );
     // no spread: every leave-one-out z is undefined
     for id in ["a", "b", "c"] {
         let z = values(&stats.join("z").join(format!("{id}_t2.nii.gz")));
@@ -133,4 +162,81 @@ fn one_subject_in_two_poses_has_one_template_image() {
     // values span about 200 over the slab; trilinear sampling of a linear
     // image is exact, so what differs is the map (solver tolerance)
     assert!(mean_diff < 1.0, "mean |difference| {mean_diff}");
+}
+
+fn grid_json(stats: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(stats.join("grid.json")).unwrap()).unwrap()
+}
+
+/// Without `--grid` every subject's flat image covers its own box (here
+/// also at two spacings): the cohort resamples them onto one grid, the
+/// union of the boxes at the finest spacing, and every subject enters.
+#[test]
+fn subjects_without_a_common_grid_all_enter_on_a_chosen_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sized = |n: usize, length: f64| {
+        placenta_slab(&PlacentaParams {
+            cells_radial: n,
+            cells_through: 2,
+            length,
+            width: 0.8 * length,
+            ..PlacentaParams::default()
+        })
+        .unwrap()
+        .mesh
+    };
+    let rows = vec![
+        subject_on(d, "a", &sized(5, 150.0), "", 4.0, |_| 7.0),
+        subject_on(d, "b", &sized(6, 180.0), "", 3.0, |_| 7.0),
+        subject_on(d, "c", &sized(5, 210.0), "", 4.0, |_| 7.0),
+    ];
+    let (out, printed) = batch_with(d, &rows, "");
+    let stats = out.join("cohort");
+    assert!(!printed.contains("left out"), "{printed}");
+    assert!(
+        printed.contains("t2 of 3 subjects resampled onto a common grid of"),
+        "{printed}"
+    );
+    let grid = grid_json(&stats);
+    let g = &grid["t2"];
+    assert_eq!(
+        (g["resampled"].as_bool(), g["subjects"].as_u64()),
+        (Some(true), Some(3)),
+        "{grid}"
+    );
+    assert_eq!(
+        g["spacing_mm"],
+        serde_json::json!([3.0, 3.0, 3.0]),
+        "{grid}"
+    );
+    let boxes: Vec<Vec<f32>> = ["a", "b", "c"]
+        .iter()
+        .map(|id| values(&out.join(id).join("t2_flat.nii.gz")))
+        .collect();
+    assert!(
+        boxes[0].len() != boxes[2].len(),
+        "the subjects' grids differ"
+    );
+    let (mean, count) = (
+        values(&stats.join("t2_mean.nii.gz")),
+        values(&stats.join("t2_count.nii.gz")),
+    );
+    let dims: Vec<usize> = serde_json::from_value(g["dims"].clone()).unwrap();
+    assert_eq!(mean.len(), dims.iter().product::<usize>());
+    assert!(count.contains(&3.0), "every subject covers some voxel");
+    let mut covered = 0;
+    for i in 0..mean.len() {
+        if count[i] > 0.0 {
+            covered += 1;
+            assert!((mean[i] - 7.0).abs() < 1e-4, "voxel {i}: mean {}", mean[i]);
+        } else {
+            assert!(mean[i].is_nan(), "voxel {i}");
+        }
+    }
+    assert!(covered > 100, "{covered} voxels covered");
+    for id in ["a", "b", "c"] {
+        let z = values(&stats.join("z").join(format!("{id}_t2.nii.gz")));
+        assert_eq!(z.len(), mean.len(), "{id}'s z on the common grid");
+    }
 }

@@ -1,7 +1,7 @@
 //! Cohorts: many subjects run from a manifest, each as its own process
 //! ([`batch`], [`manifest`], [`subject`], [`finish`]), then gathered into
 //! the cohort table ([`table`]), the template-space statistics of the
-//! placentas ([`images`]), the AHA-segment statistics of the ventricles
+//! placentas on a common grid ([`images`], [`grid`]), the AHA-segment statistics of the ventricles
 //! ([`segments`]), the mitral measurements and mean maps ([`mitral`],
 //! [`mitral_maps`]), the cohort figures ([`figures`]) and the report page
 //! ([`report_page`]); every subject's report read typed ([`reports`]).
@@ -10,6 +10,7 @@ pub mod batch;
 pub mod columns;
 pub mod figures;
 pub mod finish;
+pub mod grid;
 pub mod images;
 pub mod manifest;
 pub mod mitral;

@@ -115,13 +115,27 @@ fn write_cohort_plots(
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
     crate::io::atomic_write(&path, &bytes)?;
-    let super::images::Statistics { written, left_out } =
-        super::images::placenta_statistics(out, subjects)?;
+    let super::images::Statistics {
+        written,
+        grids,
+        left_out,
+    } = super::images::placenta_statistics(out, subjects)?;
     if !written.is_empty() {
         observer.info(&format!(
             "cohort: {} template-space statistics images in {}",
             written.len(),
             out.join("cohort").display()
+        ));
+    }
+    for (name, grid, k) in &grids {
+        observer.info(&format!(
+            "cohort: {name} of {k} subjects {} grid of {} (cohort/grid.json)",
+            if grid.resampled {
+                "resampled onto a common"
+            } else {
+                "on their shared"
+            },
+            grid.describe()
         ));
     }
     for (id, why) in left_out {
