@@ -18,6 +18,9 @@
 //! - [`dirichlet`]: harmonic extensions of boundary values (symmetric and
 //!   non-symmetric operators).
 //! - [`tps`]: the 2D thin-plate spline.
+//! - [`glm`]: the voxelwise general linear model with max-statistic
+//!   permutation inference (Freedman-Lane), for group comparisons in
+//!   template space.
 //!
 //! Every failure is a [`LinalgError`] variant holding the numbers that
 //! explain it.
@@ -26,6 +29,7 @@ pub mod csr;
 pub mod dirichlet;
 pub mod eigen;
 mod error;
+pub mod glm;
 pub mod laplacian;
 pub mod multigrid;
 pub mod sparse;
