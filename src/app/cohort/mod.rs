@@ -8,6 +8,7 @@
 
 pub mod batch;
 pub mod columns;
+pub mod compare;
 pub mod figures;
 pub mod finish;
 pub mod grid;
@@ -24,6 +25,7 @@ pub mod table;
 
 pub use batch::{BatchObserver, run_manifest};
 pub use columns::{OrganColumns, organ_columns};
+pub use compare::{CompareSettings, Comparison, compare};
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};
 pub use manifest::{Plan, plan};
@@ -31,4 +33,4 @@ pub use reports::{SubjectReport, read_report};
 pub use subject::{
     Ended, Program, STATUSES, Subject, SubjectRow, place_subject, recorded_hash, run_subject,
 };
-pub use table::gather;
+pub use table::{gather, gather_compare};
