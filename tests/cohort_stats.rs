@@ -322,6 +322,16 @@ fn compare_finds_a_planted_effect_and_no_null_one() {
     assert_eq!(a["groups"], serde_json::json!({"A": 4, "B": 4}), "{json}");
     let grid = grid_json(&out.join("cohort"));
     assert_eq!(grid["t2"]["resampled"], true, "{grid}");
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("<h2>Group comparison</h2>"),
+        "the report's section"
+    );
+    assert!(
+        page.contains("cohort/figures/compare_t2_group.png"),
+        "its figure"
+    );
+    assert!(out.join("cohort/figures/compare_t2_group.png").is_file());
     let t_img = read_image(stats.join("t2_group_t.nii.gz")).unwrap().volume;
     let pfwe = values(&stats.join("t2_group_pfwe.nii.gz"));
     let t = t_img.data();

@@ -879,6 +879,80 @@ mod tests {
         assert!(e.contains("--permutations"), "{e}");
     }
 
+    /// Six subjects in two groups: column 0 differs by group, column 1 is
+    /// noise, column 2 misses a value (untested); the table has a row per
+    /// column with the group counts and means.
+    #[test]
+    fn a_table_tests_the_columns_every_subject_has() {
+        let settings = CompareSettings::new("group");
+        let study = Study {
+            settings: &settings,
+            kind: ColumnKind::Categorical,
+            left_out: Vec::new(),
+            dir: PathBuf::new(),
+        };
+        let subjects: Vec<SubjectRow> = (0..8)
+            .map(|k| {
+                row(
+                    &format!("s{k}"),
+                    &[("group", if k < 4 { "A" } else { "B" })],
+                )
+            })
+            .collect();
+        let rows: Vec<&SubjectRow> = subjects.iter().collect();
+        let noise = [0.3, -0.1, 0.2, -0.4, 0.1, -0.2, 0.4, -0.3];
+        let values: Vec<Vec<Option<f64>>> = (0..8)
+            .map(|k| {
+                let shift = if k < 4 { 0.0 } else { 10.0 };
+                vec![
+                    Some(shift + noise[k]),
+                    Some(noise[(k + 3) % 8]),
+                    (k != 5).then_some(1.0),
+                ]
+            })
+            .collect();
+        let keys: Vec<Vec<String>> = ["a", "b", "c"]
+            .iter()
+            .map(|k| vec![k.to_string()])
+            .collect();
+        let mut table = TableRows::new(&study, &["measurement"], &["A".into(), "B".into()]);
+        let a = test_table(
+            &study,
+            "mitral",
+            "measurements",
+            &keys,
+            &rows,
+            &values,
+            &mut table,
+            "m.csv",
+        )
+        .unwrap();
+        assert_eq!((a.tested, a.significant, a.exhaustive), (2, 1, true));
+        assert_eq!(a.groups, BTreeMap::from([("A".into(), 4), ("B".into(), 4)]));
+        assert_eq!(
+            table.header,
+            [
+                "measurement",
+                "statistic",
+                "p",
+                "p_fwe",
+                "n_A",
+                "mean_A",
+                "n_B",
+                "mean_B"
+            ]
+        );
+        let p_fwe = |r: usize| table.rows[r][3].parse::<f64>().unwrap();
+        assert!(p_fwe(0) < ALPHA && p_fwe(1) > ALPHA, "{:?}", table.rows);
+        assert!(table.rows[0][1].parse::<f64>().unwrap() > 0.0, "B - A > 0");
+        assert_eq!(table.rows[2][1..4], ["", "", ""], "untested");
+        assert_eq!(
+            table.rows[2][4..],
+            ["4", "1", "3", "1"],
+            "means over who has it"
+        );
+    }
+
     #[test]
     fn file_parts_keep_safe_characters() {
         assert_eq!(file_part("age (weeks)/2"), "age__weeks__2");

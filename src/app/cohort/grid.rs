@@ -112,6 +112,9 @@ pub fn flat_path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}{FLAT}"))
 }
 
+/// A chosen grid and the subjects left out of it, `(id, why)`.
+pub type Chosen = (CommonGrid, Vec<(String, String)>);
+
 /// Whether two grids are the same (dims and affine to 1e-6 mm).
 fn same_grid(a: ([usize; 4], &Matrix4<f64>), b: ([usize; 4], &Matrix4<f64>)) -> bool {
     a.0 == b.0 && (a.1 - b.1).iter().all(|d| d.abs() <= 1e-6)
@@ -125,10 +128,7 @@ fn same_grid(a: ([usize; 4], &Matrix4<f64>), b: ([usize; 4], &Matrix4<f64>)) -> 
 /// # Errors
 /// Reading a header; an image whose affine is not axis-aligned (named);
 /// a union grid of more than [`MAX_VOXELS`] values.
-pub fn choose(
-    name: &str,
-    members: &[(String, PathBuf)],
-) -> Result<Option<(CommonGrid, Vec<(String, String)>)>, AppError> {
+pub fn choose(name: &str, members: &[(String, PathBuf)]) -> Result<Option<Chosen>, AppError> {
     let mut headers = Vec::with_capacity(members.len());
     for (id, dir) in members {
         let h = read_image_header(flat_path(dir, name))?;
@@ -175,7 +175,8 @@ pub fn choose(
             .filter(|(r, c)| r != c)
             .map(|rc| affine[rc].abs())
             .fold(0.0, f64::max);
-        if !(largest > 0.0)
+        if largest.is_nan()
+            || largest <= 0.0
             || skew > AXIS_TOLERANCE * largest
             || (0..3).any(|a| affine[(a, a)] == 0.0)
         {

@@ -204,7 +204,7 @@ pub fn statistic_slice(
         let v = maps.statistic.world_to_voxel(&Point3::new(x, y, z_mm));
         let (i, j) = (v.x.round(), v.y.round());
         (i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny)
-            .then(|| (i as usize, j as usize))
+            .then_some((i as usize, j as usize))
     };
     let sig = |px: i64, py: i64| voxel(px, py).is_some_and(|(i, j)| maps.significant(i, j, k));
     for py in 0..ah {
