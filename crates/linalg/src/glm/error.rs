@@ -81,6 +81,17 @@ pub enum GlmError {
     /// Zero permutations were asked for (the identity alone needs one).
     #[error("zero permutations asked for: give at least 1 (1000 is usual)")]
     ZeroPermutations,
+    /// More permutations were asked for than the test keeps maxima for
+    /// (each relabeling keeps one maximum per worker thread).
+    #[error(
+        "{asked} permutations asked for: at most {max} are run (10000 is plenty for p down to 1e-4)"
+    )]
+    TooManyPermutations {
+        /// The number asked for.
+        asked: usize,
+        /// The largest number accepted.
+        max: usize,
+    },
     /// A continuous regressor has a NaN or infinite value.
     #[error("regressor {name} has a value that is not finite at subject row {row}")]
     NonFiniteRegressor {

@@ -79,6 +79,8 @@ pub struct TestResult {
     pub degrees_of_freedom: (f64, f64),
 }
 
+/// The most relabelings one test runs (80 MB of maxima per thread).
+pub const MAX_PERMUTATIONS: usize = 10_000_000;
 /// Relative tolerance of the `>=` counts.
 const TIE: f64 = 1e-10;
 /// Columns per parallel chunk.
@@ -93,7 +95,7 @@ const BATCH: usize = 32;
 /// is `y[j*n .. (j+1)*n]`, `n = design.subjects()`. Every value must be
 /// finite (the caller selects the covered columns).
 ///
-/// Errors: zero permutations, `y`'s length not a multiple of `n`, an empty
+/// Errors: zero permutations, more than [`MAX_PERMUTATIONS`], `y`'s length not a multiple of `n`, an empty
 /// `y`, a non-finite value (its column and subject).
 pub fn permutation_test(
     design: &Design,
@@ -102,6 +104,12 @@ pub fn permutation_test(
 ) -> Result<TestResult, GlmError> {
     if settings.permutations == 0 {
         return Err(GlmError::ZeroPermutations);
+    }
+    if settings.permutations > MAX_PERMUTATIONS {
+        return Err(GlmError::TooManyPermutations {
+            asked: settings.permutations,
+            max: MAX_PERMUTATIONS,
+        });
     }
     let n = design.subjects();
     if !y.len().is_multiple_of(n) {

@@ -643,6 +643,21 @@ fn every_bad_input_has_its_error() {
         .unwrap_err(),
         GlmError::ZeroPermutations
     );
+    assert_eq!(
+        permutation_test(
+            &design,
+            &y,
+            &PermutationSettings {
+                permutations: usize::MAX,
+                seed: 0
+            }
+        )
+        .unwrap_err(),
+        GlmError::TooManyPermutations {
+            asked: usize::MAX,
+            max: permutation::MAX_PERMUTATIONS
+        }
+    );
     y[8] = f64::INFINITY;
     assert_eq!(
         permutation_test(&design, &y, &settings).unwrap_err(),
