@@ -36,9 +36,10 @@ def study(unfold_bin, tmp_path_factory):
         mesh = unfold.shapes.placenta_slab(3 + k % 2)
         unfold.write_mesh(d / f"p{k}.vtu", mesh)
         data, affine = image(mesh.points, k, brighter=k >= 4)
-        nib.save(nib.Nifti1Image(data, affine), d / f"p{k}.nii.gz")
+        (d / f"p{k}").mkdir()
+        nib.save(nib.Nifti1Image(data, affine), d / f"p{k}" / "t2.nii.gz")
         group = "B" if k >= 4 else "A"
-        rows.append(f"p{k},placenta,p{k}.vtu,p{k}.nii.gz,4,true,{group},{30 + k % 3}")
+        rows.append(f"p{k},placenta,p{k}.vtu,p{k}/t2.nii.gz,4,true,{group},{30 + k % 3}")
     (d / "manifest.csv").write_text("\n".join(rows) + "\n")
     cli(unfold_bin, "batch", d / "manifest.csv", "-o", d / "out", "--jobs", "2")
     return d / "out"
@@ -55,7 +56,8 @@ def test_compare_returns_the_maps_and_summary(study):
     assert a["groups"] == {"A": 4, "B": 4}
     assert a["design"].startswith("t: B - A (2 groups: A 4, B 4), covariates age")
     assert a["significant"] > 0
-    (name,) = r["images"]
+    assert list(r["images"]) == ["t2"]
+    name = "t2"
     m = r["images"][name]
     assert set(m) == {"t", "p", "pfwe", "affine"}
     for key, suffix in (("t", "t"), ("p", "p"), ("pfwe", "pfwe")):
