@@ -10,6 +10,7 @@
 
 mod arrays;
 mod batch;
+mod compare;
 mod deform;
 mod inputs;
 mod mitral;
@@ -86,6 +87,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(batch::place_subject, m)?,
         wrap_pyfunction!(batch::finish, m)?,
         wrap_pyfunction!(batch::cohort, m)?,
+        wrap_pyfunction!(compare::compare, m)?,
     ] {
         m.add_function(f)?;
     }

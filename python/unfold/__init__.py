@@ -24,6 +24,8 @@ its defaults and its one-line error messages:
   gradient, Hessian and parameter gradient as numpy), checked by
   :func:`check_template`;
 * :mod:`unfold.shapes`: the synthetic shapes of ``unfold demo`` and a mask;
+* :mod:`unfold.cohort`: ``compare(study, column, ...)``, ``unfold cohort
+  --compare`` on a batch's output, the maps as numpy arrays;
 * :mod:`unfold.dask`: ``unfold batch`` + ``unfold cohort`` on a Dask cluster
   (imported on its own: ``import unfold.dask``; needs the ``dask`` extra);
 * ``python -m unfold ARGS``: the ``unfold`` command line itself.
@@ -47,7 +49,7 @@ from ._ventricle import VentricleResult, ventricle
 from ._ventricle_inverse import InverseResult, ventricle_inverse
 from ._mitral import MitralResult, mitral, mitral_seg
 from ._deform import DeformResult, deform
-from . import shapes
+from . import cohort, shapes
 
 __all__ = [
     "DeformResult",

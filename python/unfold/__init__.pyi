@@ -2,6 +2,7 @@ from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Unio
 import enum
 import os
 import numpy as np
+from . import cohort as cohort
 from . import shapes as shapes
 
 __version__: str

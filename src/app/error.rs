@@ -6,6 +6,7 @@
 use super::run::memory::MemoryRefusal;
 use super::run::{OutputError, StagedOutputs};
 use crate::io::IoError;
+use crate::linalg::glm::GlmError;
 use crate::mesh::MeshError;
 use crate::organs::OrganError;
 use thiserror::Error;
@@ -108,6 +109,17 @@ pub enum AppError {
         organ: String,
         /// What serde says (the field, line and column).
         message: String,
+    },
+    /// A group comparison's model or test refused its data
+    /// (`unfold cohort --compare`): which analysis, and the statistics'
+    /// error with its numbers.
+    #[error("{analysis}: {source}")]
+    Compare {
+        /// The comparison and the analysis (`--compare group, placenta
+        /// image t2 over 6 subjects`).
+        analysis: String,
+        /// What the model said.
+        source: GlmError,
     },
     /// An organ command failed on an input smaller than the organ
     /// ([`super::run::units::OrganSize`]), probably not in millimetres.

@@ -19,12 +19,16 @@
 //!   `<image>_mean.nii.gz` and `<image>_std.nii.gz` (the count image gives
 //!   the covered voxels);
 //! - `mitral_energies.png`: the valves' area, angle and length energies
-//!   (`mitral_measurements.csv`) by the `phase` covariate (open, closed).
+//!   (`mitral_measurements.csv`) by the `phase` covariate (open, closed);
+//! - `compare_<image>_<column>.png`: a group comparison's statistic
+//!   (`stats/compare.json`, [`super::compare`]) at the slice of its
+//!   smallest family-wise p, the significant voxels outlined.
 //!
 //! A figure needs [`MIN_SUBJECTS`] subjects with its values; one with fewer
 //! is skipped, and a line says so. PNGs of an earlier run that this run did
 //! not draw are removed, so that the index lists exactly the PNGs present.
 
+use super::compare::file_part;
 use super::reports::{SubjectReport, subject_report};
 use crate::app::error::{AppError, at};
 use crate::app::observer::Observer;
@@ -130,20 +134,6 @@ fn num(row: &BTreeMap<String, String>, col: &str) -> Option<f64> {
     row.get(col)
         .and_then(|v| v.parse::<f64>().ok())
         .filter(|x| x.is_finite())
-}
-
-/// `name` with every character but ASCII letters, digits, `.`, `-` and `_`
-/// replaced by `_`, for file names.
-fn file_part(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 /// A figure and its index entry.
@@ -613,6 +603,60 @@ fn energies(
     Ok(())
 }
 
+/// The group comparison's statistic slices, one per placenta image of
+/// `OUT/cohort/stats/compare.json`.
+fn group_comparison(out: &Path, opts: &FigureOptions, drawn: &mut Drawn) -> Result<(), AppError> {
+    use crate::figures::cohort::statistic::{StatisticMaps, statistic_slice};
+    let dir = out.join("cohort").join(super::compare::STATS);
+    let path = dir.join(super::compare::COMPARE_JSON);
+    if !path.is_file() {
+        return Ok(());
+    }
+    let text = std::fs::read_to_string(&path).map_err(|e| at(&path, e))?;
+    let json: serde_json::Value = serde_json::from_str(&text).map_err(|e| at(&path, e))?;
+    let column = json["column"].as_str().unwrap_or_default();
+    let alpha = json["alpha"].as_f64().unwrap_or(super::compare::ALPHA);
+    let empty = Vec::new();
+    for a in json["analyses"].as_array().unwrap_or(&empty) {
+        let (Some("placenta"), Some(image), Some(kind)) = (
+            a["organ"].as_str(),
+            a["name"].as_str(),
+            a["statistic"].as_str(),
+        ) else {
+            continue;
+        };
+        let stat_name = if kind == "f" { "F" } else { "t" };
+        let stem = format!("{}_{}", file_part(image), file_part(column));
+        let stat = read_image_checked(&dir.join(format!("{stem}_{stat_name}.nii.gz")), 1.0)?;
+        let pfwe = read_image_checked(&dir.join(format!("{stem}_pfwe.nii.gz")), 1.0)?;
+        let maps = StatisticMaps {
+            image: &file_part(image),
+            column: &file_part(column),
+            statistic_name: stat_name,
+            statistic: &stat.volume,
+            p_fwe: &pfwe.volume,
+            alpha,
+        };
+        let k = crate::figures::cohort::statistic::chosen_slice(&maps);
+        let fig = statistic_slice(&maps, opts).map_err(|e| at(&path, e))?;
+        drawn.entries.push(Entry {
+            figure: fig,
+            title: format!("Group comparison: {image} by {column}"),
+            caption: format!(
+                "{} ({}): the {stat_name} statistic of each tested voxel at template grid slice                  {} (the slice of the smallest family-wise p, {}); outlined in black: p_fwe <                  {alpha} ({} voxels of {} tested in the whole grid); grey: untested (not                  covered by every subject).",
+                a["design"].as_str().unwrap_or_default(),
+                image,
+                k + 1,
+                a["min_p_fwe"],
+                a["significant"],
+                a["tested"]
+            ),
+            subject: None,
+        });
+    }
+    Ok(())
+}
+
 /// Draws the cohort figures of `OUT` (see the module documentation) into
 /// `OUT/cohort/figures/` with their `index.json`; `covariates` are the
 /// manifest's covariate columns, `plots` the `--plot` requests (none: the
@@ -643,6 +687,7 @@ pub fn cohort_figures(
     bullseyes(out, &opts, &mut drawn)?;
     slices(out, placenta_images, &opts, &mut drawn)?;
     energies(out, &table, &opts, &mut drawn)?;
+    group_comparison(out, &opts, &mut drawn)?;
     for (figure, why) in &drawn.skipped {
         observer.info(&format!("cohort: figure {figure} skipped: {why}"));
     }

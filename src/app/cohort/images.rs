@@ -1,6 +1,8 @@
 //! Template-space statistics of a placenta cohort (issue 19): every image
 //! the subjects pulled into the template (`<name>_flat.nii.gz`) on one
-//! grid, gathered voxel by voxel.
+//! common grid ([`super::grid`]: the subjects' shared grid, or their
+//! images resampled onto the union of their boxes), gathered voxel by
+//! voxel.
 //!
 //! A subject counts at a voxel when the voxel's centre lies in its
 //! flattened mesh (`flattened.vtu`: the pull-back sets the voxels outside
@@ -22,21 +24,19 @@
 //! ```
 //!
 //! (NaN where the others are fewer than two or do not vary), as
-//! `OUT/cohort/z/<id>_<name>.nii.gz`. A subject whose image is on another
-//! grid (a run without the common `--grid`) is left out and named.
+//! `OUT/cohort/z/<id>_<name>.nii.gz`. Each image's grid is recorded in
+//! `OUT/cohort/grid.json`. A subject whose image has another number of
+//! frames than the first subject's is left out and named.
 
+use super::grid::{CommonGrid, FLAT, choose, on_grid};
 use super::subject::SubjectRow;
 use crate::app::error::{AppError, at};
-use crate::app::run::files::{ensure_dir, read_image_checked};
-use crate::io::{NiftiImage, read_tet_mesh, write_image};
+use crate::app::run::files::ensure_dir;
+use crate::io::{NiftiImage, write_image};
 use crate::mesh::Volume;
-use crate::mesh::nalgebra::{Matrix4, Point3};
-use crate::mesh::spatial::TetLocator;
+use crate::mesh::nalgebra::Matrix4;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// The suffix of a pulled-back image.
-const FLAT: &str = "_flat.nii.gz";
 
 /// The names of the pulled-back images in `dir` (`<name>` of
 /// `<name>_flat.nii.gz`), sorted.
@@ -56,34 +56,26 @@ fn flat_names(dir: &Path) -> Vec<String> {
     names
 }
 
-/// Whether two grids are the same (dims and affine to 1e-6 mm).
-fn same_grid(a: &Volume<f32>, b: &Volume<f32>) -> bool {
-    a.dims() == b.dims() && (a.affine() - b.affine()).iter().all(|d| d.abs() <= 1e-6)
-}
-
-/// Which voxels of `grid` have their centre in the subject's flattened
-/// mesh.
-fn inside(dir: &Path, grid: &Volume<f32>) -> Result<Vec<bool>, AppError> {
-    let mesh = read_tet_mesh(dir.join("flattened.vtu"))?;
-    let locator = TetLocator::new(&mesh);
-    let [nx, ny, nz, _] = grid.dims();
-    let mut out = Vec::with_capacity(nx * ny * nz);
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = grid.voxel_to_world(&Point3::new(i as f64, j as f64, k as f64));
-                out.push(locator.locate(&p).is_some());
-            }
+/// The placenta subjects with outputs (`report.json`), by image name:
+/// `name -> [(id, OUT/<id>)]`, in the subjects' order.
+pub fn placenta_images(
+    out: &Path,
+    subjects: &[SubjectRow],
+) -> BTreeMap<String, Vec<(String, PathBuf)>> {
+    let mut by_name: BTreeMap<String, Vec<(String, PathBuf)>> = BTreeMap::new();
+    for s in subjects.iter().filter(|s| s.organ == "placenta") {
+        let d = out.join(&s.id);
+        if !d.join("report.json").is_file() {
+            continue;
+        }
+        for n in flat_names(&d) {
+            by_name
+                .entry(n)
+                .or_default()
+                .push((s.id.clone(), d.clone()));
         }
     }
-    Ok(out)
-}
-
-/// One subject's image and mask on the common grid.
-fn load(dir: &Path, name: &str) -> Result<(Volume<f32>, Vec<bool>), AppError> {
-    let img = read_image_checked(&dir.join(format!("{name}{FLAT}")), 1.0)?;
-    let mask = inside(dir, &img.volume)?;
-    Ok((img.volume, mask))
+    by_name
 }
 
 fn write(
@@ -96,63 +88,51 @@ fn write(
     Ok(write_image(path, &NiftiImage::new(vol))?)
 }
 
-/// What [`placenta_statistics`] did: the files written, and the subjects
-/// left out with why.
+/// What [`placenta_statistics`] did: the files written, the grid of each
+/// image, and the subjects left out with why.
 pub struct Statistics {
     /// The images written.
     pub written: Vec<PathBuf>,
+    /// `(name, grid, subjects)`: each image's common grid and how many
+    /// subjects entered its statistics.
+    pub grids: Vec<(String, CommonGrid, usize)>,
     /// `(id, why)` of each subject left out of an image's statistics.
     pub left_out: Vec<(String, String)>,
 }
 
 /// Writes the statistics of every pulled-back image of the placenta
-/// subjects with a report.
+/// subjects with a report, on each image's common grid
+/// ([`super::grid`]), and `OUT/cohort/grid.json` (per image name: dims,
+/// frames, spacing, origin, subjects, resampled).
 ///
 /// # Errors
-/// Reading a subject's image or mesh, writing the results.
+/// Reading a subject's image or mesh; an image whose affine is not
+/// axis-aligned or a common grid too large ([`super::grid::choose`]);
+/// writing the results.
 pub fn placenta_statistics(out: &Path, subjects: &[SubjectRow]) -> Result<Statistics, AppError> {
-    let dirs: Vec<(&SubjectRow, PathBuf)> = subjects
-        .iter()
-        .filter(|s| s.organ == "placenta")
-        .map(|s| (s, out.join(&s.id)))
-        .filter(|(_, d)| d.join("report.json").is_file())
-        .collect();
-    let mut by_name: BTreeMap<String, Vec<usize>> = BTreeMap::new();
-    for (k, (_, d)) in dirs.iter().enumerate() {
-        for n in flat_names(d) {
-            by_name.entry(n).or_default().push(k);
-        }
-    }
+    let by_name = placenta_images(out, subjects);
     let stats_dir = out.join("cohort");
     if !by_name.is_empty() {
         ensure_dir(&stats_dir.join("z"))?;
     }
     let mut written = Vec::new();
     let mut left_out = Vec::new();
+    let mut grids = Vec::new();
     for (name, members) in by_name {
-        // pass 1: n, S, Q per voxel on the first subject's grid
-        // the common grid: the first subject's
-        let mut grid: Option<Volume<f32>> = None;
-        let mut included = Vec::new();
-        let (mut n, mut sum, mut sq) = (Vec::new(), Vec::new(), Vec::new());
-        for &k in &members {
-            let (s, d) = &dirs[k];
-            let (vol, mask) = load(d, &name)?;
-            match &grid {
-                Some(g) if !same_grid(g, &vol) => {
-                    left_out.push((
-                        s.id.clone(),
-                        format!("{name}{FLAT} is on another grid (give every subject one --grid)"),
-                    ));
-                    continue;
-                }
-                Some(_) => {}
-                None => {
-                    let len = vol.data().len();
-                    (n, sum, sq) = (vec![0u32; len], vec![0.0f64; len], vec![0.0f64; len]);
-                    grid = Some(vol.clone());
-                }
-            }
+        let Some((grid, out_of_grid)) = choose(&name, &members)? else {
+            continue;
+        };
+        let leaves: Vec<&String> = out_of_grid.iter().map(|(id, _)| id).collect();
+        let members: Vec<&(String, PathBuf)> = members
+            .iter()
+            .filter(|(id, _)| !leaves.contains(&id))
+            .collect();
+        left_out.extend(out_of_grid.iter().cloned());
+        // pass 1: n, S, Q per voxel on the common grid
+        let len = grid.frame_len() * grid.dims[3];
+        let (mut n, mut sum, mut sq) = (vec![0u32; len], vec![0.0f64; len], vec![0.0f64; len]);
+        for (_, d) in &members {
+            let (vol, mask) = on_grid(&grid, d, &name)?;
             let per_frame = mask.len();
             for (i, &x) in vol.data().iter().enumerate() {
                 if mask[i % per_frame] && x.is_finite() {
@@ -162,12 +142,8 @@ pub fn placenta_statistics(out: &Path, subjects: &[SubjectRow]) -> Result<Statis
                     sq[i] += x * x;
                 }
             }
-            included.push(k);
         }
-        let Some(g) = grid else {
-            continue;
-        };
-        let (dims, affine) = (g.dims(), *g.affine());
+        let (dims, affine) = (grid.dims, grid.affine);
         let mean: Vec<f32> = (0..n.len())
             .map(|i| {
                 if n[i] > 0 {
@@ -195,9 +171,8 @@ pub fn placenta_statistics(out: &Path, subjects: &[SubjectRow]) -> Result<Statis
             written.push(p);
         }
         // pass 2: each subject against the others
-        for &k in &included {
-            let (s, d) = &dirs[k];
-            let (vol, mask) = load(d, &name)?;
+        for (id, d) in &members {
+            let (vol, mask) = on_grid(&grid, d, &name)?;
             let per_frame = mask.len();
             let z: Vec<f32> = vol
                 .data()
@@ -219,10 +194,24 @@ pub fn placenta_statistics(out: &Path, subjects: &[SubjectRow]) -> Result<Statis
                     }
                 })
                 .collect();
-            let p = stats_dir.join("z").join(format!("{}_{name}.nii.gz", s.id));
+            let p = stats_dir.join("z").join(format!("{id}_{name}.nii.gz"));
             write(&p, dims, affine, z)?;
             written.push(p);
         }
+        grids.push((name, grid, members.len()));
     }
-    Ok(Statistics { written, left_out })
+    if !grids.is_empty() {
+        let path = stats_dir.join("grid.json");
+        let json: serde_json::Map<String, serde_json::Value> = grids
+            .iter()
+            .map(|(name, g, k)| (name.clone(), g.to_json(*k)))
+            .collect();
+        let text = serde_json::to_string_pretty(&json).map_err(|e| at(&path, e))?;
+        crate::io::atomic_write(&path, text.as_bytes())?;
+    }
+    Ok(Statistics {
+        written,
+        grids,
+        left_out,
+    })
 }

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 /// The measurement columns: those of `series.csv` after `step` up to
 /// `seconds` (the columns a series had before issue 22; the cohort's
 /// per-step table keeps them).
-const COLUMNS: &[&str] = SERIES_COLUMNS.split_at(14).0.split_at(1).1;
+pub(super) const COLUMNS: &[&str] = SERIES_COLUMNS.split_at(14).0.split_at(1).1;
 
 /// A number as the report writes it (`serde_json`'s text; empty for a
 /// non-finite value, which the report writes as `null`).
@@ -30,7 +30,7 @@ fn num(x: f64) -> String {
 }
 
 /// A single valve's row from its report, in [`COLUMNS`] order.
-fn report_row(report: &MitralReport) -> Vec<String> {
+pub(super) fn report_row(report: &MitralReport) -> Vec<String> {
     let r = &report.report;
     COLUMNS
         .iter()

@@ -1,7 +1,7 @@
 //! Cohorts: many subjects run from a manifest, each as its own process
 //! ([`batch`], [`manifest`], [`subject`], [`finish`]), then gathered into
 //! the cohort table ([`table`]), the template-space statistics of the
-//! placentas ([`images`]), the AHA-segment statistics of the ventricles
+//! placentas on a common grid ([`images`], [`grid`]), the AHA-segment statistics of the ventricles
 //! ([`segments`]), the mitral measurements and mean maps ([`mitral`],
 //! [`mitral_maps`]), the cohort figures ([`figures`]) and the report page
 //! ([`report_page`]); every subject's report read typed ([`reports`]);
@@ -10,8 +10,10 @@
 pub mod batch;
 pub mod bids;
 pub mod columns;
+pub mod compare;
 pub mod figures;
 pub mod finish;
+pub mod grid;
 pub mod images;
 pub mod linked_viewer;
 pub mod manifest;
@@ -27,6 +29,7 @@ pub mod table;
 pub use batch::{BatchObserver, run_manifest, run_plan};
 pub use bids::{Layout, run_manifest_bids};
 pub use columns::{OrganColumns, organ_columns};
+pub use compare::{CompareSettings, Comparison, compare};
 pub use figures::PlotSpec;
 pub use finish::{Counts, finish, prepare_output};
 pub use manifest::{Plan, plan};
@@ -34,4 +37,4 @@ pub use reports::{SubjectReport, read_report};
 pub use subject::{
     Ended, Program, STATUSES, Subject, SubjectRow, place_subject, recorded_hash, run_subject,
 };
-pub use table::gather;
+pub use table::{gather, gather_compare};

@@ -7,7 +7,10 @@
 //! converged, failed or missing, the covariates), a navigation list, a
 //! cohort section (the key columns of `cohort.csv`, the cohort figures
 //! listed in `cohort/figures/index.json` with their titles and captions,
-//! links to the tables and statistics files) and one section per subject
+//! links to the tables and statistics files), the group comparison of
+//! `unfold cohort --compare` when there is one (`cohort/stats/compare.json`:
+//! what was compared, each test's summary, its figures and tables) and one
+//! section per subject
 //! (organ, covariates, status, convergence, quality flags, figures, and for
 //! a failed subject its one-line error and log). Every image and link is a
 //! path relative to `OUT`, so the folder can be moved or zipped and opened
@@ -312,6 +315,126 @@ fn link_if_file(html: &mut String, out: &Path, segments: &[&str], label: &str) {
     }
 }
 
+/// The "Group comparison" section from `OUT/cohort/stats/compare.json`
+/// (nothing without it): the column, its kind, the covariates, the
+/// relabelings and seed, the subjects left out, one row per analysis, the
+/// comparison figures and the ventricle and mitral tables.
+fn group_comparison(h: &mut String, out: &Path, figures: &[CohortFigure]) {
+    let stats = ["cohort", super::compare::STATS];
+    let dir = out.join(stats[0]).join(stats[1]);
+    let Some(json) = std::fs::read_to_string(dir.join(super::compare::COMPARE_JSON))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+    else {
+        return;
+    };
+    let text = |v: &serde_json::Value| match v {
+        serde_json::Value::String(s) => s.clone(),
+        serde_json::Value::Null => String::new(),
+        v => v.to_string(),
+    };
+    let empty = Vec::new();
+    let list = |v: &serde_json::Value| {
+        v.as_array()
+            .unwrap_or(&empty)
+            .iter()
+            .map(text)
+            .collect::<Vec<_>>()
+    };
+    h.push_str("<section id=\"compare\"><h2>Group comparison</h2>\n");
+    let covariates = list(&json["covariates"]);
+    let _ = writeln!(
+        h,
+        "<p>Column <b>{}</b> ({}); covariates: {}; {} relabelings (seed {}), family-wise \
+         level {}. ",
+        escape(&text(&json["column"])),
+        escape(&text(&json["kind"])),
+        if covariates.is_empty() {
+            "none".to_string()
+        } else {
+            escape(&covariates.join(", "))
+        },
+        escape(&text(&json["permutations"])),
+        escape(&text(&json["seed"])),
+        escape(&text(&json["alpha"]))
+    );
+    link_if_file(
+        h,
+        out,
+        &[stats[0], stats[1], super::compare::COMPARE_JSON],
+        "compare.json",
+    );
+    h.push_str("</p>\n");
+    let left: Vec<Vec<String>> = json["left_out"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .map(|l| vec![text(&l["id"]), text(&l["why"])])
+        .collect();
+    if !left.is_empty() {
+        h.push_str("<p>Left out:</p>\n");
+        table(h, &["subject", "why"], &left, |_, _| None);
+    }
+    let header = [
+        "organ",
+        "name",
+        "design",
+        "tested",
+        "relabelings",
+        "exhaustive",
+        "min p_fwe",
+        "p_fwe < level",
+    ];
+    let mut files = Vec::new();
+    let rows: Vec<Vec<String>> = json["analyses"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .map(|a| {
+            for f in list(&a["files"]) {
+                if !files.contains(&f) {
+                    files.push(f);
+                }
+            }
+            [
+                "organ",
+                "name",
+                "design",
+                "tested",
+                "permutations",
+                "exhaustive",
+                "min_p_fwe",
+                "significant",
+            ]
+            .iter()
+            .map(|k| text(&a[*k]))
+            .collect()
+        })
+        .collect();
+    table(h, &header, &rows, |i, cell| {
+        (i == 7 && cell != "0").then_some("warn")
+    });
+    h.push_str("<p>Files: ");
+    for f in &files {
+        link_if_file(h, out, &[stats[0], stats[1], f], f);
+    }
+    h.push_str("</p>\n");
+    for f in figures.iter().filter(|f| f.file.starts_with("compare_")) {
+        figure(h, &["cohort", "figures", &f.file], &f.title, &f.caption);
+    }
+    for f in files.iter().filter(|f| f.ends_with(".csv")) {
+        if let Some((header, rows)) = read_csv(&dir.join(f)) {
+            let _ = writeln!(h, "<h3>{}</h3>", escape(f));
+            let names: Vec<&str> = header.iter().map(String::as_str).collect();
+            let p_fwe = names.iter().position(|n| *n == "p_fwe");
+            table(h, &names, &rows, |i, cell| {
+                (Some(i) == p_fwe && cell.parse::<f64>().is_ok_and(|p| p < 0.05)).then_some("warn")
+            });
+        }
+    }
+    h.push_str("</section>\n");
+}
+
 /// Writes `OUT/index.html` for `subjects` (see the module documentation);
 /// returns its path.
 ///
@@ -488,6 +611,7 @@ pub fn write_report(
         }
     }
     h.push_str("</section>\n");
+    group_comparison(&mut h, out, &figures);
 
     // the subjects
     for ((s, st), report) in subjects.iter().zip(&statuses).zip(&reports) {

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 type SegmentMeans = BTreeMap<(String, i32), Vec<(String, f64)>>;
 
 /// One heart's segment means of every scalar point array of `anatomy.vtu`.
-fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, AppError> {
+pub(super) fn heart_means(dir: &Path) -> Result<BTreeMap<(String, i32), f64>, AppError> {
     let path = dir.join("anatomy.vtu");
     let mesh = crate::io::read_mesh(&path)?;
     heart_segments(&mesh)

@@ -18,9 +18,11 @@
 //! their mean maps on one normalised `(u, v)` grid
 //! ([`super::mitral_maps`]), and the cohort figures
 //! ([`super::figures`]; `--plot MEASURE:COVARIATE` chooses the
-//! scatter plots). Last, the visual report `OUT/index.html`
+//! scatter plots); with `--compare`, the group comparison
+//! ([`super::compare`]) before the figures. Last, the visual report `OUT/index.html`
 //! ([`super::report_page`]).
 
+use super::compare::CompareSettings;
 use super::figures::PlotSpec;
 use super::reports::{REPORT, subject_report};
 use super::scalars::flatten;
@@ -44,19 +46,22 @@ pub fn write_cohort(
     covariates: &[String],
     observer: &mut dyn Observer,
 ) -> Result<(), AppError> {
-    write_cohort_plots(out, subjects, covariates, &[], observer)
+    write_cohort_plots(out, subjects, covariates, &[], None, observer)
 }
 
-/// [`write_cohort`] with the scatter plots `plots` (none: the defaults).
+/// [`write_cohort`] with the scatter plots `plots` (none: the defaults)
+/// and the group comparison `compare` ([`super::compare`], before the
+/// figures and the page, which show it).
 ///
 /// # Errors
 /// Writing a file; a `plots` entry naming an unknown column; a subject's
-/// report that does not read as its organ's.
+/// report that does not read as its organ's; the comparison's.
 fn write_cohort_plots(
     out: &Path,
     subjects: &[SubjectRow],
     covariates: &[String],
     plots: &[PlotSpec],
+    compare: Option<&CompareSettings>,
     observer: &mut dyn Observer,
 ) -> Result<(), AppError> {
     let path = out.join("subjects.csv");
@@ -115,13 +120,27 @@ fn write_cohort_plots(
     }
     let bytes = w.into_inner().map_err(|e| at(&path, e))?;
     crate::io::atomic_write(&path, &bytes)?;
-    let super::images::Statistics { written, left_out } =
-        super::images::placenta_statistics(out, subjects)?;
+    let super::images::Statistics {
+        written,
+        grids,
+        left_out,
+    } = super::images::placenta_statistics(out, subjects)?;
     if !written.is_empty() {
         observer.info(&format!(
             "cohort: {} template-space statistics images in {}",
             written.len(),
             out.join("cohort").display()
+        ));
+    }
+    for (name, grid, k) in &grids {
+        observer.info(&format!(
+            "cohort: {name} of {k} subjects {} grid of {} (cohort/grid.json)",
+            if grid.resampled {
+                "resampled onto a common"
+            } else {
+                "on their shared"
+            },
+            grid.describe()
         ));
     }
     for (id, why) in left_out {
@@ -134,6 +153,9 @@ fn write_cohort_plots(
         observer.info(&format!("cohort: wrote {}", p.display()));
     }
     super::mitral_maps::mitral_maps(out, subjects)?.tell(&out.join("cohort"), observer);
+    if let Some(c) = compare {
+        super::compare::compare(out, subjects, covariates, c, observer)?;
+    }
     // The placenta images with statistics, by name (`<name>_mean.nii.gz`).
     let mut placenta_images: Vec<String> = written
         .iter()
@@ -166,6 +188,21 @@ fn write_cohort_plots(
 pub fn gather(
     output: &Path,
     plots: &[PlotSpec],
+    observer: &mut dyn Observer,
+) -> Result<(), AppError> {
+    gather_compare(output, plots, None, observer)
+}
+
+/// [`gather`], then the group comparison `compare` (`unfold cohort OUT
+/// --compare COLUMN ...`, [`super::compare`]) before the figures and the
+/// page.
+///
+/// # Errors
+/// Those of [`gather`]; the comparison's ([`super::compare::compare`]).
+pub fn gather_compare(
+    output: &Path,
+    plots: &[PlotSpec],
+    compare: Option<&CompareSettings>,
     observer: &mut dyn Observer,
 ) -> Result<(), AppError> {
     let path = output.join("subjects.csv");
@@ -207,7 +244,10 @@ pub fn gather(
                 .collect(),
         });
     }
-    write_cohort_plots(output, &subjects, &covariates, plots, observer)?;
+    if let Some(c) = compare {
+        super::compare::check(output, &subjects, &covariates, c)?;
+    }
+    write_cohort_plots(output, &subjects, &covariates, plots, compare, observer)?;
     observer.info(&format!(
         "{}: {} subjects",
         output.join("cohort.csv").display(),

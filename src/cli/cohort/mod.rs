@@ -1,4 +1,5 @@
-//! `unfold batch MANIFEST.csv -o OUT [--jobs N]` and `unfold cohort OUT`:
+//! `unfold batch MANIFEST.csv -o OUT [--jobs N]` and `unfold cohort OUT
+//! [--compare COLUMN ...]`:
 //! the flags of a cohort turned into the application's batch
 //! ([`crate::app::cohort`]), its progress drawn (a bar on a terminal, a
 //! line per subject otherwise: cluster job logs).
@@ -8,7 +9,7 @@ use super::progress::Progress;
 use crate::app::AppError;
 #[cfg(test)]
 use crate::app::cohort::OrganColumns;
-use crate::app::cohort::{BatchObserver, Ended, Layout, PlotSpec, Subject};
+use crate::app::cohort::{BatchObserver, CompareSettings, Ended, Layout, PlotSpec, Subject};
 use crate::app::observer::Observer;
 use crate::app::run::printable::printable;
 use crate::organs::PipelineObserver;
@@ -46,6 +47,26 @@ pub struct CohortArgs {
     /// measurements of each organ).
     #[arg(long = "plot", value_name = "MEASURE:COVARIATE")]
     plot: Vec<PlotSpec>,
+    /// Compare the groups of a subjects.csv column (categorical when a value is not a number;
+    /// else its continuous effect) in template space: OUT/cohort/stats/ (t or F, FWE-corrected
+    /// and uncorrected p per voxel, segment and measurement; compare.json).
+    #[arg(long, value_name = "COLUMN")]
+    compare: Option<String>,
+    /// Numeric subjects.csv columns as nuisance covariates of --compare.
+    #[arg(
+        long,
+        value_name = "C1,C2",
+        value_delimiter = ',',
+        requires = "compare"
+    )]
+    covariates: Vec<String>,
+    /// Relabelings of --compare's permutation test, the identity included (all the distinct
+    /// ones when they are fewer) [default: 1000].
+    #[arg(long, value_name = "N", requires = "compare")]
+    permutations: Option<usize>,
+    /// Seed of --compare's random relabelings (the same seed, the same files) [default: 0].
+    #[arg(long, value_name = "S", requires = "compare")]
+    seed: Option<u64>,
 }
 
 /// The batch's progress on the command line.
@@ -136,9 +157,22 @@ pub(crate) fn run_manifest(
     crate::app::cohort::run_manifest(manifest, out, jobs, &mut progress)
 }
 
-/// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`.
+/// Runs `unfold cohort`: reads `OUT/subjects.csv`, writes `OUT/cohort.csv`
+/// (and with `--compare` the group comparison).
 pub fn run_cohort(a: &CohortArgs) -> Result<(), AppError> {
-    crate::app::cohort::gather(&a.output, &a.plot, &mut Progress::new(false))
+    let compare = a.compare.as_ref().map(|c| {
+        let mut s = CompareSettings::new(c);
+        s.covariates.clone_from(&a.covariates);
+        s.permutations = a.permutations.unwrap_or(s.permutations);
+        s.seed = a.seed.unwrap_or(s.seed);
+        s
+    });
+    crate::app::cohort::gather_compare(
+        &a.output,
+        &a.plot,
+        compare.as_ref(),
+        &mut Progress::new(false),
+    )
 }
 
 #[cfg(test)]

@@ -9,7 +9,8 @@
 //! measurement against a covariate with its least-squares line
 //! ([`scatter`]), the cohort mean, standard deviation and a subject's
 //! z-score bull's-eyes ([`bullseyes`]), the mid-depth slices of the placenta
-//! mean and standard deviation images ([`slices`]); the axes, ticks and
+//! mean and standard deviation images ([`slices`]), a group comparison's
+//! statistic with its significant region outlined ([`statistic`]); the axes, ticks and
 //! title band they share are [`axes`].
 
 pub mod axes;
@@ -19,3 +20,4 @@ pub mod distortion;
 pub mod energies;
 pub mod scatter;
 pub mod slices;
+pub mod statistic;
