@@ -383,26 +383,11 @@ fn b64_coords(values: &[f32]) -> (String, f64) {
     (b64(&bytes), scale)
 }
 
-/// Base64 of bytes (RFC 4648, section 4: each 3 bytes as 4 characters of
-/// 6 bits, `=` padding), what the page's `atob` reads.
+/// Base64 of bytes (RFC 4648, section 4, `=` padding), what the page's
+/// `atob` reads.
 fn b64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let n = chunk.len();
-        let word = chunk
-            .iter()
-            .enumerate()
-            .fold(0u32, |w, (i, &b)| w | u32::from(b) << (16 - 8 * i));
-        for i in 0..4 {
-            if i <= n {
-                out.push(ALPHABET[(word >> (18 - 6 * i) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    use base64::Engine as _;
+    base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
 /// A 4x4 matrix row-major.
