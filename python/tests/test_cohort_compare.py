@@ -69,7 +69,7 @@ def test_compare_returns_the_maps_and_summary(study):
     assert untested.any() and (~untested).sum() == a["tested"]
     assert np.all(m["pfwe"][untested] == 1.0) and np.all(m["p"][untested] == 1.0)
     assert (m["pfwe"][~untested] < 0.05).sum() == a["significant"]
-    assert r["ventricle"] == [] and r["mitral"] == []
+    assert r["ventricle"] == [] and r["mitral"] == [] and r["mitral_segments"] == []
     again = unfold.cohort.compare(study, "group", covariates="age", permutations=200, seed=1)
     np.testing.assert_array_equal(again["images"][name]["pfwe"], m["pfwe"])
 

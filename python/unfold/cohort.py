@@ -48,9 +48,10 @@ def compare(study, column, covariates=None, permutations=1000, seed=0):
     Returns:
         A dict: ``images`` (per placenta image name: ``"t"`` or ``"F"``,
         ``"p"``, ``"pfwe"`` as float32 arrays of the common grid's shape,
-        NaN / 1 where untested, and ``"affine"``, 4x4), ``ventricle`` and
-        ``mitral`` (the tables' rows as dicts, numbers as floats, empty
-        cells None; empty lists without those organs) and ``compare``
+        NaN / 1 where untested, and ``"affine"``, 4x4), ``ventricle``,
+        ``mitral`` (the valves' measurements) and ``mitral_segments`` (the
+        maps' Carpentier-segment means) (the tables' rows as dicts, numbers
+        as floats, empty cells None; empty lists without those organs) and ``compare``
         (``compare.json``: the column, its kind, covariates, permutations,
         seed, subjects left out, and per analysis its design and counts).
 
@@ -85,9 +86,15 @@ def compare(study, column, covariates=None, permutations=1000, seed=0):
             "pfwe": maps[pfwe_file][0],
             "affine": affine,
         }
-    result = {"images": images, "ventricle": [], "mitral": [], "compare": summary}
+    result = {
+        "images": images,
+        "ventricle": [],
+        "mitral": [],
+        "mitral_segments": [],
+        "compare": summary,
+    }
     for name, text in tables.items():
-        organ = name.split("_", 1)[0]
-        if organ in ("ventricle", "mitral"):
-            result[organ] = _rows(text)
+        key = "mitral_segments" if name.startswith("mitral_segments_") else name.split("_", 1)[0]
+        if key in result and key not in ("images", "compare"):
+            result[key] = _rows(text)
     return result

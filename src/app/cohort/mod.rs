@@ -25,6 +25,7 @@ pub mod scalars;
 pub mod segments;
 pub mod subject;
 pub mod table;
+pub mod valve_segments;
 
 pub use batch::{BatchObserver, run_manifest, run_plan};
 pub use bids::{Layout, run_manifest_bids};

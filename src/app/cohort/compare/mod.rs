@@ -26,9 +26,12 @@
 //! - mitral: the single valves' measurements ([`super::mitral`]: annulus,
 //!   areas, saddle, coaptation, energies; not the seconds or the flipped
 //!   triangles, which describe the run) in `mitral_<column>.csv`; a series
-//!   (a value per step) is left out and named.
+//!   (a value per step) is left out and named;
+//! - mitral, per scalar array of the flat maps: the valves' Carpentier
+//!   segment means (A1-A3, P1-P3; [`super::valve_segments`]) over the
+//!   segments every included valve has, in `mitral_segments_<column>.csv`.
 //!
-//! The tables have one row per tested column (`array`, `segment` or
+//! The tables have one row per tested column (`array` and `segment`, or
 //! `measurement`), its `statistic`, `p`, `p_fwe`, then `n_<level>` and
 //! `mean_<level>` per group (continuous: `n`, `mean`). `compare.json`
 //! records the column, its kind, the covariates, the permutations and
@@ -45,7 +48,7 @@ mod tables;
 
 use placenta::placenta;
 use study::Study;
-use tables::{mitral, ventricle};
+use tables::{mitral, mitral_segments, ventricle};
 
 use super::grid::{choose, on_grid};
 use super::images::placenta_images;
@@ -316,6 +319,7 @@ pub fn compare(
     let mut analyses = placenta(&mut study, out, subjects, observer)?;
     analyses.extend(ventricle(&mut study, out, subjects, observer)?);
     analyses.extend(mitral(&mut study, out, subjects, observer)?);
+    analyses.extend(mitral_segments(&mut study, out, subjects, observer)?);
     if analyses.is_empty() {
         return Err(AppError::Usage(format!(
             "--compare {}: nothing to compare in {} (no placenta image, ventricle anatomy or \

@@ -259,3 +259,70 @@ pub(super) fn mitral(
     tell(observer, "mitral measurements", &a);
     Ok(vec![a])
 }
+
+/// The single mitral valves' Carpentier-segment means
+/// ([`crate::app::cohort::valve_segments`]), one test per map array over
+/// the six segments.
+pub(super) fn mitral_segments(
+    study: &mut Study<'_>,
+    out: &Path,
+    subjects: &[SubjectRow],
+    observer: &mut dyn Observer,
+) -> Result<Vec<Analysis>, AppError> {
+    use crate::app::cohort::valve_segments::{SEGMENTS, segment_name, valve_means};
+    let valves: Vec<&SubjectRow> = subjects
+        .iter()
+        .filter(|s| {
+            let dir = out.join(&s.id);
+            s.organ == "mitral"
+                && !dir.join("series.csv").is_file()
+                && dir.join("valve2d.vtu").is_file()
+        })
+        .collect();
+    if valves.is_empty() {
+        return Ok(Vec::new());
+    }
+    let rows = study.eligible(valves);
+    let mut means = Vec::with_capacity(rows.len());
+    for s in &rows {
+        means.push(valve_means(&out.join(&s.id))?);
+    }
+    let arrays: BTreeSet<String> = means
+        .iter()
+        .flat_map(|m| m.keys().map(|(a, _)| a.clone()))
+        .collect();
+    let file = format!("mitral_segments_{}.csv", file_part(&study.settings.column));
+    let groups: Vec<String> = study.groups(&rows).into_keys().collect();
+    let mut table = TableRows::new(study, &["array", "segment"], &groups);
+    let mut analyses = Vec::new();
+    for array in &arrays {
+        let keys: Vec<Vec<String>> = SEGMENTS
+            .iter()
+            .map(|&k| vec![array.clone(), segment_name(k).to_string()])
+            .collect();
+        let values: Vec<Vec<Option<f64>>> = means
+            .iter()
+            .map(|m| {
+                SEGMENTS
+                    .iter()
+                    .map(|&k| {
+                        m.get(&(array.clone(), k))
+                            .copied()
+                            .filter(|v| v.is_finite())
+                    })
+                    .collect()
+            })
+            .collect();
+        let a = test_table(
+            study, "mitral", array, &keys, &rows, &values, &mut table, &file,
+        )?;
+        tell(
+            observer,
+            &format!("mitral {array} by Carpentier segment"),
+            &a,
+        );
+        analyses.push(a);
+    }
+    table.write(&study.dir.join(&file))?;
+    Ok(analyses)
+}
