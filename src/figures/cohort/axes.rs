@@ -215,6 +215,115 @@ pub fn label_width(ticks: &[f64]) -> i64 {
         .unwrap_or(0)
 }
 
+/// Width of the colour bar column at the right of a map panel, pixels.
+pub const MAP_BAR_COLUMN: i64 = 92;
+
+/// A map panel's layout ([`map_frame`]): the plot area, its pixels per mm
+/// and the colour bar's place.
+#[derive(Debug, Clone, Copy)]
+pub struct MapFrame {
+    /// The plot area (its frame drawn).
+    pub area: Rect,
+    /// Its left and top pixel.
+    pub x0: i64,
+    /// Its top pixel.
+    pub y0: i64,
+    /// Its width, pixels.
+    pub width: i64,
+    /// Its height, pixels.
+    pub height: i64,
+    /// Pixels per mm, the same along x and y.
+    pub pixels_per_mm: f64,
+    /// Where the colour bar goes (the column at the right).
+    pub bar: Rect,
+}
+
+impl MapFrame {
+    /// The template point `(x, y)` in mm at the centre of area pixel
+    /// `(px, py)`: `x = xlo + (px + 1/2) / s`, `y = yhi - (py + 1/2) / s`.
+    pub fn point(&self, xlo: f64, yhi: f64, px: i64, py: i64) -> (f64, f64) {
+        (
+            xlo + (px as f64 + 0.5) / self.pixels_per_mm,
+            yhi - (py as f64 + 0.5) / self.pixels_per_mm,
+        )
+    }
+}
+
+/// Lays out a map of the template box `[xlo, xhi] x [ylo, yhi]` (mm) in a
+/// panel below its title band: equal mm scales along x and y (`s = min(cols
+/// / (xhi - xlo), rows / (yhi - ylo))`), the box centred in the free area
+/// left of the colour bar column, and its frame drawn with round ticks and
+/// the axes labelled "template x, mm" and "template y, mm".
+///
+/// # Errors
+/// Drawing the frame.
+pub fn map_frame(
+    img: &mut Image,
+    opts: &FigureOptions,
+    (xlo, xhi): (f64, f64),
+    (ylo, yhi): (f64, f64),
+) -> Result<MapFrame, RenderError> {
+    let lh = line_height();
+    let top = TITLE_BAND + lh + 12;
+    let bottom = i64::from(opts.panel_height) - 2 * lh - 22;
+    let rows = (bottom - top).max(20);
+    let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
+    let left = 12 + label_width(&y_ticks);
+    let right = i64::from(opts.panel_width) - MAP_BAR_COLUMN - 8;
+    let cols = (right - left).max(20);
+    let s = (cols as f64 / (xhi - xlo)).min(rows as f64 / (yhi - ylo));
+    let (aw, ah) = (
+        ((xhi - xlo) * s).round().max(1.0) as i64,
+        ((yhi - ylo) * s).round().max(1.0) as i64,
+    );
+    let (ax, ay) = (left + (cols - aw) / 2, top + (rows - ah) / 2);
+    let area = Rect::new(clamp32(ax), clamp32(ay), aw as u32, ah as u32);
+    let x_ticks: Vec<f64> = nice_ticks(xlo, xhi, (aw / 70).clamp(2, 8) as usize)
+        .into_iter()
+        .filter(|t| (xlo..=xhi).contains(t))
+        .collect();
+    let y_ticks: Vec<f64> = y_ticks
+        .into_iter()
+        .filter(|t| (ylo..=yhi).contains(t))
+        .collect();
+    let xa = Axis {
+        lo: xlo,
+        hi: xhi,
+        p0: ax as f64,
+        p1: (ax + aw) as f64,
+    };
+    let ya = Axis {
+        lo: ylo,
+        hi: yhi,
+        p0: (ay + ah) as f64,
+        p1: ay as f64,
+    };
+    draw_frame(
+        img,
+        area,
+        &ya,
+        &y_ticks,
+        Some((&xa, &x_ticks)),
+        "template y, mm",
+        "template x, mm",
+    )?;
+    let bar = Rect::new(
+        clamp32(i64::from(opts.panel_width) - MAP_BAR_COLUMN),
+        clamp32(top),
+        (MAP_BAR_COLUMN - 10) as u32,
+        rows as u32,
+    );
+    Ok(MapFrame {
+        area,
+        x0: ax,
+        y0: ay,
+        width: aw,
+        height: ah,
+        pixels_per_mm: s,
+        bar,
+    })
+}
+
 /// Draws the frame of the plot area `area` with the y ticks `y_ticks`
 /// (labels left of the frame, grid lines across it) and, when given, the x
 /// ticks (labels below it); `y_label` above the frame's top left corner

@@ -2,12 +2,9 @@
 //! deviation images (template space): side by side, each with its colour
 //! bar and axes in mm.
 
-use unfold_render::{ColorScale, Colormap, Image, Rect, Rgba, draw_colorbar};
+use unfold_render::{ColorScale, Colormap, Image, Rgba, draw_colorbar};
 
-use super::axes::{
-    Axis, TITLE_BAND, check_panel, clamp32, draw_frame, label_width, line_height, nice_ticks,
-    title_band,
-};
+use super::axes::{check_panel, map_frame, title_band};
 use crate::figures::layout::compose;
 use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
 use crate::mesh::Volume;
@@ -21,9 +18,6 @@ pub const STD_COLORMAP: Colormap = Colormap::Magma;
 
 /// Colour of the voxels no subject covers.
 pub const EMPTY: Rgba = Rgba::new(235, 235, 235, 255);
-
-/// Width of the colour bar column at the right of a panel, pixels.
-const BAR_COLUMN: i64 = 92;
 
 /// The file name of the slices of image `image`: `placenta_<image>_slices.png`.
 pub fn slices_name(image: &str) -> String {
@@ -176,57 +170,12 @@ pub fn mean_std_slices(
             .filter(|v| v.is_finite())
             .collect();
         let scale = ColorScale::from_values(map, &values);
-        let lh = line_height();
-        let top = TITLE_BAND + lh + 12;
-        let bottom = i64::from(opts.panel_height) - 2 * lh - 22;
-        let rows = (bottom - top).max(20);
-        let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
-        let left = 12 + label_width(&y_ticks);
-        let right = i64::from(opts.panel_width) - BAR_COLUMN - 8;
-        let cols = (right - left).max(20);
         // Equal mm scales: the box fits the free area, centred.
-        let s = (cols as f64 / (xhi - xlo)).min(rows as f64 / (yhi - ylo));
-        let (aw, ah) = (
-            ((xhi - xlo) * s).round().max(1.0) as i64,
-            ((yhi - ylo) * s).round().max(1.0) as i64,
-        );
-        let (ax, ay) = (left + (cols - aw) / 2, top + (rows - ah) / 2);
-        let area = Rect::new(clamp32(ax), clamp32(ay), aw as u32, ah as u32);
-        let x_ticks: Vec<f64> = nice_ticks(xlo, xhi, (aw / 70).clamp(2, 8) as usize)
-            .into_iter()
-            .filter(|t| (xlo..=xhi).contains(t))
-            .collect();
-        let y_ticks: Vec<f64> = y_ticks
-            .into_iter()
-            .filter(|t| (ylo..=yhi).contains(t))
-            .collect();
-        let xa = Axis {
-            lo: xlo,
-            hi: xhi,
-            p0: ax as f64,
-            p1: (ax + aw) as f64,
-        };
-        let ya = Axis {
-            lo: ylo,
-            hi: yhi,
-            p0: (ay + ah) as f64,
-            p1: ay as f64,
-        };
-        draw_frame(
-            &mut img,
-            area,
-            &ya,
-            &y_ticks,
-            Some((&xa, &x_ticks)),
-            "template y, mm",
-            "template x, mm",
-        )
-        .map_err(err())?;
+        let frame = map_frame(&mut img, opts, (xlo, xhi), (ylo, yhi)).map_err(err())?;
         // The slice over the grid lines the frame drew, then the frame again.
-        for py in 0..ah {
-            let y = yhi - (py as f64 + 0.5) / s;
-            for px in 0..aw {
-                let x = xlo + (px as f64 + 0.5) / s;
+        for py in 0..frame.height {
+            for px in 0..frame.width {
+                let (x, y) = frame.point(xlo, yhi, px, py);
                 let v = stats.mean.world_to_voxel(&Point3::new(x, y, z_mm));
                 let (i, j) = (v.x.round(), v.y.round());
                 let c = if i < 0.0 || j < 0.0 {
@@ -240,17 +189,11 @@ pub fn mean_std_slices(
                         _ => EMPTY,
                     }
                 };
-                img.put(ax + px, ay + py, c);
+                img.put(frame.x0 + px, frame.y0 + py, c);
             }
         }
-        img.stroke_rect(area, INK);
-        let bar = Rect::new(
-            clamp32(i64::from(opts.panel_width) - BAR_COLUMN),
-            clamp32(top),
-            (BAR_COLUMN - 10) as u32,
-            rows as u32,
-        );
-        draw_colorbar(&mut img, bar, &scale, bar_title, INK, 1).map_err(err())?;
+        img.stroke_rect(frame.area, INK);
+        draw_colorbar(&mut img, frame.bar, &scale, bar_title, INK, 1).map_err(err())?;
         imgs.push(img);
     }
     let img = compose(&imgs, 2, opts).map_err(err())?;

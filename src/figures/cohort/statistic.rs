@@ -1,19 +1,13 @@
 //! A group comparison's statistic over the template: one slice of the t
 //! (or F) image, the voxels with a family-wise p below the level outlined.
 
-use unfold_render::{ColorScale, Colormap, Image, Rect, draw_colorbar};
+use unfold_render::{ColorScale, Colormap, Image, draw_colorbar};
 
-use super::axes::{
-    Axis, TITLE_BAND, check_panel, clamp32, draw_frame, label_width, line_height, nice_ticks,
-    title_band,
-};
+use super::axes::{check_panel, map_frame, title_band};
 use super::slices::EMPTY;
 use crate::figures::{Figure, FigureError, FigureOptions, INK, PAPER};
 use crate::mesh::Volume;
 use crate::mesh::nalgebra::Point3;
-
-/// Width of the colour bar column at the right of the panel, pixels.
-const BAR_COLUMN: i64 = 92;
 
 /// The file name of the comparison figure of image `image` and column
 /// `column` (both file-name safe): `compare_<image>_<column>.png`.
@@ -152,63 +146,18 @@ pub fn statistic_slice(
         ),
     )
     .map_err(err())?;
-    let lh = line_height();
-    let top = TITLE_BAND + lh + 12;
-    let bottom = i64::from(opts.panel_height) - 2 * lh - 22;
-    let rows = (bottom - top).max(20);
-    let y_ticks = nice_ticks(ylo, yhi, (rows / 40).clamp(2, 8) as usize);
-    let left = 12 + label_width(&y_ticks);
-    let right = i64::from(opts.panel_width) - BAR_COLUMN - 8;
-    let cols = (right - left).max(20);
-    let s = (cols as f64 / (xhi - xlo)).min(rows as f64 / (yhi - ylo));
-    let (aw, ah) = (
-        ((xhi - xlo) * s).round().max(1.0) as i64,
-        ((yhi - ylo) * s).round().max(1.0) as i64,
-    );
-    let (ax, ay) = (left + (cols - aw) / 2, top + (rows - ah) / 2);
-    let area = Rect::new(clamp32(ax), clamp32(ay), aw as u32, ah as u32);
-    let x_ticks: Vec<f64> = nice_ticks(xlo, xhi, (aw / 70).clamp(2, 8) as usize)
-        .into_iter()
-        .filter(|t| (xlo..=xhi).contains(t))
-        .collect();
-    let y_ticks: Vec<f64> = y_ticks
-        .into_iter()
-        .filter(|t| (ylo..=yhi).contains(t))
-        .collect();
-    let xa = Axis {
-        lo: xlo,
-        hi: xhi,
-        p0: ax as f64,
-        p1: (ax + aw) as f64,
-    };
-    let ya = Axis {
-        lo: ylo,
-        hi: yhi,
-        p0: (ay + ah) as f64,
-        p1: ay as f64,
-    };
-    draw_frame(
-        &mut img,
-        area,
-        &ya,
-        &y_ticks,
-        Some((&xa, &x_ticks)),
-        "template y, mm",
-        "template x, mm",
-    )
-    .map_err(err())?;
+    let frame = map_frame(&mut img, opts, (xlo, xhi), (ylo, yhi)).map_err(err())?;
     // The voxel under each pixel, then the slice and the outline.
     let voxel = |px: i64, py: i64| -> Option<(usize, usize)> {
-        let x = xlo + (px as f64 + 0.5) / s;
-        let y = yhi - (py as f64 + 0.5) / s;
+        let (x, y) = frame.point(xlo, yhi, px, py);
         let v = maps.statistic.world_to_voxel(&Point3::new(x, y, z_mm));
         let (i, j) = (v.x.round(), v.y.round());
         (i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny)
             .then_some((i as usize, j as usize))
     };
     let sig = |px: i64, py: i64| voxel(px, py).is_some_and(|(i, j)| maps.significant(i, j, k));
-    for py in 0..ah {
-        for px in 0..aw {
+    for py in 0..frame.height {
+        for px in 0..frame.width {
             let c = match voxel(px, py) {
                 Some((i, j)) if maps.tested(i, j, k) => {
                     let v = maps.statistic.get(i, j, k, 0).unwrap_or(0.0);
@@ -224,17 +173,11 @@ pub fn statistic_slice(
                 }
                 _ => EMPTY,
             };
-            img.put(ax + px, ay + py, c);
+            img.put(frame.x0 + px, frame.y0 + py, c);
         }
     }
-    img.stroke_rect(area, INK);
-    let bar = Rect::new(
-        clamp32(i64::from(opts.panel_width) - BAR_COLUMN),
-        clamp32(top),
-        (BAR_COLUMN - 10) as u32,
-        rows as u32,
-    );
-    draw_colorbar(&mut img, bar, &scale, maps.statistic_name, INK, 1).map_err(err())?;
+    img.stroke_rect(frame.area, INK);
+    draw_colorbar(&mut img, frame.bar, &scale, maps.statistic_name, INK, 1).map_err(err())?;
     Ok(Figure::new(name, img))
 }
 

@@ -135,6 +135,57 @@ pub(super) fn test_table(
     Ok(study.analysis(organ, name, rows, &design, &result, vec![file.to_string()]))
 }
 
+/// Per-segment means of one subject: `(array, segment) -> mean`.
+type SegmentMeans = BTreeMap<(String, i32), f64>;
+
+/// One test per array over the segments `segments` (`(label, name)`) of
+/// the subjects `rows` with their segment means `means`, written as one
+/// table `file` (keys `array`, `segment`); `what` names the analysis in
+/// the progress lines.
+#[allow(clippy::too_many_arguments)]
+fn segment_tests(
+    study: &mut Study<'_>,
+    organ: &str,
+    what: &str,
+    rows: &[&SubjectRow],
+    means: &[SegmentMeans],
+    segments: &[(i32, String)],
+    file: &str,
+    observer: &mut dyn Observer,
+) -> Result<Vec<Analysis>, AppError> {
+    let arrays: BTreeSet<String> = means
+        .iter()
+        .flat_map(|m| m.keys().map(|(a, _)| a.clone()))
+        .collect();
+    let groups: Vec<String> = study.groups(rows).into_keys().collect();
+    let mut table = TableRows::new(study, &["array", "segment"], &groups);
+    let mut analyses = Vec::new();
+    for array in &arrays {
+        let keys: Vec<Vec<String>> = segments
+            .iter()
+            .map(|(_, name)| vec![array.clone(), name.clone()])
+            .collect();
+        let values: Vec<Vec<Option<f64>>> = means
+            .iter()
+            .map(|m| {
+                segments
+                    .iter()
+                    .map(|(k, _)| {
+                        m.get(&(array.clone(), *k))
+                            .copied()
+                            .filter(|v| v.is_finite())
+                    })
+                    .collect()
+            })
+            .collect();
+        let a = test_table(study, organ, array, &keys, rows, &values, &mut table, file)?;
+        tell(observer, &format!("{organ} {array}{what}"), &a);
+        analyses.push(a);
+    }
+    table.write(&study.dir.join(file))?;
+    Ok(analyses)
+}
+
 /// The ventricles' AHA segment tests, one per array.
 pub(super) fn ventricle(
     study: &mut Study<'_>,
@@ -154,45 +205,18 @@ pub(super) fn ventricle(
     for s in &rows {
         means.push(crate::app::cohort::segments::heart_means(&out.join(&s.id))?);
     }
-    let arrays: BTreeSet<String> = means
-        .iter()
-        .flat_map(|m| m.keys().map(|(a, _)| a.clone()))
-        .collect();
+    let segments: Vec<(i32, String)> = (1..=17).map(|k| (k, k.to_string())).collect();
     let file = format!("ventricle_{}.csv", file_part(&study.settings.column));
-    let groups: Vec<String> = study.groups(&rows).into_keys().collect();
-    let mut table = TableRows::new(study, &["array", "segment"], &groups);
-    let mut analyses = Vec::new();
-    for array in &arrays {
-        let keys: Vec<Vec<String>> = (1..=17)
-            .map(|k| vec![array.clone(), k.to_string()])
-            .collect();
-        let values: Vec<Vec<Option<f64>>> = means
-            .iter()
-            .map(|m| {
-                (1..=17)
-                    .map(|k| {
-                        m.get(&(array.clone(), k))
-                            .copied()
-                            .filter(|v| v.is_finite())
-                    })
-                    .collect()
-            })
-            .collect();
-        let a = test_table(
-            study,
-            "ventricle",
-            array,
-            &keys,
-            &rows,
-            &values,
-            &mut table,
-            &file,
-        )?;
-        tell(observer, &format!("ventricle {array}"), &a);
-        analyses.push(a);
-    }
-    table.write(&study.dir.join(&file))?;
-    Ok(analyses)
+    segment_tests(
+        study,
+        "ventricle",
+        "",
+        &rows,
+        &means,
+        &segments,
+        &file,
+        observer,
+    )
 }
 
 /// The single mitral valves' measurements, one test.
@@ -287,42 +311,19 @@ pub(super) fn mitral_segments(
     for s in &rows {
         means.push(valve_means(&out.join(&s.id))?);
     }
-    let arrays: BTreeSet<String> = means
+    let segments: Vec<(i32, String)> = SEGMENTS
         .iter()
-        .flat_map(|m| m.keys().map(|(a, _)| a.clone()))
+        .map(|&k| (k, segment_name(k).to_string()))
         .collect();
     let file = format!("mitral_segments_{}.csv", file_part(&study.settings.column));
-    let groups: Vec<String> = study.groups(&rows).into_keys().collect();
-    let mut table = TableRows::new(study, &["array", "segment"], &groups);
-    let mut analyses = Vec::new();
-    for array in &arrays {
-        let keys: Vec<Vec<String>> = SEGMENTS
-            .iter()
-            .map(|&k| vec![array.clone(), segment_name(k).to_string()])
-            .collect();
-        let values: Vec<Vec<Option<f64>>> = means
-            .iter()
-            .map(|m| {
-                SEGMENTS
-                    .iter()
-                    .map(|&k| {
-                        m.get(&(array.clone(), k))
-                            .copied()
-                            .filter(|v| v.is_finite())
-                    })
-                    .collect()
-            })
-            .collect();
-        let a = test_table(
-            study, "mitral", array, &keys, &rows, &values, &mut table, &file,
-        )?;
-        tell(
-            observer,
-            &format!("mitral {array} by Carpentier segment"),
-            &a,
-        );
-        analyses.push(a);
-    }
-    table.write(&study.dir.join(&file))?;
-    Ok(analyses)
+    segment_tests(
+        study,
+        "mitral",
+        " by Carpentier segment",
+        &rows,
+        &means,
+        &segments,
+        &file,
+        observer,
+    )
 }
