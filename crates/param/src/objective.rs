@@ -115,6 +115,10 @@ pub struct Objective<'a> {
     layout: Option<Arc<HessianLayout>>,
     /// Per-triangle local Hessians of the last assembly (reused storage).
     local2: Vec<[f64; TRI_SLOTS]>,
+    /// A chunk of per-tet local Hessians (reused storage: up to
+    /// [`TET_CHUNK`] x 1.15 KB, allocated and zeroed once per objective
+    /// instead of once per Hessian).
+    local3: Vec<[f64; 144]>,
     /// How Newton's systems are solved (tets).
     linear_solver: LinearSolver,
     /// Per template vertex (weight > 0), `dim^2` slots.
@@ -143,6 +147,67 @@ pub struct HessianLayout {
     dim: usize,
     elements: Vec<u32>,
     fixed: Vec<bool>,
+    /// For a tet mesh solved by Cholesky, each graph entry's contributions
+    /// in tet order, so the assembly sums them in parallel
+    /// ([`TetGather`]); `None` otherwise (serial scatter).
+    gather: Option<TetGather>,
+}
+
+/// The tet Hessian's assembly turned around: per vertex-graph entry (a
+/// 3x3 block of the Hessian), the tets and corner pairs ([`TET_PAIRS`])
+/// that add into it, in increasing tet order (compressed rows: entry `e`'s
+/// items are `items[ptr[e]..ptr[e + 1]]`, each `10 k + pair`). Each
+/// block's sum is then one task, `S_e = (((0 + H_k1) + H_k2) + ...)` over
+/// its tets `k1 < k2 < ...`: the additions a serial scatter in tet order
+/// makes, in the same order, so the values are bit for bit the serial
+/// ones whatever the number of threads. Costs 4 bytes per (tet, pair) and
+/// 9 sums per entry; built with a Cholesky layout only, where the factor
+/// dwarfs it (a multigrid layout, for meshes too large for a factor, keeps
+/// the serial scatter and its bounded memory).
+#[derive(Debug)]
+struct TetGather {
+    ptr: Vec<usize>,
+    items: Vec<u32>,
+    /// Whether entry `e` is a diagonal block (only its `i <= j` entries
+    /// are summed and stored).
+    diagonal: Vec<bool>,
+}
+
+impl TetGather {
+    /// The gather of `entries` (per tet, the graph entry of each of its
+    /// [`TET_PAIRS`], `NONE` when not stored) over a graph of `n_entries`
+    /// entries; `None` when the items would not fit `u32`.
+    fn new(entries: &[u32], n_entries: usize) -> Option<TetGather> {
+        let pairs = TET_PAIRS.len();
+        if entries.len() >= u32::MAX as usize {
+            return None;
+        }
+        let mut ptr = vec![0usize; n_entries + 1];
+        for &e in entries.iter().filter(|&&e| e != NONE) {
+            ptr[e as usize + 1] += 1;
+        }
+        for e in 0..n_entries {
+            ptr[e + 1] += ptr[e];
+        }
+        let mut next = ptr.clone();
+        let mut items = vec![0u32; ptr[n_entries]];
+        let mut diagonal = vec![false; n_entries];
+        // Items in increasing index = tet order.
+        for (item, &e) in entries.iter().enumerate() {
+            if e != NONE {
+                let e = e as usize;
+                items[next[e]] = item as u32;
+                next[e] += 1;
+                let (la, lb) = TET_PAIRS[item % pairs];
+                diagonal[e] |= la == lb;
+            }
+        }
+        Some(TetGather {
+            ptr,
+            items,
+            diagonal,
+        })
+    }
 }
 
 impl HessianLayout {
@@ -232,6 +297,7 @@ impl<'a> Objective<'a> {
             fixed,
             layout: None,
             local2: Vec::new(),
+            local3: Vec::new(),
             linear_solver: LinearSolver::Auto,
             vertex_slots: Vec::new(),
             floors: element_floors(mesh),
@@ -386,6 +452,12 @@ impl<'a> Objective<'a> {
         Ok(Arc::clone(self.built_layout()?))
     }
 
+    /// The layout this objective built or was given, if any (no Hessian
+    /// was needed yet otherwise): what a [`crate::LayoutCache`] keeps.
+    pub fn layout_if_built(&self) -> Option<Arc<HessianLayout>> {
+        self.layout.clone()
+    }
+
     /// This objective with a layout built by another one over the same
     /// connectivity and fixed vertices, skipping the ordering and symbolic
     /// analysis.
@@ -412,7 +484,12 @@ impl<'a> Objective<'a> {
     }
 
     /// Stores a freshly built pattern and slots as this objective's layout.
-    fn set_layout(&mut self, pattern: SpdPattern, element_slots: Vec<u32>) {
+    fn set_layout(
+        &mut self,
+        pattern: SpdPattern,
+        element_slots: Vec<u32>,
+        gather: Option<TetGather>,
+    ) {
         self.vertex_slots = self.template_slots(&pattern);
         let dim = self.dim();
         let elements = (0..self.mesh.num_elements())
@@ -424,6 +501,7 @@ impl<'a> Objective<'a> {
             dim,
             elements,
             fixed: self.fixed.clone(),
+            gather,
         }));
     }
 
@@ -537,8 +615,12 @@ impl<'a> Objective<'a> {
                 slots.push(entry);
             }
         }
+        let gather = match solver {
+            VertexSolver::Multigrid(_) => None,
+            _ => TetGather::new(&slots, row_idx.len()),
+        };
         let pattern = SpdPattern::from_vertex_graph_with(nv, D, col_ptr, row_idx, solver)?;
-        self.set_layout(pattern, slots);
+        self.set_layout(pattern, slots, gather);
         Ok(())
     }
 
@@ -601,29 +683,28 @@ impl<'a> Objective<'a> {
         let lambda = self.lambda;
         match &m.elements {
             RestElements::Tets { tets, dm_inv } => {
-                // Element Hessians in parallel, a chunk at a time, each
-                // chunk scattered before the next (the buffer stays
-                // TET_CHUNK x 1.15 KB whatever the mesh).
-                let mut local = vec![[0.0; 144]; TET_CHUNK.min(tets.len())];
-                for start in (0..tets.len()).step_by(TET_CHUNK) {
-                    let chunk = &mut local[..TET_CHUNK.min(tets.len() - start)];
+                let energy = self.energy;
+                let local_hessians = |start: usize, chunk: &mut [[f64; 144]]| {
                     chunk.par_iter_mut().enumerate().for_each(|(i, h)| {
                         let k = start + i;
                         let f = jacobian3(x, &tets[k], &dm_inv[k]);
                         *h = [0.0; 144];
-                        if let Some(e) = eval3(self.energy, &f, mode)
+                        if let Some(e) = eval3(energy, &f, mode)
                             && let Some(hf) = e.hess
                         {
                             vertex_hessian3(&hf, &dm_inv[k], lambda * m.weight[k], h);
                         }
                     });
-                    for (i, h) in chunk.iter().enumerate() {
-                        let k = start + i;
-                        let entries =
-                            &layout.element_slots[k * TET_PAIRS.len()..][..TET_PAIRS.len()];
-                        scatter_tet(pattern, &tets[k], entries, h, values);
+                };
+                let mut local = std::mem::take(&mut self.local3);
+                local.resize(TET_CHUNK.min(tets.len()), [0.0; 144]);
+                match &layout.gather {
+                    Some(gather) => {
+                        gather_tets(&layout, gather, tets, local_hessians, &mut local, values)
                     }
+                    None => scatter_tets(&layout, tets, local_hessians, &mut local, values),
                 }
+                self.local3 = local;
             }
             RestElements::Tris { tris, dm_inv } => {
                 let mut local = std::mem::take(&mut self.local2);
@@ -783,7 +864,7 @@ impl<'a> Objective<'a> {
                 }
             }
         }
-        self.set_layout(pattern, slots);
+        self.set_layout(pattern, slots, None);
         Ok(())
     }
 
@@ -814,6 +895,89 @@ impl<'a> Objective<'a> {
         match &self.mesh.elements {
             RestElements::Tets { tets, .. } => max_step_tets_above(tets, x, dir, &self.floors),
             RestElements::Tris { tris, .. } => max_step_tris_above(tris, x, dir, &self.floors),
+        }
+    }
+}
+
+/// The tets' Hessians into `values` (zero on entry): `local_hessians(start,
+/// chunk)` fills the local Hessians of tets `start..start + chunk.len()` in
+/// `local`, a chunk of [`TET_CHUNK`] at a time (the buffer stays TET_CHUNK
+/// x 1.15 KB whatever the mesh), each chunk scattered serially in tet order
+/// before the next.
+fn scatter_tets(
+    layout: &HessianLayout,
+    tets: &[[u32; 4]],
+    local_hessians: impl Fn(usize, &mut [[f64; 144]]),
+    local: &mut [[f64; 144]],
+    values: &mut [f64],
+) {
+    for start in (0..tets.len()).step_by(TET_CHUNK) {
+        let chunk = &mut local[..TET_CHUNK.min(tets.len() - start)];
+        local_hessians(start, chunk);
+        for (i, h) in chunk.iter().enumerate() {
+            let k = start + i;
+            let entries = &layout.element_slots[k * TET_PAIRS.len()..][..TET_PAIRS.len()];
+            scatter_tet(&layout.pattern, &tets[k], entries, h, values);
+        }
+    }
+}
+
+/// As [`scatter_tets`], with the sums done per graph entry in parallel
+/// ([`TetGather`]): for each chunk of local Hessians, every entry adds the
+/// blocks of its tets in that chunk (its cursor moves through its items,
+/// which are in tet order) into its own 3x3 accumulator; the accumulators
+/// are then stored in their value slots. Every slot receives the same
+/// additions in the same order as in [`scatter_tets`], so `values` are bit
+/// for bit the same, for any number of threads.
+fn gather_tets(
+    layout: &HessianLayout,
+    gather: &TetGather,
+    tets: &[[u32; 4]],
+    local_hessians: impl Fn(usize, &mut [[f64; 144]]),
+    local: &mut [[f64; 144]],
+    values: &mut [f64],
+) {
+    const P: usize = TET_PAIRS.len();
+    let n_entries = gather.diagonal.len();
+    let mut sums = vec![[0.0f64; 9]; n_entries];
+    let mut cursor: Vec<usize> = gather.ptr[..n_entries].to_vec();
+    for start in (0..tets.len()).step_by(TET_CHUNK) {
+        let len = TET_CHUNK.min(tets.len() - start);
+        let chunk = &mut local[..len];
+        local_hessians(start, chunk);
+        let chunk = &*chunk;
+        let end_item = (start + len) * P;
+        sums.par_iter_mut()
+            .zip(cursor.par_iter_mut())
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(e, (acc, c))| {
+                let end = gather.ptr[e + 1];
+                while *c < end && (gather.items[*c] as usize) < end_item {
+                    let item = gather.items[*c] as usize;
+                    let (k, (la, lb)) = (item / P, TET_PAIRS[item % P]);
+                    let h = &chunk[k - start];
+                    let flip = tets[k][la] > tets[k][lb];
+                    for i in 0..3 {
+                        let j0 = if la == lb { i } else { 0 };
+                        for j in j0..3 {
+                            let (bi, bj) = if flip { (j, i) } else { (i, j) };
+                            acc[3 * bi + bj] += h[12 * (3 * la + i) + 3 * lb + j];
+                        }
+                    }
+                    *c += 1;
+                }
+            });
+    }
+    let pattern = &layout.pattern;
+    for (e, acc) in sums.iter().enumerate() {
+        for i in 0..3 {
+            let j0 = if gather.diagonal[e] { i } else { 0 };
+            for j in j0..3 {
+                if let Some(s) = pattern.block_slot(e, i, j) {
+                    values[s] = acc[3 * i + j];
+                }
+            }
         }
     }
 }
@@ -1339,5 +1503,93 @@ mod tests {
                 .unwrap()
                 .with_layout(layout),
         );
+    }
+
+    /// The assembly of `obj` at `x` in `mode` with `layout`'s pattern and
+    /// slots but the serial scatter (no gather), and with the gather as
+    /// `layout` has it, on a pool of `threads` threads.
+    fn assemble_both(
+        pm: &ParamMesh,
+        fixed: &[bool],
+        x: &[f64],
+        mode: HessianMode,
+        threads: usize,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let mut obj = Objective::new(pm, &SymmetricDirichlet, 1.0, None, fixed).unwrap();
+        let layout = obj.layout().unwrap();
+        assert!(layout.gather.is_some(), "a Cholesky tet layout gathers");
+        let serial = Arc::new(HessianLayout {
+            pattern: layout.pattern.clone(),
+            element_slots: layout.element_slots.clone(),
+            dim: layout.dim,
+            elements: layout.elements.clone(),
+            fixed: layout.fixed.clone(),
+            gather: None,
+        });
+        let mut obj_serial = Objective::new(pm, &SymmetricDirichlet, 1.0, None, fixed)
+            .unwrap()
+            .with_layout(serial)
+            .unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            obj_serial.hessian_with(x, &[], &mut a, mode).unwrap();
+            obj.hessian_with(x, &[], &mut b, mode).unwrap();
+            (a, b)
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(6))]
+
+        /// The parallel assembly (each block's tets summed by one task in
+        /// tet order) gives the serial scatter's values bit for bit, with
+        /// any fixed set, either Hessian mode and 1 to 3 threads.
+        #[test]
+        fn parallel_tet_assembly_equals_the_serial_scatter(
+            jitter in prop::collection::vec(-1.0..1.0f64, 32),
+            fixed_bits in any::<u64>(),
+            exact in any::<bool>(),
+            threads in 1usize..4,
+        ) {
+            let (pm, _) = slab();
+            let nv = pm.num_vertices();
+            let x: Vec<f64> = pm
+                .rest_flat()
+                .iter()
+                .enumerate()
+                .map(|(i, r)| r * 1.1 + 0.2 * jitter[(i * 7) % jitter.len()])
+                .collect();
+            let fixed: Vec<bool> = (0..nv).map(|v| (fixed_bits >> (v % 61)) & 7 == 0).collect();
+            let mode = if exact { HessianMode::Exact } else { HessianMode::Projected };
+            let (serial, parallel) = assemble_both(&pm, &fixed, &x, mode, threads);
+            prop_assert_eq!(serial.len(), parallel.len());
+            let scale = serial.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            prop_assert!(scale > 0.0);
+            for (k, (a, b)) in serial.iter().zip(&parallel).enumerate() {
+                prop_assert!(a.to_bits() == b.to_bits(), "slot {}: {} vs {}", k, a, b);
+            }
+        }
+    }
+
+    #[test]
+    fn tet_assembly_is_the_same_for_every_thread_count() {
+        let (pm, _) = slab();
+        let x: Vec<f64> = pm
+            .rest_flat()
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * (1.0 + 0.01 * (i % 5) as f64))
+            .collect();
+        let (serial, one) = assemble_both(&pm, &[], &x, HessianMode::Projected, 1);
+        let (_, two) = assemble_both(&pm, &[], &x, HessianMode::Projected, 2);
+        let (_, four) = assemble_both(&pm, &[], &x, HessianMode::Projected, 4);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&one), bits(&serial));
+        assert_eq!(bits(&two), bits(&one));
+        assert_eq!(bits(&four), bits(&one));
     }
 }
