@@ -37,15 +37,14 @@ use super::RelaxError;
 use crate::OrganError;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use unfold_mesh::TriMesh;
 use unfold_mesh::geometry::{flipped_indices, majority_sign, twice_signed_areas_2d};
 use unfold_param::energy::SymmetricDirichlet;
 use unfold_param::metrics::unique_edges;
 use unfold_param::{
-    DistortionEnergy, Executor, HessianLayout, LineSearch, Objective, ParamMesh, ProjectedNewton,
-    SolveReport, Solver, Stopping, Untangler,
+    DistortionEnergy, Executor, LineSearch, Objective, ParamMesh, ProjectedNewton, SolveReport,
+    Solver, Stopping, Untangler,
 };
 
 /// Largest move of a vertex in one [`spring`] step, as a fraction of its
@@ -429,49 +428,10 @@ pub struct Minimizer<'a> {
     pub line_search: Option<&'a dyn LineSearch>,
 }
 
-/// Hessian layouts ([`HessianLayout`]: the sparsity pattern's ordering and
-/// symbolic analysis, and the element slots) kept across the relaxations
-/// of a series: a leaflet whose connectivity and annulus were seen before
-/// reuses them. Safe to share between threads.
-#[derive(Debug, Default)]
-pub struct LayoutCache(Mutex<Vec<Arc<HessianLayout>>>);
-
-impl LayoutCache {
-    /// Number of layouts kept.
-    pub fn len(&self) -> usize {
-        self.lock().len()
-    }
-
-    /// Whether no layout is kept.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Arc<HessianLayout>>> {
-        // A panic elsewhere cannot leave the list half-written.
-        self.0.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// `objective` with the cached layout that fits `mesh` and `fixed`, or
-    /// with its own layout, built and cached. The lock is held while the
-    /// layout is built, so that steps of a series run in parallel do not
-    /// each build (and cache) the same leaflet's layout.
-    fn attach<'a>(
-        &self,
-        mut objective: Objective<'a>,
-        mesh: &ParamMesh,
-        fixed: &[bool],
-    ) -> Result<Objective<'a>, OrganError> {
-        let mut list = self.lock();
-        match list.iter().find(|l| l.fits(mesh, fixed)) {
-            Some(layout) => Ok(objective.with_layout(layout.clone())?),
-            None => {
-                list.push(objective.layout()?);
-                Ok(objective)
-            }
-        }
-    }
-}
+/// Hessian layouts kept across the relaxations of a series: a leaflet
+/// whose connectivity and annulus were seen before reuses them
+/// ([`unfold_param::LayoutCache`]). Safe to share between threads.
+pub use unfold_param::LayoutCache;
 
 /// The flip-free relaxation with any energy, solver and line search
 /// ([`Minimizer`]; [`symmetric_dirichlet`] is the published one), with an
@@ -534,7 +494,7 @@ pub fn minimize(
     let total_area: f64 = pm.measure.iter().sum();
     let mut objective = Objective::new(&pm, pieces.energy, 1.0, None, &pinned)?;
     if let Some(cache) = cache {
-        objective = cache.attach(objective, &pm, &pinned)?;
+        objective = cache.attach(objective)?;
     }
     let stopping = Stopping {
         grad_tol: config.grad_tol / total_area.sqrt(),

@@ -7,7 +7,9 @@
 //!
 //! with the pipeline's template `T`, energy `D`, solver and line search,
 //! one stage per template: the template's warm start first, if it has one
-//! (the single plane starts from the parallel planes' optimum).
+//! (the single plane starts from the parallel planes' optimum). The stages
+//! share the Hessian layout ([`unfold_param::LayoutCache`]): the mesh's
+//! pattern is ordered and analysed once per optimization.
 
 use super::estimate::Estimates;
 use super::templates::PlacentaTemplate;
@@ -16,8 +18,8 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use unfold_param::{
-    DistortionEnergy, Executor, Iteration, LineSearch, Objective, ParamMesh, SolveReport, Solver,
-    Stopping, Template, TemplateTerm,
+    DistortionEnergy, Executor, Iteration, LayoutCache, LineSearch, Objective, ParamMesh,
+    SolveReport, Solver, Stopping, Template, TemplateTerm,
 };
 
 /// The fixed data of an optimization: the rest mesh, the boundary labels
@@ -103,13 +105,16 @@ fn initial_theta(
     Ok(theta)
 }
 
-/// Runs one stage: minimizes `phi` for `template` from `x`, `theta`.
+/// Runs one stage: minimizes `phi` for `template` from `x`, `theta`, with
+/// the Hessian layout of an earlier stage on the same mesh when `layouts`
+/// has one (and keeping its own otherwise).
 fn stage(
     problem: &Problem<'_>,
     method: &Method<'_>,
     template: &dyn Template,
     x: &mut [f64],
     theta: &mut [f64],
+    layouts: &LayoutCache,
     observer: &mut dyn PipelineObserver,
 ) -> Result<StageReport, OrganError> {
     observer.stage(&format!("optimization ({})", template.name()));
@@ -118,8 +123,13 @@ fn stage(
         labels: problem.labels,
         weights: problem.weights,
     };
-    let mut objective =
-        Objective::new(problem.mesh, method.energy, method.lambda, Some(term), &[])?;
+    let mut objective = layouts.reuse(Objective::new(
+        problem.mesh,
+        method.energy,
+        method.lambda,
+        Some(term),
+        &[],
+    )?)?;
     let theta_initial = named(&template.parameter_names(), theta);
     let mut forward = |it: &Iteration| observer.iteration(it);
     let solve = Executor::new(method.solver)
@@ -127,6 +137,7 @@ fn stage(
         .stopping(method.stopping)
         .observer(&mut forward)
         .run(&mut objective, x, theta)?;
+    layouts.keep(&objective);
     Ok(StageReport {
         template: template.name().into(),
         theta_initial,
@@ -167,6 +178,8 @@ pub fn optimize(
     let mut x = x0;
     let mut theta: Vec<f64> = Vec::new();
     let mut stages = Vec::new();
+    // The stages share one mesh: its pattern is ordered and analysed once.
+    let layouts = LayoutCache::default();
     let stage_templates = chain
         .iter()
         .map(|t| t.as_ref() as &dyn PlacentaTemplate)
@@ -176,7 +189,9 @@ pub fn optimize(
         if k == 0 || theta.len() != own.len() {
             theta = own;
         }
-        stages.push(stage(problem, method, t, &mut x, &mut theta, observer)?);
+        stages.push(stage(
+            problem, method, t, &mut x, &mut theta, &layouts, observer,
+        )?);
     }
     Ok(Optimized {
         x,
