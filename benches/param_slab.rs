@@ -6,12 +6,23 @@
 //!
 //! - `param_slab/newton_7k`: [`ProjectedNewton`] (default settings) on
 //!   7,200 tets (`cells_radial = 10`, `cells_through = 4`);
+//! - `param_slab/newton_7k_warm`: the same solve as a later one of a series
+//!   on the same mesh: the Hessian layout (ordering, symbolic analysis,
+//!   element slots) is built once before the timing and handed to each
+//!   solve's objective, as `unfold_param::LayoutCache` does;
 //! - `param_slab/newton_60k`: the same on 60,552 tets (`cells_radial = 29`,
 //!   `cells_through = 4`).
 //!
-//! Each timed run builds the objective (so the symbolic analysis of the
-//! Hessian pattern is included) and solves from scratch. Before timing,
-//! one solve per mesh asserts convergence and zero inverted tets.
+//! Each timed run of `newton_7k` and `newton_60k` builds the objective (so
+//! the symbolic analysis of the Hessian pattern is included: a cold solve)
+//! and solves from scratch. Before timing, one solve per mesh asserts
+//! convergence and zero inverted tets. After the 7k cases the bench prints
+//! the pieces of a Newton iteration on the 7k slab (`pieces`: analysis,
+//! value and gradient, Hessian, factorization, solve, each the median of 15
+//! runs) and the nested-dissection and AMD orderings' factors side by side
+//! (`orderings`). `cargo bench --bench param_slab -- newton_7k` runs the 7k
+//! cases, the pieces and the gradient-descent baseline only (under a
+//! minute).
 //!
 //! The baseline, [`GradientDescent`] (the placenta paper's Algorithm 1,
 //! default settings), needs over a thousand iterations, so it is not sampled:
@@ -38,6 +49,7 @@ mod peak;
 mod summary;
 
 use criterion::{Criterion, SamplingMode, criterion_group};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use summary::{Runs, Summary};
 use unfold::mesh::geometry::vertex_areas;
@@ -47,8 +59,8 @@ use unfold::organs::placenta::ParallelPlanes;
 use unfold::param::energy::SymmetricDirichlet;
 use unfold::param::metrics::inverted_count;
 use unfold::param::{
-    Executor, GradientDescent, Objective, ParamMesh, ProjectedNewton, SolveReport, Solver,
-    TemplateTerm,
+    Executor, GradientDescent, HessianLayout, Objective, ParamMesh, ProjectedNewton, SolveReport,
+    Solver, TemplateTerm,
 };
 
 /// The allocator the `unfold` command uses (see `src/main.rs`).
@@ -88,15 +100,39 @@ impl Slab {
     /// Solves from the identity with `h = 1`; returns the positions, the
     /// report and the wall-clock seconds (objective construction included).
     fn solve(&self, solver: &dyn Solver) -> (Vec<f64>, SolveReport, f64) {
-        let t0 = Instant::now();
+        self.solve_with(solver, None)
+    }
+
+    /// The Hessian layout (ordering, symbolic analysis, element slots) of
+    /// this slab's objective, as the first solve of a series builds it.
+    fn layout(&self) -> Arc<HessianLayout> {
         let template = ParallelPlanes::default();
+        let mut objective = self.objective(&template);
+        objective.layout().expect("layout")
+    }
+
+    fn objective<'a>(&'a self, template: &'a ParallelPlanes) -> Objective<'a> {
         let term = TemplateTerm {
-            template: &template,
+            template,
             labels: &self.labels,
             weights: &self.weights,
         };
-        let mut objective = Objective::new(&self.mesh, &SymmetricDirichlet, 1.0, Some(term), &[])
-            .expect("objective");
+        Objective::new(&self.mesh, &SymmetricDirichlet, 1.0, Some(term), &[]).expect("objective")
+    }
+
+    /// As [`Slab::solve`]; with `layout` (a later solve of a series on the
+    /// same mesh) the objective takes it instead of analysing its pattern.
+    fn solve_with(
+        &self,
+        solver: &dyn Solver,
+        layout: Option<&Arc<HessianLayout>>,
+    ) -> (Vec<f64>, SolveReport, f64) {
+        let t0 = Instant::now();
+        let template = ParallelPlanes::default();
+        let mut objective = self.objective(&template);
+        if let Some(layout) = layout {
+            objective = objective.with_layout(Arc::clone(layout)).expect("layout");
+        }
         let mut x = self.mesh.rest_flat();
         let mut theta = [1.0];
         let report = Executor::new(solver)
@@ -115,11 +151,149 @@ impl Slab {
     }
 }
 
-/// The slab and solver of a case: `newton_7k`, `newton_60k` or
+/// The median of `reps` timings of `f` (seconds) and its last result.
+fn median_of<R>(reps: usize, mut f: impl FnMut() -> R) -> (f64, R) {
+    let mut runs = Runs::default();
+    let mut last = None;
+    for _ in 0..reps {
+        let t0 = Instant::now();
+        last = Some(f());
+        runs.push(t0.elapsed().as_secs_f64());
+    }
+    (runs.median().expect("runs"), last.expect("runs"))
+}
+
+/// The pieces of a Newton solve on `slab`, each the median of `reps` runs
+/// at the start of the solve (the identity map, `h = 1`): the objective's
+/// set-up with its Hessian layout (vertex graph, nested-dissection
+/// ordering, symbolic Cholesky, element slots), one value and gradient,
+/// one objective value (a line-search trial), one projected Hessian
+/// (element Hessians and their assembly into the factor's slots), one
+/// shifted numeric factorization and one solve; then the floor of a solve
+/// of `iterations` Newton iterations made of these pieces.
+fn pieces(slab: &Slab, reps: usize, iterations: usize) {
+    let template = ParallelPlanes::default();
+    let (analysis, mut objective) = median_of(reps, || {
+        let mut o = slab.objective(&template);
+        o.pattern().expect("pattern");
+        o
+    });
+    let x = slab.mesh.rest_flat();
+    let theta = [1.0];
+    let mut grad = vec![0.0; x.len()];
+    let (gradient, _) = median_of(reps, || objective.value_gradient(&x, &theta, &mut grad));
+    let (value, _) = median_of(reps, || objective.value(&x, &theta));
+    let mut values = Vec::new();
+    let (hessian, _) = median_of(reps, || {
+        objective.hessian(&x, &theta, &mut values).expect("hessian")
+    });
+    let pattern = objective.pattern().expect("pattern");
+    let mut factor = pattern.new_factor();
+    let (factorization, _) = median_of(reps, || {
+        pattern
+            .refactorize_shifted(&mut factor, &values, 1e-10, 16)
+            .expect("factor")
+    });
+    let mut d = grad.clone();
+    let (solve, _) = median_of(reps, || factor.solve_in_place(&mut d).expect("solve"));
+    let ms = |s: f64| s * 1e3;
+    println!(
+        "newton_7k pieces (medians of {reps}, at the start): analysis (objective + layout) \
+         {:.2} ms, value+gradient {:.2} ms, value {:.2} ms, Hessian {:.2} ms, \
+         factorization {:.2} ms, solve {:.2} ms ({} unknowns, factor nnz {})",
+        ms(analysis),
+        ms(gradient),
+        ms(value),
+        ms(hessian),
+        ms(factorization),
+        ms(solve),
+        pattern.n(),
+        pattern.factor_nnz()
+    );
+    // Per iteration: a Hessian, a factorization, two solves (the direction
+    // and theta's column), a gradient and about two trial values.
+    let per_iteration = hessian + factorization + 2.0 * solve + gradient + 2.0 * value;
+    println!(
+        "  floor of {iterations} iterations: cold (analysis + iterations) {:.1} ms, \
+         warm (layout reused) {:.1} ms",
+        ms(analysis + iterations as f64 * per_iteration + gradient),
+        ms(iterations as f64 * per_iteration + gradient)
+    );
+}
+
+/// The factor's size and the time of one numeric factorization of a
+/// diagonally dominant matrix with the pattern of `slab`'s Hessian
+/// (3x3 blocks on its vertex graph), ordered by AMD and by nested
+/// dissection (the medians of `reps` factorizations): the orderings'
+/// costs side by side.
+fn orderings(slab: &Slab, reps: usize) {
+    use unfold::linalg::sparse::{SpdPattern, VertexSolver};
+    let nv = slab.mesh.num_vertices();
+    let mut pairs: Vec<(usize, usize)> = (0..nv).map(|v| (v, v)).collect();
+    for e in 0..slab.mesh.num_elements() {
+        let vs = slab.mesh.element(e);
+        for &b in vs {
+            for &a in vs {
+                if a < b {
+                    pairs.push((b as usize, a as usize));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    let mut col_ptr = vec![0usize; nv + 1];
+    for p in &pairs {
+        col_ptr[p.0 + 1] += 1;
+    }
+    for v in 0..nv {
+        col_ptr[v + 1] += col_ptr[v];
+    }
+    let row_idx: Vec<usize> = pairs.iter().map(|p| p.1).collect();
+    for solver in [
+        VertexSolver::CholeskyAmd,
+        VertexSolver::CholeskyNestedDissection,
+    ] {
+        let (analysis, pattern) = median_of(reps, || {
+            SpdPattern::from_vertex_graph_with(
+                nv,
+                3,
+                col_ptr.clone(),
+                row_idx.clone(),
+                solver.clone(),
+            )
+            .expect("pattern")
+        });
+        let mut values = vec![0.0; pattern.nnz()];
+        for (e, &(b, a)) in pairs.iter().enumerate() {
+            for i in 0..3 {
+                let v = if a == b { 100.0 } else { -1.0 };
+                if let Some(s) = pattern.block_slot(e, i, i) {
+                    values[s] = v;
+                }
+            }
+        }
+        let mut factor = pattern.new_factor();
+        let (factorization, _) = median_of(reps, || {
+            pattern
+                .refactorize(&mut factor, &values, 0.0, 0)
+                .expect("factor")
+        });
+        println!(
+            "  ordering {solver:?}: analysis {:.2} ms, nnz(L) {}, factorization {:.2} ms",
+            analysis * 1e3,
+            pattern.factor_nnz(),
+            factorization * 1e3
+        );
+    }
+}
+
+/// The slab and solver of a case: `newton_7k`, `newton_7k_warm` (its
+/// layout built before the timed solve), `newton_60k` or
 /// `gradient_descent_7k`.
 fn case(name: &str) -> (Slab, Box<dyn Solver>) {
     match name {
-        "newton_7k" => (Slab::new(10, 4), Box::new(ProjectedNewton::default())),
+        "newton_7k" | "newton_7k_warm" => (Slab::new(10, 4), Box::new(ProjectedNewton::default())),
         "newton_60k" => (Slab::new(29, 4), Box::new(ProjectedNewton::default())),
         "gradient_descent_7k" => (Slab::new(10, 4), Box::new(GradientDescent)),
         _ => panic!("param_slab bench: no case {name}"),
@@ -165,6 +339,28 @@ fn param_slab(c: &mut Criterion) {
             reports.push((name, report, median));
         }
         summary.add(name, format!("{} tets", slab.mesh.num_elements()), &runs);
+        if name == "newton_7k" {
+            // A later solve of a series on the same mesh: the layout of the
+            // first solve is reused (built once, outside the timing).
+            let layout = small.layout();
+            let (x, report_warm, _) = small.solve_with(&newton, Some(&layout));
+            assert!(report_warm.converged, "newton_7k_warm: {report_warm:?}");
+            assert_eq!(inverted_count(&small.mesh, &x), 0);
+            let mut warm = Runs::default();
+            g.bench_function("newton_7k_warm", |b| {
+                b.iter_custom(|iters| warm.time(iters, || small.solve_with(&newton, Some(&layout))))
+            });
+            if let Some(median) = warm.median() {
+                reports.push(("newton_7k_warm", report_warm, median));
+                pieces(&small, 15, report.iterations);
+                orderings(&small, 15);
+            }
+            summary.add(
+                "newton_7k_warm",
+                format!("{} tets, layout reused", small.mesh.num_elements()),
+                &warm,
+            );
+        }
     }
     g.finish();
 
@@ -198,7 +394,8 @@ fn main() {
     // A child of `peak::measure`: one solve of the named case, then exit.
     peak::serve(|name| {
         let (slab, solver) = case(name);
-        slab.solve(solver.as_ref());
+        let layout = (name == "newton_7k_warm").then(|| slab.layout());
+        slab.solve_with(solver.as_ref(), layout.as_ref());
     });
     benches();
     Criterion::default().configure_from_args().final_summary();
