@@ -125,7 +125,10 @@ pub struct Coarsened {
 ///
 /// The result is deterministic for a given input (candidates are ordered
 /// totally; `target` is evaluated in parallel but only once per edge and
-/// pass). Vertices that no tet uses are dropped, the point data and cell
+/// pass; the collapse qualities of a few thousand candidates at a time are
+/// computed in parallel and computed again, in order, for a candidate that
+/// a collapse before it touched, so the result is that of trying the
+/// candidates one by one). Vertices that no tet uses are dropped, the point data and cell
 /// data of the input are dropped (a collapse has no meaningful value for a
 /// merged vertex or a removed tet; resample them on the result).
 ///
@@ -140,6 +143,26 @@ pub fn coarsen_interior(
     mesh: &TetMesh,
     target: &(dyn Fn(&Point3<f64>) -> f64 + Sync),
     opts: &CoarsenOptions,
+) -> Result<Coarsened, MeshError> {
+    coarsen_in_chunks(mesh, target, opts, QUALITY_CHUNK)
+}
+
+/// Candidates whose collapse qualities are computed together, in parallel,
+/// before they are tried one by one (see [`coarsen_in_chunks`]).
+const QUALITY_CHUNK: usize = 2048;
+
+/// [`coarsen_interior`] with the collapse qualities of `chunk` candidates
+/// at a time computed in parallel from the state before the chunk, then
+/// the candidates tried in order: a quality is computed again, in order,
+/// for a candidate with an end that a collapse of the chunk touched (a
+/// corner of a tet of the collapsed vertex), since only then can it have
+/// changed. The result is that of trying the candidates one by one
+/// (`chunk = 1`), bit for bit.
+fn coarsen_in_chunks(
+    mesh: &TetMesh,
+    target: &(dyn Fn(&Point3<f64>) -> f64 + Sync),
+    opts: &CoarsenOptions,
+    chunk: usize,
 ) -> Result<Coarsened, MeshError> {
     opts.check()?;
     check_finite(&mesh.positions)?;
@@ -166,9 +189,13 @@ pub fn coarsen_interior(
         passes += 1;
         let candidates = work.candidates(target);
         let mut made = 0;
-        for &(_, a, b) in &candidates {
-            if work.try_collapse(a, b) {
-                made += 1;
+        for part in candidates.chunks(chunk.max(1)) {
+            let qualities = work.qualities(part);
+            work.new_chunk();
+            for (&(_, a, b), &q) in part.iter().zip(&qualities) {
+                if work.try_collapse(a, b, q) {
+                    made += 1;
+                }
             }
         }
         collapses += made;
@@ -202,6 +229,10 @@ struct Work<'a> {
     vt: Vec<Vec<u32>>,
     boundary: Vec<bool>,
     removed: Vec<bool>,
+    /// Per vertex: `chunk` when a collapse of the current chunk touched it
+    /// (its precomputed collapse qualities may be stale).
+    touched: Vec<u32>,
+    chunk: u32,
     /// `cos(max_dihedral)`: a dihedral cosine must be `>=` this.
     cos_lo: f64,
     /// `cos(min_dihedral)`: a dihedral cosine must be `<=` this.
@@ -249,6 +280,8 @@ impl<'a> Work<'a> {
             vt,
             boundary,
             removed: vec![false; n],
+            touched: vec![0; n],
+            chunk: 0,
             cos_lo: opts.max_dihedral_deg.to_radians().cos(),
             cos_hi: opts.min_dihedral_deg.to_radians().cos(),
             stamp: [vec![0; n], vec![0; n], vec![0; n]],
@@ -289,8 +322,43 @@ impl<'a> Work<'a> {
         out
     }
 
-    /// Collapses the edge `ab` in the better admissible direction, if any.
-    fn try_collapse(&mut self, a: u32, b: u32) -> bool {
+    /// The qualities `(a -> b, b -> a)` of each candidate edge `ab`
+    /// ([`Work::quality`]), in parallel.
+    fn qualities(&self, part: &[(f64, u32, u32)]) -> Vec<(Option<f64>, Option<f64>)> {
+        part.par_iter()
+            .with_min_len(64)
+            .map(|&(_, a, b)| {
+                if self.removed[a as usize] || self.removed[b as usize] {
+                    (None, None)
+                } else {
+                    (self.quality(a, b), self.quality(b, a))
+                }
+            })
+            .collect()
+    }
+
+    /// Starts a chunk: no vertex is touched yet.
+    fn new_chunk(&mut self) {
+        if self.chunk == u32::MAX {
+            self.touched.fill(0);
+            self.chunk = 0;
+        }
+        self.chunk += 1;
+    }
+
+    /// [`Work::collapse_quality`] of `u -> v`, `None` for a boundary `u`.
+    fn quality(&self, u: u32, v: u32) -> Option<f64> {
+        if self.boundary[u as usize] {
+            None
+        } else {
+            self.collapse_quality(u, v)
+        }
+    }
+
+    /// Collapses the edge `ab` in the better admissible direction, if any;
+    /// `pre` are its qualities from the start of the chunk, used when no
+    /// collapse of the chunk has touched `a` or `b`.
+    fn try_collapse(&mut self, a: u32, b: u32, pre: (Option<f64>, Option<f64>)) -> bool {
         if self.removed[a as usize] || self.removed[b as usize] {
             return false;
         }
@@ -300,15 +368,12 @@ impl<'a> Work<'a> {
         {
             return false;
         }
-        let qa = if self.boundary[a as usize] {
-            None
+        let fresh =
+            self.touched[a as usize] != self.chunk && self.touched[b as usize] != self.chunk;
+        let (qa, qb) = if fresh {
+            pre
         } else {
-            self.collapse_quality(a, b)
-        };
-        let qb = if self.boundary[b as usize] {
-            None
-        } else {
-            self.collapse_quality(b, a)
+            (self.quality(a, b), self.quality(b, a))
         };
         let (u, v) = match (qa, qb) {
             (Some(x), Some(y)) if y > x => (b, a),
@@ -458,8 +523,15 @@ impl<'a> Work<'a> {
     }
 
     /// Replaces `u` by `v` in the tets of `u`; the tets containing both die.
+    /// Every corner of the tets of `u` is marked touched: their incidence
+    /// lists or tets change, nothing else does.
     fn collapse(&mut self, u: u32, v: u32) {
         let tets_u = std::mem::take(&mut self.vt[u as usize]);
+        for &t in &tets_u {
+            for &w in &self.tets[t as usize] {
+                self.touched[w as usize] = self.chunk;
+            }
+        }
         for &t in &tets_u {
             let tet = &mut self.tets[t as usize];
             if tet.contains(&v) {
@@ -1036,6 +1108,30 @@ mod tests {
             if let Err(e) = check_invariants(&input, &out, &opts) {
                 prop_assert!(false, "{}", e);
             }
+        }
+
+        /// Qualities computed a chunk at a time in parallel give the mesh
+        /// of trying the candidates one by one, bit for bit, whatever the
+        /// chunk size.
+        #[test]
+        fn chunked_qualities_give_the_sequential_result(
+            n in prop::array::uniform3(2usize..7),
+            h in 0.2f64..3.0,
+            grade in 0.0f64..2.0,
+            chunk in 2usize..300,
+        ) {
+            let input = bcc_block(n, h, [0.0; 3]);
+            let hi = Point3::new(n[0] as f64, n[1] as f64, n[2] as f64) * h;
+            let target = move |p: &Point3<f64>| {
+                h * (1.0 + grade * box_depth(p, &Point3::origin(), &hi) / h)
+            };
+            let opts = CoarsenOptions::default();
+            let one = coarsen_in_chunks(&input, &target, &opts, 1).unwrap();
+            let many = coarsen_in_chunks(&input, &target, &opts, chunk).unwrap();
+            prop_assert_eq!(one.collapses, many.collapses);
+            prop_assert_eq!(one.passes, many.passes);
+            prop_assert_eq!(&one.mesh.tets, &many.mesh.tets);
+            prop_assert_eq!(&one.mesh.positions, &many.mesh.positions);
         }
     }
 }

@@ -1,0 +1,186 @@
+#!/usr/bin/env python3
+"""The two placenta targets at the 1.5 mm voxel size in one command: time,
+CPU time and peak memory of
+
+1. `unfold placenta --seg MASK --dense` (the uniform 1.5 mm lattice:
+   2.7M tets, 487k vertices; target: under 3 minutes and 6 GiB), and
+2. `unfold placenta --seg MASK --size-mm 1.5` (the interior graded at the
+   voxel size: 259k tets, 75k vertices, with the default planes template;
+   target: under 60 s),
+
+on the mask of an ellipsoid of semi-axes 105 x 85 x 20 mm at 1.5 mm voxels
+(748 cm^3, what `unfold.shapes.ellipsoid_mask((105, 85, 20), 1.5)` makes).
+Both runs include meshing the mask; the stages of the pipeline come from
+`report.json` (`timings`), meshing and writing are the rest of the wall
+clock (`mesh+io`).
+
+The machine may be shared: beside each wall clock the table gives the CPU
+seconds the command used (user + system, `getrusage` of the child) and the
+1-minute load average when it ended. On an otherwise idle machine a run's
+wall clock is at most its CPU seconds (it never waits for input), so the
+CPU column bounds what the lead measures on an idle machine even when the
+wall clock is inflated by other jobs. With `--before PATH` each case runs
+with that binary too, alternately with the current one, so the two are
+compared under the same load; the rows give the template error, Dirichlet
+excess, Newton iterations, `h` and the side counts of each, which should
+agree to the printed digits.
+
+    cargo build --release --bin unfold
+    python3 benches/placenta_dense.py [--unfold PATH] [--before PATH] [--cases dense,graded]
+
+Needs numpy and nibabel (e.g. the CI's `target/ci-venv`). At most about
+3 minutes on 2 idle cores (the two runs used 98 and 68 s of CPU); the dense
+run needs about 4 GiB. `--voxel-mm 4` checks the script in a minute. The mask and outputs go
+to a temporary directory under /tmp, removed at the end. Never run two of
+these at once on a small machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import nibabel as nib
+import numpy as np
+
+RADII_MM = (105.0, 85.0, 20.0)
+VOXEL_MM = 1.5
+STAGES = ("parcellation", "initialization", "optimization", "evaluation")
+CASES = {
+    # name: (extra arguments, target seconds, target GiB or None); the
+    # graded case adds `--size-mm VOXEL`
+    "dense": (["--dense"], 180.0, 6.0),
+    "graded": ([], 60.0, None),
+}
+GIB = 1024.0**3
+
+
+def ellipsoid_mask(spacing: float, margin: int = 3):
+    """`unfold.shapes.ellipsoid_mask(RADII_MM, spacing)`: voxel [i, j, k]
+    is 1 when its centre x has sum (x_a / r_a)^2 <= 1."""
+    r = np.asarray(RADII_MM)
+    n = (2 * np.ceil(r / spacing) + 1 + 2 * margin).astype(int)
+    origin = -spacing * (n - 1) / 2.0
+    affine = np.diag([spacing, spacing, spacing, 1.0])
+    affine[:3, 3] = origin
+    axes = [origin[a] + spacing * np.arange(n[a]) for a in range(3)]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    inside = (x / r[0]) ** 2 + (y / r[1]) ** 2 + (z / r[2]) ** 2 <= 1.0
+    return inside.astype(np.uint8), affine
+
+
+def run(cmd: list[str], peak_file: Path) -> tuple[float, float]:
+    """Runs `cmd` with UNFOLD_PEAK_FILE set; its wall-clock and CPU
+    (user + system) seconds."""
+    env = dict(os.environ, UNFOLD_PEAK_FILE=str(peak_file))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if done.returncode != 0:
+        sys.exit(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
+    return seconds, cpu
+
+
+def measure(binary: str, case: str, mask: Path, work: Path, max_memory: str,
+            voxel: float) -> dict:
+    extra = CASES[case][0] or ["--size-mm", str(voxel)]
+    out = work / f"out_{case}"
+    peak_file = work / f"peak_{case}"
+    seconds, cpu = run(
+        [binary, "placenta", "--seg", str(mask), *extra, "--no-figures",
+         "-o", str(out), "--max-memory", max_memory],
+        peak_file,
+    )
+    report = json.loads((out / "report.json").read_text())
+    shutil.rmtree(out)
+    stages = report["timings"]
+    b = report["boundary"]
+    return {
+        "case": case,
+        "binary": binary,
+        "tets": report["input"]["tets"],
+        "vertices": report["input"]["vertices"],
+        "seconds": seconds,
+        "cpu": cpu,
+        "load": os.getloadavg()[0],
+        "peak": float(peak_file.read_text()),
+        "predicted": float(report["memory"]["predicted_peak_bytes"]),
+        "stages": stages,
+        "rest": seconds - sum(stages[k] for k in STAGES),
+        "iterations": report["iterations"],
+        "error_mm": report["template_error_mm"],
+        "excess": report["dirichlet_excess_percent"],
+        "h": report["theta"].get("h", float("nan")),
+        "sides": (b["fetal"], b["maternal"], b["margin"]),
+    }
+
+
+def main() -> None:
+    here = Path(__file__).resolve().parent.parent
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--unfold", default=str(here / "target/release/unfold"))
+    ap.add_argument("--before", help="a second binary to compare with, run alternately")
+    ap.add_argument("--cases", default="dense,graded", help="dense, graded or both")
+    ap.add_argument("--max-memory", default="12G")
+    ap.add_argument("--voxel-mm", type=float, default=VOXEL_MM,
+                    help="voxel size of the mask (the targets are for 1.5; 3 checks the script quickly)")
+    args = ap.parse_args()
+    cases = [c for c in args.cases.split(",") if c]
+    for c in cases:
+        if c not in CASES:
+            sys.exit(f"unknown case '{c}': expected one of {', '.join(CASES)}")
+    binaries = [args.unfold] + ([args.before] if args.before else [])
+    work = Path(tempfile.mkdtemp(prefix="placenta_dense.", dir="/tmp"))
+    rows = []
+    try:
+        mask, affine = ellipsoid_mask(args.voxel_mm)
+        mask_path = work / "mask.nii.gz"
+        nib.save(nib.Nifti1Image(mask, affine), str(mask_path))
+        for case in cases:
+            # the "before" binary first when there is one, then the current
+            for binary in reversed(binaries):
+                r = measure(binary, case, mask_path, work, args.max_memory, args.voxel_mm)
+                rows.append(r)
+                print(f"  {case} ({binary}): {r['tets']:,} tets, {r['seconds']:.1f} s, "
+                      f"{r['cpu']:.1f} s CPU, {r['peak'] / GIB:.2f} GiB, load {r['load']:.1f}",
+                      file=sys.stderr, flush=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+    print("| case | binary | tets | vertices | seconds | CPU s | load | peak GiB | predicted GiB | "
+          + " | ".join(STAGES) + " | mesh+io | iterations | template error mm | "
+          "Dirichlet excess % | h mm | fetal, maternal, margin |")
+    print("|" + "---|" * (15 + len(STAGES)))
+    for r in rows:
+        stages = " | ".join(f"{r['stages'][k]:.1f}" for k in STAGES)
+        print(f"| {r['case']} | {Path(r['binary']).name} | {r['tets']:,} | {r['vertices']:,} | "
+              f"{r['seconds']:.1f} | {r['cpu']:.1f} | {r['load']:.1f} | {r['peak'] / GIB:.2f} | "
+              f"{r['predicted'] / GIB:.2f} | {stages} | {r['rest']:.1f} | {r['iterations']} | "
+              f"{r['error_mm']:.4f} | {r['excess']:.3f} | {r['h']:.3f} | "
+              f"{', '.join(map(str, r['sides']))} |")
+    print()
+    for r in rows:
+        if r["binary"] != args.unfold:
+            continue
+        target_s, target_gib = CASES[r["case"]][1:]
+        memory = "" if target_gib is None else (
+            f", {r['peak'] / GIB:.2f} GiB against {target_gib:.0f} GiB: "
+            f"{r['peak'] / GIB < target_gib}")
+        print(f"{r['case']}: {r['seconds']:.1f} s wall ({r['cpu']:.1f} s CPU, load "
+              f"{r['load']:.1f}) against {target_s:.0f} s: wall {r['seconds'] < target_s}, "
+              f"CPU {r['cpu'] < target_s}{memory}")
+
+
+if __name__ == "__main__":
+    main()
