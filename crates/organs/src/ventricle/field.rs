@@ -589,11 +589,10 @@ impl LaplaceField {
         }
         let w = trilinear_weights(t);
         let mut g = [0.0; 3];
-        for c in 0..8 {
-            let n = &cache.grad[c];
-            g[0] += w[c] * n[0];
-            g[1] += w[c] * n[1];
-            g[2] += w[c] * n[2];
+        for (wc, n) in w.iter().zip(&cache.grad) {
+            g[0] += wc * n[0];
+            g[1] += wc * n[1];
+            g[2] += wc * n[2];
         }
         if q[2] < 0.0 {
             g[2] = -g[2];
