@@ -7,6 +7,7 @@
 //! cargo run --release --example ventricle_field -- geo2 0.5 /tmp/geo2_0.5.txt
 //! cargo run --release --example ventricle_field -- compare /tmp/geo2_1.txt /tmp/geo2_0.5.txt
 //! cargo run --release --example ventricle_field -- transfer 1
+//! cargo run --release --example ventricle_field -- targets
 //! ```
 //!
 //! - `hemisphere H`: the test `hemisphere_streamlines_are_radial`
@@ -14,15 +15,20 @@
 //!   mm, 60 points between H and S; the worst angle between the streamline's
 //!   end on S and the radial direction, and the worst depth error against
 //!   `(R - |v|) / (R - r)`.
-//! - `geo2 H [FILE]`: the pipeline on Cobiveco geo2 (as
+//! - `geo2 H [FILE|-] [TOL]`: the pipeline on Cobiveco geo2 (as
 //!   `benches/ventricle.rs`) at grid `H`: seconds per step, unknowns, round
-//!   trip; with `FILE`, each anatomy point's `xi zeta depth` written there.
+//!   trip; with `FILE`, each anatomy point's `xi zeta depth` written there;
+//!   with `TOL`, the field's relative residual tolerance instead of the
+//!   default.
 //! - `compare A B`: the largest and mean differences of two such files
 //!   (the map's change between two grids; with B from a finer grid, A's
 //!   error), and how much of it the outer tenth of the points by disk
 //!   radius (the base) carries.
 //! - `transfer H`: geo2 -> ellipsoid -> geo2 at grid `H` (the test
 //!   `transfer_geo2_to_the_ellipsoid_and_back`): the largest distance.
+//! - `targets`: `geo2 0.5` and `geo2 0.3`, each in a process of its own,
+//!   their whole pipeline's seconds and peak against the targets (0.5 mm
+//!   under 2 s and 400 MB, 0.3 mm under 5 s and 1 GB), with the load.
 //!
 //! Every mode ends with `peak_mib` (the process's `VmHWM`, Linux) and the
 //! wall time.
@@ -54,13 +60,22 @@ fn main() -> Res<()> {
     };
     match args.first().map(String::as_str) {
         Some("hemisphere") => hemisphere(num(1)?)?,
-        Some("geo2") => geo2(num(1)?, args.get(2).map(String::as_str))?,
+        Some("geo2") => geo2(
+            num(1)?,
+            args.get(2).map(String::as_str).filter(|f| *f != "-"),
+            args.get(3).map(|t| t.parse::<f64>()).transpose()?,
+        )?,
         Some("compare") => compare(
             args.get(1).ok_or("missing file A")?,
             args.get(2).ok_or("missing file B")?,
         )?,
         Some("transfer") => transfer(num(1)?)?,
-        _ => return Err("usage: ventricle_field hemisphere|geo2|compare|transfer ...".into()),
+        Some("targets") => return targets(),
+        _ => {
+            return Err(
+                "usage: ventricle_field hemisphere|geo2|compare|transfer|targets ...".into(),
+            );
+        }
     }
     println!(
         "peak_mib {:.1} wall_s {:.2}",
@@ -154,11 +169,18 @@ fn rim_landmarks(s: &TriMesh) -> Res<LandmarkPoints> {
 }
 
 fn run(surface: &str, anatomy: &str, grid_mm: f64) -> Res<Outcome> {
+    run_with(surface, anatomy, grid_mm, None)
+}
+
+fn run_with(surface: &str, anatomy: &str, grid_mm: f64, tolerance: Option<f64>) -> Res<Outcome> {
     let s = read_tri_mesh(surface)?;
     let a: CellMesh = read_mesh(anatomy)?;
     let landmarks = rim_landmarks(&s)?;
     let mut c = Config::default();
     c.chart.field.grid_mm = grid_mm;
+    if let Some(t) = tolerance {
+        c.chart.field.tolerance = t;
+    }
     Ok(Pipeline::new().config(c).run(&a, &s, &landmarks)?)
 }
 
@@ -167,19 +189,20 @@ const GEO2: [&str; 2] = [
     "tests/data/cobiveco-geo2/heart_endo_lv.ply",
 ];
 
-fn geo2(grid_mm: f64, out: Option<&str>) -> Res<()> {
+fn geo2(grid_mm: f64, out: Option<&str>, tolerance: Option<f64>) -> Res<()> {
     let t = Instant::now();
-    let o = run(GEO2[0], GEO2[1], grid_mm)?;
+    let o = run_with(GEO2[0], GEO2[1], grid_mm, tolerance)?;
     let total = t.elapsed().as_secs_f64();
     let r = &o.report;
     println!(
         "geo2 grid {grid_mm} mm: unknowns {} cg {} seconds {:?} total_s {total:.2} \
-         round trip um mean {:.2e} max {:.2e}",
+         round trip um mean {:.2e} max {:.2e} residual {:.1e}",
         r.field.unknowns,
         r.field.cg_iterations,
         r.seconds,
         r.roundtrip_error_um.mean,
-        r.roundtrip_error_um.max
+        r.roundtrip_error_um.max,
+        r.field.relative_residual
     );
     if let Some(path) = out {
         let text: String = o
@@ -267,5 +290,43 @@ fn transfer(grid_mm: f64) -> Res<()> {
         .map(|(p, q)| (p - q).norm())
         .fold(0.0, f64::max);
     println!("transfer grid {grid_mm} mm: geo2 -> ellipsoid -> geo2 max {worst:.3e} mm");
+    Ok(())
+}
+
+/// `geo2 0.5` and `geo2 0.3` in child processes: each one's pipeline
+/// seconds (`total_s`) and peak (`peak_mib`) against the targets.
+fn targets() -> Res<()> {
+    let exe = std::env::current_exe()?;
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "load {}",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    for (grid, max_s, max_mib) in [("0.5", 2.0, 400.0), ("0.3", 5.0, 1000.0)] {
+        let out = std::process::Command::new(&exe)
+            .args(["geo2", grid])
+            .output()?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        let field = |key: &str| -> Option<f64> {
+            let rest = &text[text.find(&format!("{key} "))? + key.len() + 1..];
+            rest.split_whitespace().next()?.parse().ok()
+        };
+        let (secs, peak) = (field("total_s"), field("peak_mib"));
+        let laplace = text
+            .find("laplace: ")
+            .and_then(|i| text[i + 9..].split(',').next()?.trim().parse::<f64>().ok());
+        println!(
+            "geo2 {grid} mm: pipeline {:.2} s (target {max_s} s; Laplace {:.2} s), peak {:.1} MiB \
+             (target {max_mib} MB = {:.1} MiB){}",
+            secs.unwrap_or(f64::NAN),
+            laplace.unwrap_or(f64::NAN),
+            peak.unwrap_or(f64::NAN),
+            max_mib * 1e6 / 1_048_576.0,
+            if out.status.success() { "" } else { "; FAILED" }
+        );
+    }
     Ok(())
 }

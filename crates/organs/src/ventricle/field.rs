@@ -285,6 +285,24 @@ pub struct FieldStats {
     pub estimated_bytes: f64,
 }
 
+/// The corner gradients of the cell a [`LaplaceField::gradient_cached`]
+/// read last (none at first).
+#[derive(Debug, Clone, Copy)]
+pub struct GradientCache {
+    /// The cell's first corner (box node), `usize::MAX` for none.
+    id: usize,
+    grad: [[f64; 3]; 8],
+}
+
+impl Default for GradientCache {
+    fn default() -> Self {
+        GradientCache {
+            id: usize::MAX,
+            grad: [[0.0; 3]; 8],
+        }
+    }
+}
+
 /// The solved Laplace field and the interpolant of its gradient.
 #[derive(Debug, Clone)]
 pub struct LaplaceField {
@@ -371,8 +389,7 @@ impl LaplaceField {
             }
         };
         let grid = Grid { h, origin, dims };
-        let crossings: [AxisCrossings; 3] =
-            [0, 1, 2].map(|a| axis_crossings(&grid, &local, &surface.triangles, a));
+        let crossings = all_crossings(&grid, &local, &surface.triangles);
         let rim2: Vec<[f64; 2]> = landmarks
             .rim
             .iter()
@@ -488,10 +505,11 @@ impl LaplaceField {
         self.stats
     }
 
-    /// Corner slots and trilinear weights of the cell containing `q`
-    /// (mirrored to `z >= 0`); `None` outside the field.
+    /// The cell containing `q` (mirrored to `z >= 0`): its first corner's
+    /// box node and the trilinear coordinates in it; `None` outside the
+    /// grid.
     #[inline]
-    fn cell(&self, q: [f64; 3]) -> Option<([u32; 8], [f64; 3])> {
+    fn locate(&self, q: [f64; 3]) -> Option<(usize, [f64; 3])> {
         let g = &self.grid;
         let mut base = [0usize; 3];
         let mut t = [0.0; 3];
@@ -511,7 +529,14 @@ impl LaplaceField {
                 return None;
             }
         }
-        let id = g.id(base[0], base[1], base[2]);
+        Some((g.id(base[0], base[1], base[2]), t))
+    }
+
+    /// The slots of the eight corners of the cell whose first corner is box
+    /// node `id`; `None` when one has no gradient (far outside U).
+    #[inline]
+    fn corners(&self, id: usize) -> Option<[u32; 8]> {
+        let g = &self.grid;
         let (sx, sy, sz) = (1, g.dims[0], g.dims[0] * g.dims[1]);
         let ids = [
             id,
@@ -530,21 +555,44 @@ impl LaplaceField {
                 return None;
             }
         }
-        Some((slots, t))
+        Some(slots)
+    }
+
+    /// Corner slots and trilinear weights of the cell containing `q`
+    /// (mirrored to `z >= 0`); `None` outside the field.
+    #[inline]
+    fn cell(&self, q: [f64; 3]) -> Option<([u32; 8], [f64; 3])> {
+        let (id, t) = self.locate(q)?;
+        Some((self.corners(id)?, t))
     }
 
     /// `grad f` at basal-frame point `q`: the trilinear interpolation of the
     /// nodal gradients; `None` where the field is not defined (far outside U).
     #[inline]
     pub fn gradient(&self, q: [f64; 3]) -> Option<[f64; 3]> {
-        let (s, t) = self.cell(q)?;
+        self.gradient_cached(q, &mut GradientCache::default())
+    }
+
+    /// [`LaplaceField::gradient`] with the corner gradients of the last
+    /// cell kept in `cache`: a streamline's steps end at the cells' faces,
+    /// so a step's seven stages read one cell (the same values in the same
+    /// order: the result is the uncached one's to the bit).
+    #[inline]
+    pub fn gradient_cached(&self, q: [f64; 3], cache: &mut GradientCache) -> Option<[f64; 3]> {
+        let (id, t) = self.locate(q)?;
+        if cache.id != id {
+            let s = self.corners(id)?;
+            for (c, &k) in cache.grad.iter_mut().zip(&s) {
+                *c = self.grad[k as usize];
+            }
+            cache.id = id;
+        }
         let w = trilinear_weights(t);
         let mut g = [0.0; 3];
-        for c in 0..8 {
-            let n = &self.grad[s[c] as usize];
-            g[0] += w[c] * n[0];
-            g[1] += w[c] * n[1];
-            g[2] += w[c] * n[2];
+        for (wc, n) in w.iter().zip(&cache.grad) {
+            g[0] += wc * n[0];
+            g[1] += wc * n[1];
+            g[2] += wc * n[2];
         }
         if q[2] < 0.0 {
             g[2] = -g[2];
@@ -675,6 +723,20 @@ fn axis_crossings(grid: &Grid, local: &[[f64; 3]], tris: &[[u32; 3]], a: usize) 
     }
 }
 
+/// The crossings along the three axes ([`axis_crossings`]), in parallel.
+fn all_crossings(grid: &Grid, local: &[[f64; 3]], tris: &[[u32; 3]]) -> [AxisCrossings; 3] {
+    let (x, (y, z)) = rayon::join(
+        || axis_crossings(grid, local, tris, 0),
+        || {
+            rayon::join(
+                || axis_crossings(grid, local, tris, 1),
+                || axis_crossings(grid, local, tris, 2),
+            )
+        },
+    );
+    [x, y, z]
+}
+
 /// Whether `p` is inside the polygon (crossing number).
 fn in_polygon(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
     let mut inside = false;
@@ -693,34 +755,45 @@ fn in_polygon(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
 }
 
 /// Node states: inside the closed S (parity along the z-columns, starting
-/// inside where the column meets the cap polygon), in H, or out.
+/// inside where the column meets the cap polygon), in H, or out. Node
+/// `(i, j, k)` is inside when the column's start is inside the cap polygon
+/// and an even number of the column's crossings lie below its height (`1e-9
+/// h` for the cap), or the start is outside and the number is odd; planes of
+/// constant `k` are filled in parallel.
 fn classify(grid: &Grid, zc: &AxisCrossings, rim2: &[[f64; 2]], radius: f64) -> Vec<u8> {
     let [nx, ny, nz] = grid.dims;
     let h = grid.h;
-    let mut state = vec![OUT; nx * ny * nz];
-    for j in 0..ny {
-        for i in 0..nx {
-            let x = grid.coord(0, i);
-            let y = grid.coord(1, j);
-            let p = [x + JITTER[0] * h, y + JITTER[1] * h];
-            let mut inside = in_polygon(rim2, p);
-            let line = zc.line(i + nx * j);
-            let mut next = 0;
-            for k in 0..nz {
-                let z = if k == 0 { 1e-9 * h } else { k as f64 * h };
-                while next < line.len() && line[next] < z {
-                    inside = !inside;
-                    next += 1;
-                }
-                let id = grid.id(i, j, k);
+    let plane = nx * ny;
+    // the columns' starting parity, inside the cap polygon
+    let start: Vec<bool> = (0..plane)
+        .into_par_iter()
+        .map(|l| {
+            let (i, j) = (l % nx, l / nx);
+            let p = [
+                grid.coord(0, i) + JITTER[0] * h,
+                grid.coord(1, j) + JITTER[1] * h,
+            ];
+            in_polygon(rim2, p)
+        })
+        .collect();
+    let mut state = vec![OUT; plane * nz];
+    state
+        .par_chunks_mut(plane)
+        .enumerate()
+        .for_each(|(k, out)| {
+            let z = if k == 0 { 1e-9 * h } else { k as f64 * h };
+            for (l, st) in out.iter_mut().enumerate() {
+                let (x, y) = (grid.coord(0, l % nx), grid.coord(1, l / nx));
                 if x * x + y * y + z * z < radius * radius {
-                    state[id] = IN_H;
-                } else if inside {
-                    state[id] = UNKNOWN;
+                    *st = IN_H;
+                } else {
+                    let below = zc.line(l).partition_point(|&c| c < z);
+                    if start[l] ^ (below % 2 == 1) {
+                        *st = UNKNOWN;
+                    }
                 }
             }
-        }
-    }
+        });
     state
 }
 
@@ -1411,6 +1484,78 @@ mod tests {
             prop_assert_eq!(h.field.value([q[0], q[1], -q[2]]), h.field.value(q));
             let c = h.field.gradient([q[0], q[1], 0.0]).unwrap();
             prop_assert_eq!(c[2], 0.0);
+        }
+
+        /// The cached gradient is the uncached one to the bit, along a
+        /// walk of short steps (most in the last cell, some into the
+        /// next, some mirrored below the cap) and after a point outside
+        /// the field.
+        #[test]
+        fn the_cached_gradient_is_the_gradient(
+            u in 0.0..1.0f64,
+            polar in 0.0..1.57f64,
+            az in 0.0..TAU,
+            steps in proptest::collection::vec((-0.4..0.4f64, -0.4..0.4f64, -0.4..0.4f64), 1..40),
+        ) {
+            let h = hemi();
+            let r = h.field.hemisphere_radius();
+            let mut q = spherical(r + 0.5 + u * (R - r - 1.0), polar, az);
+            let mut cache = GradientCache::default();
+            for (k, d) in steps.iter().enumerate() {
+                q = [q[0] + d.0, q[1] + d.1, q[2] + d.2];
+                prop_assert_eq!(h.field.gradient_cached(q, &mut cache), h.field.gradient(q));
+                if k == 3 {
+                    let far = [10.0 * R, 0.0, 0.0];
+                    prop_assert_eq!(h.field.gradient_cached(far, &mut cache), None);
+                }
+            }
+        }
+
+        /// The planes-in-parallel classification is the column-by-column
+        /// walk it replaced (each column's crossings counted as its height
+        /// grows) on the hemisphere at any spacing.
+        #[test]
+        fn the_classification_is_the_column_walk(h in 0.7..2.5f64) {
+            let hm = hemi();
+            let frame = BasalFrame::new(&hm.cup.surface, &hm.landmarks).unwrap();
+            let local: Vec<[f64; 3]> =
+                hm.cup.surface.positions.iter().map(|p| frame.local(p)).collect();
+            let (dims, origin) = grid_box(&local, &used_vertices(&hm.cup.surface), h);
+            let grid = Grid { h, origin, dims: dims.map(|d| d as usize) };
+            let crossings = all_crossings(&grid, &local, &hm.cup.surface.triangles);
+            let rim2: Vec<[f64; 2]> = hm
+                .landmarks
+                .rim
+                .iter()
+                .map(|&v| [local[v as usize][0], local[v as usize][1]])
+                .collect();
+            let radius = DEFAULT_HEMISPHERE_MM;
+            let fast = classify(&grid, &crossings[2], &rim2, radius);
+            let [nx, ny, nz] = grid.dims;
+            let mut walk = vec![OUT; nx * ny * nz];
+            for j in 0..ny {
+                for i in 0..nx {
+                    let (x, y) = (grid.coord(0, i), grid.coord(1, j));
+                    let mut inside = in_polygon(&rim2, [x + JITTER[0] * h, y + JITTER[1] * h]);
+                    let line = crossings[2].line(i + nx * j);
+                    let mut next = 0;
+                    for k in 0..nz {
+                        let z = if k == 0 { 1e-9 * h } else { k as f64 * h };
+                        while next < line.len() && line[next] < z {
+                            inside = !inside;
+                            next += 1;
+                        }
+                        let id = grid.id(i, j, k);
+                        if x * x + y * y + z * z < radius * radius {
+                            walk[id] = IN_H;
+                        } else if inside {
+                            walk[id] = UNKNOWN;
+                        }
+                    }
+                }
+            }
+            prop_assert!(fast.contains(&UNKNOWN) && fast.contains(&IN_H));
+            prop_assert!(fast == walk);
         }
     }
 

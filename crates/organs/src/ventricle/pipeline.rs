@@ -109,7 +109,8 @@ pub struct Seconds {
     /// Repair, landmarks, disk map.
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub disk: f64,
-    /// The Laplace field.
+    /// The Laplace field (computed at the same time as the disk map: the
+    /// two overlap).
     #[serde(with = "unfold_mesh::nan_as_null")]
     pub laplace: f64,
     /// The forward map of the anatomy.

@@ -14,8 +14,9 @@
 //! point is a point of the numerical curve, accurate to the tolerance.
 
 use super::error::PointFailure;
-use super::field::LaplaceField;
+use super::field::{GradientCache, LaplaceField};
 use crate::OrganError;
+use std::cell::RefCell;
 use std::collections::HashMap;
 use unfold_mesh::TriMesh;
 
@@ -364,6 +365,8 @@ pub struct Tracer<'a> {
     surface: &'a SurfaceIndex,
     tolerance: f64,
     max_length: f64,
+    /// The last cell's corner gradients (one tracer per thread).
+    cache: RefCell<GradientCache>,
 }
 
 impl<'a> Tracer<'a> {
@@ -384,13 +387,17 @@ impl<'a> Tracer<'a> {
             surface,
             tolerance,
             max_length,
+            cache: RefCell::new(GradientCache::default()),
         })
     }
 
     /// Unit direction `sigma g / |g|` at `y`.
     #[inline]
     fn dir(&self, y: [f64; 3], sigma: f64) -> Result<[f64; 3], TraceFailure> {
-        let g = self.field.gradient(y).ok_or(TraceFailure::LeftField(y))?;
+        let g = self
+            .field
+            .gradient_cached(y, &mut self.cache.borrow_mut())
+            .ok_or(TraceFailure::LeftField(y))?;
         let n = dot(g, g).sqrt();
         if n.is_nan() || n <= 1e-300 {
             return Err(TraceFailure::Stagnant(y));

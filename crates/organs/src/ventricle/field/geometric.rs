@@ -35,7 +35,7 @@
 //! `unfold ventricle` peaked at 1,950 MiB before, 471 to 527 MiB now;
 //! docs/DESIGN-NOTES.md, "The field's solver is matrix-free").
 
-use super::{Ctx, Grid, Link, UNKNOWN, axis_crossings, classify, connected_unknowns};
+use super::{Ctx, Grid, Link, UNKNOWN, all_crossings, classify, connected_unknowns};
 use crate::OrganError;
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -448,7 +448,7 @@ impl<'a> Hierarchy<'a> {
                 let crossings_ref = if levels.len() == 1 {
                     ctx.crossings
                 } else {
-                    crossings = [0, 1, 2].map(|a| axis_crossings(&grid, local, tris, a));
+                    crossings = all_crossings(&grid, local, tris);
                     &crossings
                 };
                 let actx = Ctx {
@@ -479,7 +479,7 @@ impl<'a> Hierarchy<'a> {
                 origin: last.grid.origin,
                 dims: last.grid.dims.map(|d| d / 2 + 1),
             };
-            let crossings = [0, 1, 2].map(|a| axis_crossings(&grid, local, tris, a));
+            let crossings = all_crossings(&grid, local, tris);
             let mut state = classify(&grid, &crossings[2], rim2, radius);
             let mut index = connected_unknowns(&grid, &mut state);
             let n_red = colour_numbering(&grid, &mut index);
@@ -723,7 +723,9 @@ pub(super) fn pcg(
 
 #[cfg(test)]
 mod tests {
-    use super::super::{AxisCrossings, BasalFrame, FieldConfig, grid_box, used_vertices};
+    use super::super::{
+        AxisCrossings, BasalFrame, FieldConfig, axis_crossings, grid_box, used_vertices,
+    };
     use super::*;
     use crate::ventricle::landmarks::{DEFAULT_SNAP_MM, Landmarks};
     use proptest::prelude::*;
