@@ -36,7 +36,7 @@ pub mod solver;
 pub mod template;
 pub mod untangle;
 
-pub use deform::{Deform, DeformOutcome, DeformReport, FlipCounts, RestShape};
+pub use deform::{Deform, DeformOutcome, DeformReport, FlipCounts, RestShape, deform_newton};
 pub use energy::DistortionEnergy;
 pub use error::{Elements, ParamError, PieceError};
 pub use initializer::{Constraints, InitialMap, Initializer, Pin};

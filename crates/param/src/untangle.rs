@@ -21,7 +21,10 @@
 //! stage's relative progress. When `eps` falls below [`RESTART_EPS`] with
 //! elements still inverted (the schedule ran ahead of the map), it starts
 //! again from `eps = max(|D_min| / 5, 1e-3)`, at most [`MAX_RESTARTS`]
-//! times. It stops as soon as every `det J >=`
+//! times; once they are spent, `eps` falling below [`RESTART_EPS`] ends
+//! the run, reported not untangled (a smaller `eps` only steepens the
+//! barrier that holds the remaining inversions, until the energy
+//! overflows). It stops as soon as every `det J >=`
 //! [`MIN_DET_J`](crate::objective::MIN_DET_J) (an orientation certain
 //! above rounding): the caller's flip-free solve takes over from there.
 //!
@@ -250,7 +253,12 @@ impl Untangler {
             if d_min < mu {
                 eps = 2.0 * (mu * (mu - d_min)).sqrt();
             }
-            if eps < RESTART_EPS && report.restarts < MAX_RESTARTS {
+            if eps < RESTART_EPS {
+                if report.restarts == MAX_RESTARTS {
+                    // Every restart spent: smaller eps only steepens the
+                    // barrier that holds the remaining inversions.
+                    break;
+                }
                 // Stuck: eps has vanished with elements still inverted,
                 // the energy's barrier now holds them. Start the schedule
                 // again from the remaining inversion.
@@ -580,5 +588,37 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("no flip-free map found"), "{err}");
+    }
+
+    #[test]
+    fn an_infeasible_problem_ends_after_its_restarts_without_an_error() {
+        // The boundary fixed in its mirror image: every map with it has a
+        // negative signed area in all, so some triangle stays inverted
+        // whatever the interior does.
+        let case = tangled_case(&TangledParams {
+            elements: 200,
+            scramble: 0.1,
+            ..TangledParams::default()
+        })
+        .unwrap();
+        let mesh = ParamMesh::from_triangles(&case.to_tri_mesh().unwrap()).unwrap();
+        let mut x: Vec<f64> = case.solution.iter().flat_map(|p| [-p[0], p[1]]).collect();
+        let mut fixed = vec![false; mesh.num_vertices()];
+        for &v in &case.fixed {
+            fixed[v as usize] = true;
+        }
+        let before = x.clone();
+        let report = Untangler::default().run(&mesh, &mut x, &fixed).unwrap();
+        assert!(!report.untangled);
+        assert!(report.inverted_end > 0);
+        assert_eq!(report.restarts, MAX_RESTARTS);
+        assert!(report.stages < Untangler::default().max_stages, "{report:?}");
+        assert!(x.iter().all(|v| v.is_finite()));
+        for (v, &f) in fixed.iter().enumerate() {
+            if f {
+                assert_eq!(x[2 * v].to_bits(), before[2 * v].to_bits());
+                assert_eq!(x[2 * v + 1].to_bits(), before[2 * v + 1].to_bits());
+            }
+        }
     }
 }

@@ -200,7 +200,10 @@ pub fn deform_mesh(
         ));
     }
     let fixed = fixed_vertices(&handles, fixed_boundary, &rest.element_vertices(), n);
-    let solver = settings.solver.build();
+    let solver: Box<dyn crate::param::Solver> = match settings.solver {
+        SolverKind::Newton => Box::new(crate::param::deform_newton()),
+        other => other.build(),
+    };
     let mut stopping = solver.default_stopping();
     stopping.grad_tol = settings.tol;
     stopping.max_iterations = settings.iteration_limit();
