@@ -612,7 +612,10 @@ mod tests {
         assert!(!report.untangled);
         assert!(report.inverted_end > 0);
         assert_eq!(report.restarts, MAX_RESTARTS);
-        assert!(report.stages < Untangler::default().max_stages, "{report:?}");
+        assert!(
+            report.stages < Untangler::default().max_stages,
+            "{report:?}"
+        );
         assert!(x.iter().all(|v| v.is_finite()));
         for (v, &f) in fixed.iter().enumerate() {
             if f {
