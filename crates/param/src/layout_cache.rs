@@ -25,6 +25,20 @@ struct Kept {
     rest: Option<Vec<f64>>,
 }
 
+impl Kept {
+    /// `layout`, built by `objective`, with the objective's rest positions
+    /// when it is a multigrid layout.
+    fn new(layout: Arc<HessianLayout>, objective: &Objective<'_>) -> Kept {
+        Kept {
+            rest: layout
+                .pattern()
+                .multigrid_sizes()
+                .map(|_| objective.mesh().rest_flat()),
+            layout,
+        }
+    }
+}
+
 /// Hessian layouts keyed by what they were built for (connectivity, fixed
 /// vertices, linear solver; for a multigrid layout also the rest
 /// positions): an objective that matches one reuses it instead of ordering
@@ -87,13 +101,7 @@ impl LayoutCache {
         };
         let mut list = self.lock();
         if Self::find(&list, objective).is_none() {
-            list.push(Kept {
-                rest: layout
-                    .pattern()
-                    .multigrid_sizes()
-                    .map(|_| objective.mesh().rest_flat()),
-                layout,
-            });
+            list.push(Kept::new(layout, objective));
         }
     }
 
@@ -110,13 +118,7 @@ impl LayoutCache {
             Some(layout) => objective.with_layout(layout),
             None => {
                 let layout = objective.layout()?;
-                list.push(Kept {
-                    rest: layout
-                        .pattern()
-                        .multigrid_sizes()
-                        .map(|_| objective.mesh().rest_flat()),
-                    layout,
-                });
+                list.push(Kept::new(layout, &objective));
                 Ok(objective)
             }
         }
