@@ -49,7 +49,9 @@ import time
 from pathlib import Path
 
 import nibabel as nib
-import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from placenta_scale import ellipsoid_mask  # noqa: E402
 
 RADII_MM = (105.0, 85.0, 20.0)
 VOXEL_MM = 1.5
@@ -61,20 +63,6 @@ CASES = {
     "graded": ([], 60.0, None),
 }
 GIB = 1024.0**3
-
-
-def ellipsoid_mask(spacing: float, margin: int = 3):
-    """`unfold.shapes.ellipsoid_mask(RADII_MM, spacing)`: voxel [i, j, k]
-    is 1 when its centre x has sum (x_a / r_a)^2 <= 1."""
-    r = np.asarray(RADII_MM)
-    n = (2 * np.ceil(r / spacing) + 1 + 2 * margin).astype(int)
-    origin = -spacing * (n - 1) / 2.0
-    affine = np.diag([spacing, spacing, spacing, 1.0])
-    affine[:3, 3] = origin
-    axes = [origin[a] + spacing * np.arange(n[a]) for a in range(3)]
-    x, y, z = np.meshgrid(*axes, indexing="ij")
-    inside = (x / r[0]) ** 2 + (y / r[1]) ** 2 + (z / r[2]) ** 2 <= 1.0
-    return inside.astype(np.uint8), affine
 
 
 def run(cmd: list[str], peak_file: Path) -> tuple[float, float]:
@@ -144,7 +132,7 @@ def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="placenta_dense.", dir="/tmp"))
     rows = []
     try:
-        mask, affine = ellipsoid_mask(args.voxel_mm)
+        mask, affine = ellipsoid_mask(args.voxel_mm, radii=RADII_MM)
         mask_path = work / "mask.nii.gz"
         nib.save(nib.Nifti1Image(mask, affine), str(mask_path))
         for case in cases:

@@ -48,10 +48,10 @@ STAGES = ("parcellation", "initialization", "optimization", "evaluation")
 MIB = 1024.0 * 1024.0
 
 
-def ellipsoid_mask(spacing: float, margin: int = 3):
-    """`unfold.shapes.ellipsoid_mask(RADII_MM, spacing)`: voxel [i, j, k]
+def ellipsoid_mask(spacing: float, margin: int = 3, radii=RADII_MM):
+    """`unfold.shapes.ellipsoid_mask(radii, spacing)`: voxel [i, j, k]
     is 1 when its centre x has sum (x_a / r_a)^2 <= 1."""
-    r = np.asarray(RADII_MM)
+    r = np.asarray(radii)
     n = (2 * np.ceil(r / spacing) + 1 + 2 * margin).astype(int)
     origin = -spacing * (n - 1) / 2.0
     affine = np.diag([spacing, spacing, spacing, 1.0])
