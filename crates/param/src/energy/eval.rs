@@ -52,7 +52,7 @@ pub struct Eval3 {
 /// (clamped) or positive definite (Cholesky succeeds), else eigenvalues
 /// clamped at 0 through [`sym_eigen3`].
 #[allow(clippy::needless_range_loop)]
-fn project_sym3(h: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub(super) fn project_sym3(h: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let off = h[0][1].abs() + h[0][2].abs() + h[1][2].abs();
     if off == 0.0 {
         let mut out = [[0.0; 3]; 3];
@@ -512,7 +512,7 @@ pub fn density3(e: &dyn DistortionEnergy, f: &Matrix3<f64>) -> f64 {
 
 /// `x <= 0` or NaN.
 #[inline]
-fn nonpositive_or_nan(x: f64) -> bool {
+pub(super) fn nonpositive_or_nan(x: f64) -> bool {
     x.is_nan() || x <= 0.0
 }
 

@@ -33,8 +33,9 @@
 //! element evaluations do not allocate on the heap.
 //!
 //! One file per idea: the trait and its documented defaults here, one file
-//! per energy, the by-name registry, the SVDs (`svd`) and the element
-//! evaluation (`eval`); everything is re-exported so that
+//! per energy, the by-name registry, the SVDs (`svd`), the element
+//! evaluation (`eval`) and the 3D Hessian's modes for vertex assembly
+//! (`eigen3`); everything is re-exported so that
 //! `unfold_param::energy::X` is the path to use.
 
 use std::fmt::Debug;
@@ -43,6 +44,7 @@ use nalgebra::{Matrix2, Matrix3};
 
 mod arap;
 mod area_ratio;
+mod eigen3;
 mod eval;
 mod mips;
 mod registry;
@@ -54,6 +56,7 @@ mod untangling;
 
 pub use arap::Arap;
 pub use area_ratio::AreaRatio;
+pub use eigen3::{Eigen3, hessian3_eigen};
 pub use eval::{
     Eigen2, Eval2, Eval3, HessianMode, density2, density3, eval2, eval2_eigen, eval3,
     hessian2_eigen,
