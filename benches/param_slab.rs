@@ -19,10 +19,10 @@
 //! convergence and zero inverted tets. After the 7k cases the bench prints
 //! the pieces of a Newton iteration on the 7k slab (`pieces`: analysis,
 //! value and gradient, Hessian, factorization, solve, each the median of 15
-//! runs) and the nested-dissection and AMD orderings' factors side by side
-//! (`orderings`). `cargo bench --bench param_slab -- newton_7k` runs the 7k
-//! cases, the pieces and the gradient-descent baseline only (under a
-//! minute).
+//! runs, at the start and at the end of the solve) and the
+//! nested-dissection and AMD orderings' factors side by side (`orderings`).
+//! `cargo bench --bench param_slab -- newton_7k` runs the 7k cases, the
+//! pieces and the gradient-descent baseline only (under a minute).
 //!
 //! The baseline, [`GradientDescent`] (the placenta paper's Algorithm 1,
 //! default settings), needs over a thousand iterations, so it is not sampled:
@@ -163,14 +163,17 @@ fn median_of<R>(reps: usize, mut f: impl FnMut() -> R) -> (f64, R) {
     (runs.median().expect("runs"), last.expect("runs"))
 }
 
-/// The pieces of a Newton solve on `slab`, each the median of `reps` runs
-/// at the start of the solve (the identity map, `h = 1`): the objective's
-/// set-up with its Hessian layout (vertex graph, nested-dissection
-/// ordering, symbolic Cholesky, element slots), one value and gradient,
-/// one objective value (a line-search trial), one projected Hessian
-/// (element Hessians and their assembly into the factor's slots), one
-/// shifted numeric factorization and one solve; then the floor of a solve
-/// of `iterations` Newton iterations made of these pieces.
+/// The pieces of a Newton solve on `slab`, each the median of `reps` runs:
+/// the objective's set-up with its Hessian layout (vertex graph,
+/// nested-dissection ordering, symbolic Cholesky, element slots), then at
+/// the start of the solve (the identity map, `h = 1`) and at its end (the
+/// converged map and `h`): one value and gradient, one objective value (a
+/// line-search trial), one projected Hessian (element Hessians and their
+/// assembly into the factor's slots), one shifted numeric factorization
+/// and one solve. The floor of a solve of `iterations` Newton iterations
+/// takes the first iteration's pieces at the start and the others' at the
+/// end (the element Hessians cost more away from the identity, where the
+/// SVDs are not trivial).
 fn pieces(slab: &Slab, reps: usize, iterations: usize) {
     let template = ParallelPlanes::default();
     let (analysis, mut objective) = median_of(reps, || {
@@ -178,46 +181,66 @@ fn pieces(slab: &Slab, reps: usize, iterations: usize) {
         o.pattern().expect("pattern");
         o
     });
-    let x = slab.mesh.rest_flat();
-    let theta = [1.0];
-    let mut grad = vec![0.0; x.len()];
-    let (gradient, _) = median_of(reps, || objective.value_gradient(&x, &theta, &mut grad));
-    let (value, _) = median_of(reps, || objective.value(&x, &theta));
-    let mut values = Vec::new();
-    let (hessian, _) = median_of(reps, || {
-        objective.hessian(&x, &theta, &mut values).expect("hessian")
-    });
-    let pattern = objective.pattern().expect("pattern");
-    let mut factor = pattern.new_factor();
-    let (factorization, _) = median_of(reps, || {
-        pattern
-            .refactorize_shifted(&mut factor, &values, 1e-10, 16)
-            .expect("factor")
-    });
-    let mut d = grad.clone();
-    let (solve, _) = median_of(reps, || factor.solve_in_place(&mut d).expect("solve"));
+    let mut end_x = slab.mesh.rest_flat();
+    let mut end_theta = [1.0];
+    Executor::new(&ProjectedNewton::default())
+        .run(&mut slab.objective(&template), &mut end_x, &mut end_theta)
+        .expect("solve");
     let ms = |s: f64| s * 1e3;
-    println!(
-        "newton_7k pieces (medians of {reps}, at the start): analysis (objective + layout) \
-         {:.2} ms, value+gradient {:.2} ms, value {:.2} ms, Hessian {:.2} ms, \
-         factorization {:.2} ms, solve {:.2} ms ({} unknowns, factor nnz {})",
-        ms(analysis),
-        ms(gradient),
-        ms(value),
-        ms(hessian),
-        ms(factorization),
-        ms(solve),
-        pattern.n(),
-        pattern.factor_nnz()
-    );
-    // Per iteration: a Hessian, a factorization, two solves (the direction
-    // and theta's column), a gradient and about two trial values.
-    let per_iteration = hessian + factorization + 2.0 * solve + gradient + 2.0 * value;
+    let mut per_iteration = [0.0; 2];
+    for (k, (what, x, theta)) in [
+        ("start", slab.mesh.rest_flat(), [1.0]),
+        ("end", end_x, end_theta),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut grad = vec![0.0; x.len()];
+        let (gradient, _) = median_of(reps, || objective.value_gradient(&x, &theta, &mut grad));
+        let (value, _) = median_of(reps, || objective.value(&x, &theta));
+        let mut values = Vec::new();
+        let (hessian, _) = median_of(reps, || {
+            objective.hessian(&x, &theta, &mut values).expect("hessian")
+        });
+        let pattern = objective.pattern().expect("pattern");
+        let mut factor = pattern.new_factor();
+        let (factorization, _) = median_of(reps, || {
+            pattern
+                .refactorize_shifted(&mut factor, &values, 1e-10, 16)
+                .expect("factor")
+        });
+        let mut d = grad.clone();
+        let (solve, _) = median_of(reps, || factor.solve_in_place(&mut d).expect("solve"));
+        if k == 0 {
+            println!(
+                "newton_7k pieces (medians of {reps}): analysis (objective + layout) {:.2} ms \
+                 ({} unknowns, factor nnz {})",
+                ms(analysis),
+                pattern.n(),
+                pattern.factor_nnz()
+            );
+        }
+        println!(
+            "  at the {what}: value+gradient {:.2} ms, value {:.2} ms, Hessian {:.2} ms, \
+             factorization {:.2} ms, solve {:.2} ms",
+            ms(gradient),
+            ms(value),
+            ms(hessian),
+            ms(factorization),
+            ms(solve),
+        );
+        // Per iteration: a Hessian, a factorization, two solves (the
+        // direction and theta's column), a gradient and about two trial
+        // values.
+        per_iteration[k] = hessian + factorization + 2.0 * solve + gradient + 2.0 * value;
+    }
+    let iterations_floor =
+        per_iteration[0] + iterations.saturating_sub(1) as f64 * per_iteration[1];
     println!(
         "  floor of {iterations} iterations: cold (analysis + iterations) {:.1} ms, \
          warm (layout reused) {:.1} ms",
-        ms(analysis + iterations as f64 * per_iteration + gradient),
-        ms(iterations as f64 * per_iteration + gradient)
+        ms(analysis + iterations_floor),
+        ms(iterations_floor)
     );
 }
 
