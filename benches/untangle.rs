@@ -23,14 +23,17 @@
 //! Run: `cargo bench --bench untangle` (several minutes on 2 cores);
 //! `UNTANGLE_BENCH_QUICK=1` keeps the sizes up to 4k;
 //! `UNTANGLE_BENCH_ONLY="tets sparse 12000"` runs the cases whose
-//! `kind handles size` line starts so.
+//! `kind handles size` line starts so;
+//! `UNTANGLE_BENCH_VARIANTS="1,5"` solves each case once per untangler
+//! variant, given by its [`Untangler::refactor_every`], side by side in one run, a line each, without the peak memory
+//! (the default: the untangler's defaults only).
 
 #[path = "support/peak.rs"]
 mod peak;
 
 use std::time::Instant;
 use unfold::mesh::shapes::{Handles, TangledCase, TangledKind, TangledParams, tangled_case};
-use unfold::param::{Deform, NoObserver, RestShape};
+use unfold::param::{Deform, NoObserver, RestShape, Untangler};
 
 /// The element counts of the set.
 const SIZES: [usize; 5] = [1_000, 4_000, 12_000, 20_000, 30_000];
@@ -58,14 +61,52 @@ fn params(kind: TangledKind, sparse: bool, elements: usize, scramble: f64) -> Ta
 struct Solved {
     injective: bool,
     seconds: f64,
+    /// CPU seconds (user + system, all threads) of the solve.
+    cpu_seconds: f64,
     untangle_seconds: f64,
     stages: usize,
+    factorizations: usize,
     iterations: usize,
+}
+
+/// This process's CPU seconds so far (user + system, `/proc/self/stat`;
+/// NaN where it cannot be read).
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the command's closing parenthesis: utime and stime are
+    // the 14th and 15th of the line, the 12th and 13th after it.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
+    match (ticks(11), ticks(12)) {
+        (Some(u), Some(s)) => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
+}
+
+/// The untangler variants of `UNTANGLE_BENCH_VARIANTS` ("R,...": stages
+/// per factorization); the default untangler without it.
+fn variants() -> Vec<(String, Untangler)> {
+    let spec = std::env::var("UNTANGLE_BENCH_VARIANTS").unwrap_or_default();
+    if spec.trim().is_empty() {
+        return vec![(String::new(), Untangler::default())];
+    }
+    spec.split(',')
+        .map(|v| {
+            let untangler = Untangler {
+                refactor_every: v.trim().parse().expect("UNTANGLE_BENCH_VARIANTS: R,..."),
+                ..Untangler::default()
+            };
+            (format!(" [{}]", v.trim()), untangler)
+        })
+        .collect()
 }
 
 /// Solves `case` from `start` (the tangled init or the solution) with its
 /// handles fixed, and checks the result independently.
-fn solve(case: &TangledCase, start: &[[f64; 3]]) -> Solved {
+fn solve(case: &TangledCase, start: &[[f64; 3]], untangler: Untangler) -> Solved {
     let d = if case.is_tets() { 3 } else { 2 };
     let x: Vec<f64> = start.iter().flat_map(|p| p[..d].to_vec()).collect();
     let fixed: Vec<usize> = case.fixed.iter().map(|&v| v as usize).collect();
@@ -75,28 +116,32 @@ fn solve(case: &TangledCase, start: &[[f64; 3]]) -> Solved {
         (None, Some(t)) => RestShape::Triangles(t),
         _ => panic!("a case has tets or triangles"),
     };
-    let t0 = Instant::now();
+    let (t0, c0) = (Instant::now(), cpu_seconds());
     let out = Deform::new()
+        .untangler(untangler)
         .start(x)
         .fixed(fixed)
         .run_shape(rest, &[], &mut NoObserver)
         .expect("the solve runs");
     let seconds = t0.elapsed().as_secs_f64();
+    let cpu_seconds = cpu_seconds() - c0;
     let positions: Vec<[f64; 3]> = out.positions.iter().map(|p| [p.x, p.y, p.z]).collect();
     let handles_exact = case.fixed.iter().all(|&h| {
         let h = h as usize;
         (0..d).all(|c| positions[h][c].to_bits() == start[h][c].to_bits())
     });
     let r = &out.report;
-    let (untangle_seconds, stages) = r
+    let (untangle_seconds, stages, factorizations) = r
         .untangle
         .as_ref()
-        .map_or((0.0, 0), |u| (u.seconds, u.stages));
+        .map_or((0.0, 0, 0), |u| (u.seconds, u.stages, u.factorizations));
     Solved {
         injective: r.injective && handles_exact && case.inverted_in(&positions) == 0,
         seconds,
+        cpu_seconds,
         untangle_seconds,
         stages,
+        factorizations,
         iterations: r.iterations,
     }
 }
@@ -125,7 +170,7 @@ fn main() {
             f[3].parse().unwrap(),
         );
         let c = tangled_case(&p).unwrap();
-        assert!(solve(&c, &c.init).injective);
+        assert!(solve(&c, &c.init, Untangler::default()).injective);
     });
     let quick = std::env::var_os("UNTANGLE_BENCH_QUICK").is_some();
     let only = std::env::var("UNTANGLE_BENCH_ONLY").unwrap_or_default();
@@ -134,8 +179,9 @@ fn main() {
         .copied()
         .filter(|&s| !quick || s <= 4_000)
         .collect();
+    let variants = variants();
     println!(
-        "{:<8} {:<8} {:>5} {:>6} {:>8} {:>5} {:>8} {:>7} {:>6} {:>8} {:>9}",
+        "{:<8} {:<8} {:>5} {:>6} {:>8} {:>5} {:>8} {:>7} {:>6} {:>6} {:>6} {:>8} {:>9}",
         "kind",
         "handles",
         "scr",
@@ -143,8 +189,10 @@ fn main() {
         "inverted",
         "ok",
         "total s",
+        "cpu s",
         "untgl s",
         "stages",
+        "factor",
         "newton",
         "flipfree s"
     );
@@ -167,29 +215,33 @@ fn main() {
                         continue;
                     }
                     let case = tangled_case(&params(kind, sparse, elements, scramble)).unwrap();
-                    let s = solve(&case, &case.init);
-                    let free = solve(&case, &case.solution);
-                    cases += 1;
-                    ok += usize::from(s.injective);
-                    if case.elements() <= 20_000 {
-                        small += 1;
-                        worst_small = worst_small.max(s.seconds);
-                        within += usize::from(s.seconds < TARGET_SECONDS);
+                    let free = solve(&case, &case.solution, Untangler::default());
+                    for (label, untangler) in &variants {
+                        let s = solve(&case, &case.init, *untangler);
+                        cases += 1;
+                        ok += usize::from(s.injective);
+                        if case.elements() <= 20_000 {
+                            small += 1;
+                            worst_small = worst_small.max(s.seconds);
+                            within += usize::from(s.seconds < TARGET_SECONDS);
+                        }
+                        println!(
+                            "{:<8} {:<8} {:>5.2} {:>6} {:>8} {:>5} {:>8.2} {:>7.2} {:>6.2} {:>6} {:>6} {:>8} {:>9.2}{label}",
+                            kind_name(kind),
+                            if sparse { "sparse" } else { "boundary" },
+                            scramble,
+                            case.elements(),
+                            case.inverted_in_init(),
+                            if s.injective { "yes" } else { "NO" },
+                            s.seconds,
+                            s.cpu_seconds,
+                            s.untangle_seconds,
+                            s.stages,
+                            s.factorizations,
+                            s.iterations,
+                            free.seconds,
+                        );
                     }
-                    println!(
-                        "{:<8} {:<8} {:>5.2} {:>6} {:>8} {:>5} {:>8.2} {:>7.2} {:>6} {:>8} {:>9.2}",
-                        kind_name(kind),
-                        if sparse { "sparse" } else { "boundary" },
-                        scramble,
-                        case.elements(),
-                        case.inverted_in_init(),
-                        if s.injective { "yes" } else { "NO" },
-                        s.seconds,
-                        s.untangle_seconds,
-                        s.stages,
-                        s.iterations,
-                        free.seconds,
-                    );
                 }
             }
         }
@@ -198,6 +250,10 @@ fn main() {
         "success: {ok} of {cases} cases injective with exact handles; cases of <= 20k elements \
          under {TARGET_SECONDS} s: {within} of {small} (slowest {worst_small:.2} s)"
     );
+    if std::env::var_os("UNTANGLE_BENCH_VARIANTS").is_some() {
+        // Comparing variants: the peaks are the default's.
+        return;
+    }
     let largest = *sizes.last().unwrap();
     for kind in ["planar", "surface", "tets"] {
         let case = format!("{kind} sparse {largest} 0.2");
