@@ -182,18 +182,22 @@ def main() -> None:
               f"{r['iterations']} | {r['error_mm']:.4f} | {r['excess']:.3f} | {r['h']:.3f} | "
               f"{', '.join(map(str, r['sides']))} |")
     print()
-    # The predictions beside what was measured: the mask's (before meshing:
-    # tets, bytes to flatten, seconds) and the flattening's (after meshing,
-    # the --max-memory check). A memory ratio below 1 is an under-prediction
+    # The predictions beside what was measured: the highest check of the run
+    # (report.json's predicted_peak_bytes: the flattening's after meshing,
+    # or, with --max-memory, the mask's before meshing when higher) and the
+    # mask's (tets, bytes to flatten, seconds). A memory ratio below 1 is an under-prediction
     # (the run could be killed where --max-memory let it through).
-    print("| voxel mm | case | binary | solver | tets | predicted tets | peak MiB | "
-          "predicted MiB (flattening) | ratio | predicted MiB (mask) | ratio | seconds | "
+    print("| voxel mm | case | binary | highest check | tets | predicted tets | peak MiB | "
+          "predicted MiB (highest check) | ratio | predicted MiB (mask) | ratio | seconds | "
           "CPU s | load | predicted s (mask) | ratio to wall | ratio to CPU |")
     print("|" + "---|" * 17)
     for r in rows:
-        solver = ("multigrid" if "multigrid matrix" in r["parts"]
-                  else "Cholesky" if "factor" in r["parts"]
-                  else "(meshing's check highest)")
+        # which check made the highest prediction: the flattening's (by
+        # its solver), the mask's (with --max-memory) or the mesher's
+        solver = ("flattening, multigrid" if "multigrid matrix" in r["parts"]
+                  else "flattening, Cholesky" if "factor" in r["parts"]
+                  else "mask" if any("from the mask" in k for k in r["parts"])
+                  else "meshing")
         print(f"| {r['voxel']} | {r['case']} | {Path(r['binary']).name} | {solver} | "
               f"{r['tets']:,} | {r['seg_tets']:,.0f} | {r['peak'] / MIB:.0f} | "
               f"{r['predicted'] / MIB:.0f} | {r['predicted'] / r['peak']:.2f} | "
@@ -201,7 +205,7 @@ def main() -> None:
               f"{r['seconds']:.1f} | {r['cpu']:.1f} | {r['load']:.1f} | {r['seg_seconds']:.1f} | "
               f"{r['seg_seconds'] / r['seconds']:.2f} | {r['seg_seconds'] / r['cpu']:.2f} |")
     print()
-    print("parts of the flattening's prediction (MiB):")
+    print("parts of the highest prediction (MiB):")
     for r in rows:
         parts = ", ".join(f"{k} {v / MIB:.0f}" for k, v in r["parts"].items())
         print(f"  {r['voxel']} mm {r['case']} ({r['tets']:,} tets): {parts}")
