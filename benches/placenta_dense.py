@@ -25,8 +25,19 @@ compared under the same load; the rows give the template error, Dirichlet
 excess, Newton iterations, `h` and the side counts of each, which should
 agree to the printed digits.
 
+A second table puts the predictions beside what was measured: the
+`--max-memory` prediction after meshing (`report.json`'s
+`predicted_peak_bytes`, the highest check of the run) and the mask's
+before meshing (`segmentation.prediction`: tets, bytes to flatten,
+seconds), each with its ratio to the measured peak or seconds (a memory
+ratio below 1 is an under-prediction: `--max-memory` would let the run be
+killed); then the parts of the highest prediction (`predicted_parts`).
+`--voxel-mm 5,4,3,2.5,2,1.5` runs every size (20k to 2.72M tets, both
+solvers, uniform and graded: the runs the predictions are fitted on).
+
     cargo build --release --bin unfold
     python3 benches/placenta_dense.py [--unfold PATH] [--before PATH] [--cases dense,graded]
+                                      [--voxel-mm 1.5 | 5,4,3,2.5,2,1.5]
 
 Needs numpy and nibabel (e.g. the CI's `target/ci-venv`). At most about
 3 minutes on 2 idle cores (the two runs used 98 and 68 s of CPU); the dense
@@ -63,6 +74,7 @@ CASES = {
     "graded": ([], 60.0, None),
 }
 GIB = 1024.0**3
+MIB = 1024.0**2
 
 
 def run(cmd: list[str], peak_file: Path) -> tuple[float, float]:
@@ -94,6 +106,7 @@ def measure(binary: str, case: str, mask: Path, work: Path, max_memory: str,
     shutil.rmtree(out)
     stages = report["timings"]
     b = report["boundary"]
+    seg = report["segmentation"]["prediction"]
     return {
         "case": case,
         "binary": binary,
@@ -111,6 +124,13 @@ def measure(binary: str, case: str, mask: Path, work: Path, max_memory: str,
         "excess": report["dirichlet_excess_percent"],
         "h": report["theta"].get("h", float("nan")),
         "sides": (b["fetal"], b["maternal"], b["margin"]),
+        "voxel": voxel,
+        # the prediction before meshing (from the mask) and the parts of
+        # the flattening's (after meshing)
+        "seg_tets": seg["tets"],
+        "seg_bytes": seg["flatten_bytes"],
+        "seg_seconds": seg["seconds"],
+        "parts": {p["what"]: p["bytes"] for p in report["memory"].get("predicted_parts", [])},
     }
 
 
@@ -121,45 +141,77 @@ def main() -> None:
     ap.add_argument("--before", help="a second binary to compare with, run alternately")
     ap.add_argument("--cases", default="dense,graded", help="dense, graded or both")
     ap.add_argument("--max-memory", default="12G")
-    ap.add_argument("--voxel-mm", type=float, default=VOXEL_MM,
-                    help="voxel size of the mask (the targets are for 1.5; 3 checks the script quickly)")
+    ap.add_argument("--voxel-mm", default=str(VOXEL_MM),
+                    help="voxel sizes of the mask, comma-separated (the targets are for 1.5; "
+                    "4 checks the script quickly; 5,4,3,2.5,2,1.5 spans the predictions' fit)")
     args = ap.parse_args()
     cases = [c for c in args.cases.split(",") if c]
     for c in cases:
         if c not in CASES:
             sys.exit(f"unknown case '{c}': expected one of {', '.join(CASES)}")
+    voxels = [float(v) for v in args.voxel_mm.split(",") if v]
     binaries = [args.unfold] + ([args.before] if args.before else [])
     work = Path(tempfile.mkdtemp(prefix="placenta_dense.", dir="/tmp"))
     rows = []
     try:
-        mask, affine = ellipsoid_mask(args.voxel_mm, radii=RADII_MM)
-        mask_path = work / "mask.nii.gz"
-        nib.save(nib.Nifti1Image(mask, affine), str(mask_path))
-        for case in cases:
-            # the "before" binary first when there is one, then the current
-            for binary in reversed(binaries):
-                r = measure(binary, case, mask_path, work, args.max_memory, args.voxel_mm)
-                rows.append(r)
-                print(f"  {case} ({binary}): {r['tets']:,} tets, {r['seconds']:.1f} s, "
-                      f"{r['cpu']:.1f} s CPU, {r['peak'] / GIB:.2f} GiB, load {r['load']:.1f}",
-                      file=sys.stderr, flush=True)
+        for voxel in voxels:
+            mask, affine = ellipsoid_mask(voxel, radii=RADII_MM)
+            mask_path = work / "mask.nii.gz"
+            nib.save(nib.Nifti1Image(mask, affine), str(mask_path))
+            for case in cases:
+                # the "before" binary first when there is one, then the current
+                for binary in reversed(binaries):
+                    r = measure(binary, case, mask_path, work, args.max_memory, voxel)
+                    rows.append(r)
+                    print(f"  {voxel} mm {case} ({binary}): {r['tets']:,} tets, "
+                          f"{r['seconds']:.1f} s, {r['cpu']:.1f} s CPU, "
+                          f"{r['peak'] / GIB:.2f} GiB, load {r['load']:.1f}",
+                          file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
-    print("| case | binary | tets | vertices | seconds | CPU s | load | peak GiB | predicted GiB | "
-          + " | ".join(STAGES) + " | mesh+io | iterations | template error mm | "
-          "Dirichlet excess % | h mm | fetal, maternal, margin |")
-    print("|" + "---|" * (15 + len(STAGES)))
+    print("| voxel mm | case | binary | tets | vertices | seconds | CPU s | load | peak GiB | "
+          "predicted GiB | " + " | ".join(STAGES) + " | mesh+io | iterations | "
+          "template error mm | Dirichlet excess % | h mm | fetal, maternal, margin |")
+    print("|" + "---|" * (16 + len(STAGES)))
     for r in rows:
         stages = " | ".join(f"{r['stages'][k]:.1f}" for k in STAGES)
-        print(f"| {r['case']} | {Path(r['binary']).name} | {r['tets']:,} | {r['vertices']:,} | "
-              f"{r['seconds']:.1f} | {r['cpu']:.1f} | {r['load']:.1f} | {r['peak'] / GIB:.2f} | "
-              f"{r['predicted'] / GIB:.2f} | {stages} | {r['rest']:.1f} | {r['iterations']} | "
-              f"{r['error_mm']:.4f} | {r['excess']:.3f} | {r['h']:.3f} | "
+        print(f"| {r['voxel']} | {r['case']} | {Path(r['binary']).name} | {r['tets']:,} | "
+              f"{r['vertices']:,} | {r['seconds']:.1f} | {r['cpu']:.1f} | {r['load']:.1f} | "
+              f"{r['peak'] / GIB:.2f} | {r['predicted'] / GIB:.2f} | {stages} | {r['rest']:.1f} | "
+              f"{r['iterations']} | {r['error_mm']:.4f} | {r['excess']:.3f} | {r['h']:.3f} | "
               f"{', '.join(map(str, r['sides']))} |")
     print()
+    # The predictions beside what was measured: the highest check of the run
+    # (report.json's predicted_peak_bytes: the flattening's after meshing,
+    # or, with --max-memory, the mask's before meshing when higher) and the
+    # mask's (tets, bytes to flatten, seconds). A memory ratio below 1 is an under-prediction
+    # (the run could be killed where --max-memory let it through).
+    print("| voxel mm | case | binary | highest check | tets | predicted tets | peak MiB | "
+          "predicted MiB (highest check) | ratio | predicted MiB (mask) | ratio | seconds | "
+          "CPU s | load | predicted s (mask) | ratio to wall | ratio to CPU |")
+    print("|" + "---|" * 17)
     for r in rows:
-        if r["binary"] != args.unfold:
+        # which check made the highest prediction: the flattening's (by
+        # its solver), the mask's (with --max-memory) or the mesher's
+        solver = ("flattening, multigrid" if "multigrid matrix" in r["parts"]
+                  else "flattening, Cholesky" if "factor" in r["parts"]
+                  else "mask" if any("from the mask" in k for k in r["parts"])
+                  else "meshing")
+        print(f"| {r['voxel']} | {r['case']} | {Path(r['binary']).name} | {solver} | "
+              f"{r['tets']:,} | {r['seg_tets']:,.0f} | {r['peak'] / MIB:.0f} | "
+              f"{r['predicted'] / MIB:.0f} | {r['predicted'] / r['peak']:.2f} | "
+              f"{r['seg_bytes'] / MIB:.0f} | {r['seg_bytes'] / r['peak']:.2f} | "
+              f"{r['seconds']:.1f} | {r['cpu']:.1f} | {r['load']:.1f} | {r['seg_seconds']:.1f} | "
+              f"{r['seg_seconds'] / r['seconds']:.2f} | {r['seg_seconds'] / r['cpu']:.2f} |")
+    print()
+    print("parts of the highest prediction (MiB):")
+    for r in rows:
+        parts = ", ".join(f"{k} {v / MIB:.0f}" for k, v in r["parts"].items())
+        print(f"  {r['voxel']} mm {r['case']} ({r['tets']:,} tets): {parts}")
+    print()
+    for r in rows:
+        if r["binary"] != args.unfold or r["voxel"] != VOXEL_MM:
             continue
         target_s, target_gib = CASES[r["case"]][1:]
         memory = "" if target_gib is None else (

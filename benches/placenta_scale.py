@@ -114,6 +114,8 @@ def main() -> None:
                 "iterations": report["iterations"],
                 "error_mm": report["template_error_mm"],
                 "excess": report["dirichlet_excess_percent"],
+                "parts": {q["what"]: q["bytes"]
+                          for q in report["memory"].get("predicted_parts", [])},
             })
             r = rows[-1]
             print(f"  {s} mm: {r['tets']:,} tets, {seconds:.1f} s, "
@@ -123,14 +125,23 @@ def main() -> None:
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
-    print("| cube mm | tets | vertices | peak MiB | predicted MiB | seconds | "
+    print("| cube mm | tets | vertices | peak MiB | predicted MiB | predicted / peak | seconds | "
           + " | ".join(STAGES) + " | iterations | template error mm | Dirichlet excess % |")
-    print("|" + "---|" * (9 + len(STAGES)))
+    print("|" + "---|" * (10 + len(STAGES)))
     for r in rows:
         stages = " | ".join(f"{r['stages'][k]:.1f}" for k in STAGES)
         print(f"| {r['size']} | {r['tets']:,} | {r['vertices']:,} | {r['peak'] / MIB:.0f} | "
-              f"{r['predicted'] / MIB:.0f} | {r['seconds']:.1f} | {stages} | "
+              f"{r['predicted'] / MIB:.0f} | {r['predicted'] / r['peak']:.2f} | "
+              f"{r['seconds']:.1f} | {stages} | "
               f"{r['iterations']} | {r['error_mm']:.3f} | {r['excess']:.2f} |")
+    print()
+    # the parts of the highest prediction (report.json's memory.predicted_parts:
+    # the resident size at its check, then the estimate's parts); a ratio
+    # below 1 above is an under-prediction
+    print("parts of the prediction (MiB):")
+    for r in rows:
+        parts = ", ".join(f"{k} {v / MIB:.0f}" for k, v in r["parts"].items())
+        print(f"  {r['size']} mm ({r['tets']:,} tets): {parts}")
     print()
     big = [r for r in rows if r["tets"] >= 100_000]
     per_tet = [r["peak"] / r["tets"] for r in big]

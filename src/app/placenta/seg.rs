@@ -2,14 +2,13 @@
 //! side chosen from the mask (its volume, its thickness, its voxels), the
 //! meshing itself, and what the report says of it.
 
-use super::seg_prediction::{BYTES_PER_TET, SegPrediction};
+use super::seg_prediction::SegPrediction;
 use super::settings::Settings;
 use crate::app::error::{AppError, at};
 use crate::app::mesh::mask::{describe, warn_dropped};
 use crate::app::observer::Observer;
 use crate::app::run::memory;
 use crate::mesh::mask::inside_distance_quantile;
-use crate::mesh::memory::MemoryEstimate;
 use crate::mesh::mesher::{MaskMeshOptions, MeshQuality, cube_side_for_cubes};
 use crate::mesh::{MeshError, TetMesh, Volume};
 use crate::organs::placenta::segmentation::{THICKNESS_QUANTILE, from_segmentation};
@@ -170,7 +169,7 @@ pub fn mesh_segmentation(
         // budget given, a run that cannot fit it is refused before.
         memory::check(
             "flattening the placenta (predicted from the mask before meshing)",
-            &MemoryEstimate::new().with("tets", prediction.tets, BYTES_PER_TET),
+            &prediction.estimate(),
             "raise --size-mm (the tets grow as 1/size^3, graded as 1/size^2) or drop --dense",
         )?;
     }

@@ -15,8 +15,8 @@
 use crate::app::AppError;
 use crate::mesh::memory::{MemoryEstimate, format_bytes};
 use serde::{Deserialize, Serialize};
-use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 /// Where the limit comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -42,6 +42,9 @@ pub struct Budget {
 static BUDGET: OnceLock<Budget> = OnceLock::new();
 /// The highest predicted peak of the run so far, bytes.
 static PREDICTED: AtomicU64 = AtomicU64::new(0);
+/// The parts of the check that made [`PREDICTED`]: the resident size and
+/// the stage's estimate.
+static PREDICTED_PARTS: Mutex<Vec<PredictedPart>> = Mutex::new(Vec::new());
 
 /// Sets the run's budget from `--max-memory` (or what is available); the
 /// first call wins.
@@ -91,7 +94,19 @@ pub fn check(
     } else {
         u64::MAX
     };
-    PREDICTED.fetch_max(p, Ordering::Relaxed);
+    if PREDICTED.fetch_max(p, Ordering::Relaxed) < p {
+        let mut parts = vec![PredictedPart {
+            what: format!("resident at {stage}"),
+            bytes: resident,
+        }];
+        parts.extend(estimate.parts.iter().map(|q| PredictedPart {
+            what: q.what.to_string(),
+            bytes: q.bytes,
+        }));
+        if let Ok(mut kept) = PREDICTED_PARTS.lock() {
+            *kept = parts;
+        }
+    }
     let b = budget();
     match b.limit_bytes {
         Some(limit) if predicted > limit || !predicted.is_finite() => {
@@ -147,15 +162,31 @@ pub fn room() -> Option<f64> {
 /// report's predicted peak covers it.
 pub fn record(predicted_bytes: f64) {
     if predicted_bytes.is_finite() && predicted_bytes >= 0.0 {
-        PREDICTED.fetch_max(
-            predicted_bytes.min(u64::MAX as f64) as u64,
-            Ordering::Relaxed,
-        );
+        let p = predicted_bytes.min(u64::MAX as f64) as u64;
+        if PREDICTED.fetch_max(p, Ordering::Relaxed) < p
+            && let Ok(mut kept) = PREDICTED_PARTS.lock()
+        {
+            *kept = vec![PredictedPart {
+                what: "a library's own check".to_string(),
+                bytes: predicted_bytes,
+            }];
+        }
     }
 }
 
+/// One part of the highest predicted peak: the resident size when it was
+/// checked, or a part of the stage's estimate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictedPart {
+    /// What it is (`"resident at STAGE"`, or the estimate's part).
+    pub what: String,
+    /// Bytes.
+    pub bytes: f64,
+}
+
 /// What a report says of memory.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MemoryReport {
     /// The highest predicted peak of the run (resident + a stage's
@@ -168,6 +199,11 @@ pub struct MemoryReport {
     pub limit_bytes: Option<u64>,
     /// Where the limit came from.
     pub limit_source: LimitSource,
+    /// The parts of the highest predicted peak (the resident size at its
+    /// check, then the stage's estimate), to compare with `peak_bytes`;
+    /// empty when the prediction was recorded without parts.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub predicted_parts: Vec<PredictedPart>,
 }
 
 impl MemoryReport {
@@ -184,6 +220,7 @@ impl MemoryReport {
             peak_bytes: None,
             limit_bytes: None,
             limit_source: LimitSource::Unknown,
+            predicted_parts: Vec::new(),
         }
     }
 }
@@ -196,6 +233,10 @@ pub fn report() -> MemoryReport {
         peak_bytes: peak_resident_bytes().map(|x| x as u64),
         limit_bytes: b.limit_bytes.map(|x| x as u64),
         limit_source: b.source,
+        predicted_parts: PREDICTED_PARTS
+            .lock()
+            .map(|p| p.clone())
+            .unwrap_or_default(),
     }
 }
 
