@@ -362,18 +362,18 @@ impl<'a> Objective<'a> {
     }
 
     /// `sum_k V_k D(J_k)` (without lambda): the distortion part; INFINITY
-    /// when a barrier energy meets an inverted element.
+    /// when a barrier energy meets an inverted element. Summed in a fixed
+    /// order ([`ordered_sum`]), so the value does not depend on the thread
+    /// count or the scheduling.
     pub fn distortion(&self, x: &[f64]) -> f64 {
         let m = self.mesh;
         match &m.elements {
-            RestElements::Tets { tets, dm_inv } => (0..tets.len())
-                .into_par_iter()
-                .map(|k| m.weight[k] * density3(self.energy, &jacobian3(x, &tets[k], &dm_inv[k])))
-                .sum(),
-            RestElements::Tris { tris, dm_inv } => (0..tris.len())
-                .into_par_iter()
-                .map(|k| m.weight[k] * density2(self.energy, &jacobian2(x, &tris[k], &dm_inv[k])))
-                .sum(),
+            RestElements::Tets { tets, dm_inv } => ordered_sum(tets.len(), |k| {
+                m.weight[k] * density3(self.energy, &jacobian3(x, &tets[k], &dm_inv[k]))
+            }),
+            RestElements::Tris { tris, dm_inv } => ordered_sum(tris.len(), |k| {
+                m.weight[k] * density2(self.energy, &jacobian2(x, &tris[k], &dm_inv[k]))
+            }),
         }
     }
 
@@ -1110,6 +1110,26 @@ fn vertex_gradient<const D: usize, const N: usize, const L: usize>(
     out
 }
 
+/// Terms per chunk of [`ordered_sum`].
+const SUM_CHUNK: usize = 2048;
+
+/// `sum_{k < n} term(k)` in a fixed order: the chunks of [`SUM_CHUNK`]
+/// consecutive terms are summed in parallel, each from its first term to
+/// its last, then the chunk sums in chunk order. The same bits for any
+/// thread count and scheduling (a parallel iterator's `sum` splits the
+/// range where work is stolen, so its rounding varies from run to run).
+fn ordered_sum(n: usize, term: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let chunks: Vec<f64> = (0..n.div_ceil(SUM_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            (c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n))
+                .map(&term)
+                .sum::<f64>()
+        })
+        .collect();
+    chunks.iter().sum()
+}
+
 /// `sum_k lambda V_k psi(J_k)` over the simplices `elements` and its
 /// gradient added into `grad` (`D` per vertex): `eval` gives `psi` and
 /// `dpsi/dF` of a Jacobian ([`jacobian`]), or `None` for an infinite value
@@ -1575,6 +1595,55 @@ mod tests {
             obj.hessian_with(x, &[], &mut b, mode).unwrap();
             (a, b)
         })
+    }
+
+    /// The distortion sums to the same bits with 1, 2 or 3 threads, and to
+    /// the serial sum of its chunks.
+    #[test]
+    fn the_distortion_does_not_depend_on_the_threads() {
+        let shape = unfold_mesh::shapes::placenta_slab(&unfold_mesh::shapes::PlacentaParams {
+            cells_radial: 10,
+            cells_through: 4,
+            ..Default::default()
+        })
+        .unwrap();
+        let pm = ParamMesh::from_tets(&shape.mesh).unwrap();
+        let x: Vec<f64> = pm
+            .rest_flat()
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * 1.1 + 0.01 * ((i * 7919) % 13) as f64)
+            .collect();
+        let energy = SymmetricDirichlet;
+        let obj = Objective::new(&pm, &energy, 1.0, None, &[]).unwrap();
+        let values: Vec<u64> = (1..4)
+            .map(|threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| obj.distortion(&x).to_bits())
+            })
+            .collect();
+        assert!(values.iter().all(|&v| v == values[0]), "{values:?}");
+        let n = pm.num_elements();
+        assert!(
+            n > 2 * SUM_CHUNK,
+            "{n} elements: too few for several chunks"
+        );
+        let serial: f64 = (0..n.div_ceil(SUM_CHUNK))
+            .map(|c| {
+                (c * SUM_CHUNK..((c + 1) * SUM_CHUNK).min(n))
+                    .map(|k| {
+                        let RestElements::Tets { tets, dm_inv } = &pm.elements else {
+                            unreachable!()
+                        };
+                        pm.weight[k] * density3(&energy, &jacobian3(&x, &tets[k], &dm_inv[k]))
+                    })
+                    .sum::<f64>()
+            })
+            .sum();
+        assert_eq!(values[0], serial.to_bits());
     }
 
     proptest! {
