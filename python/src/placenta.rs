@@ -146,8 +146,8 @@ pub(crate) fn placenta<'py>(
     let run = py.detach(|| {
         let prepared = prepare_mesh(&mesh).map_err(|e| unfold::app::placenta::organ(&label, e))?;
         let predicted = unfold::organs::placenta::memory::estimate_memory(&prepared.mesh, 0.0, 0)
-            .map(|e| e.total())
-            .unwrap_or(0.0);
+            .map(|e| MemoryReport::predicted_from(&e))
+            .unwrap_or_else(|_| MemoryReport::predicted(0.0));
         let inputs = Inputs {
             label: label.clone(),
             mesh: prepared,
@@ -177,7 +177,7 @@ pub(crate) fn placenta<'py>(
     for entry in &mut report.report.images {
         entry.input = Some(entry.name.clone());
     }
-    report.memory = MemoryReport::predicted(predicted);
+    report.memory = predicted;
     report.provenance = Provenance::python(parameters, started);
     let json = report.to_json().map_err(crate::error)?;
     let flattened = mesh_tuple(py, &CellMesh::from(&outcome.flattened))?;

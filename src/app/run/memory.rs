@@ -201,8 +201,10 @@ pub struct MemoryReport {
     pub limit_source: LimitSource,
     /// The parts of the highest predicted peak (the resident size at its
     /// check, then the stage's estimate), to compare with `peak_bytes`;
-    /// empty when the prediction was recorded without parts.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    /// empty when the prediction was recorded without parts (always
+    /// written, so every report has the same keys; read as empty from a
+    /// report without it).
+    #[serde(default)]
     pub predicted_parts: Vec<PredictedPart>,
 }
 
@@ -222,6 +224,21 @@ impl MemoryReport {
             limit_source: LimitSource::Unknown,
             predicted_parts: Vec::new(),
         }
+    }
+
+    /// [`MemoryReport::predicted`] of the estimate's total, with its parts
+    /// as [`MemoryReport::predicted_parts`].
+    pub fn predicted_from(estimate: &MemoryEstimate) -> Self {
+        let mut report = Self::predicted(estimate.total());
+        report.predicted_parts = estimate
+            .parts
+            .iter()
+            .map(|q| PredictedPart {
+                what: q.what.to_string(),
+                bytes: q.bytes,
+            })
+            .collect();
+        report
     }
 }
 
