@@ -13,8 +13,8 @@
 //!
 //! with `hs = d2psi/ds2` (symmetric 3x3; projected to PSD through its
 //! eigen-decomposition unless already positive definite) and the pair
-//! eigenvalues `l_k` (clamped at 0 when projected): the matrix
-//! [`eval3`](super::eval3) assembles, kept as 9 modes. With `C` the map from
+//! eigenvalues `l_k` (clamped at 0 when projected), kept as 9 modes;
+//! [`eval3`](super::eval3)'s 9x9 Hessian is their sum ([`Eigen3::matrix`]). With `C` the map from
 //! the 12 vertex coordinates to `vec(F)`,
 //! `C^T H C = sum_ab hs_ab c_a c_b^T + sum_k l_k w_k w_k^T`
 //! (`c_a = C^T vec(D_a)`, `w_k = C^T vec(m_k)`, 12-vectors): about 1,100
@@ -73,7 +73,7 @@ impl Eigen3 {
 
 /// The Hessian of `psi` at a 3x3 `F` as its modes ([`Eigen3`]): `None`
 /// exactly where [`eval3`](super::eval3) is (`psi(F)` not finite), and then
-/// `eigen.matrix()` is `eval3(e, f, mode).hess` up to rounding. `mode` is
+/// `eigen.matrix()` is `eval3(e, f, mode).hess`. `mode` is
 /// `Exact` or `Projected` (`None` gives the projected modes). No heap
 /// allocation.
 pub fn hessian3_eigen(
@@ -92,9 +92,22 @@ pub fn hessian3_eigen(
     if closed.is_none() && !e.value(&s).is_finite() {
         return None;
     }
-    let project = mode != HessianMode::Exact;
+    Some(eigen3_at(e, &u, &s, &v, mode != HessianMode::Exact))
+}
+
+/// The modes of `d2psi/dF2` at the signed SVD `F = U diag(s) V^T` (module
+/// docs), projected (`hs` to PSD, pair eigenvalues clamped at 0) when
+/// `project`: the one construction behind [`hessian3_eigen`] and
+/// [`eval3`](super::eval3)'s 9x9 Hessian.
+pub(super) fn eigen3_at(
+    e: &dyn DistortionEnergy,
+    u: &Matrix3<f64>,
+    s: &[f64; 3],
+    v: &Matrix3<f64>,
+    project: bool,
+) -> Eigen3 {
     let mut h = [0.0; 9];
-    e.hessian(&s, &mut h);
+    e.hessian(s, &mut h);
     let mut scaling = [[0.0; 3]; 3];
     for (i, row) in scaling.iter_mut().enumerate() {
         for (j, x) in row.iter_mut().enumerate() {
@@ -107,7 +120,7 @@ pub fn hessian3_eigen(
     let scaling_modes = [0, 1, 2].map(|a| u.column(a) * v.column(a).transpose());
     let mut twist = [0.0; 3];
     let mut flip = [0.0; 3];
-    e.pair_eigenvalues(&s, &mut twist, &mut flip);
+    e.pair_eigenvalues(s, &mut twist, &mut flip);
     let mut values = [0.0; 6];
     let mut modes = [Matrix3::zeros(); 6];
     for (k, &(i, j)) in PAIRS.iter().enumerate() {
@@ -121,12 +134,12 @@ pub fn hessian3_eigen(
         modes[2 * k] = (x - y) * FRAC_1_SQRT_2;
         modes[2 * k + 1] = (x + y) * FRAC_1_SQRT_2;
     }
-    Some(Eigen3 {
+    Eigen3 {
         scaling,
         scaling_modes,
         values,
         modes,
-    })
+    }
 }
 
 #[cfg(test)]
@@ -148,23 +161,37 @@ mod tests {
     }
 
     proptest! {
-        /// The modes sum to the Hessian `eval3` assembles, in both modes,
-        /// and are refused exactly where `eval3` is.
+        /// The modes are refused exactly where `eval3` is (and its
+        /// 9x9 is their sum); projected, they sum to a positive
+        /// semidefinite matrix that equals the exact one wherever the
+        /// exact one is already positive semidefinite. (That the exact
+        /// sum is `d2psi/dF2` is checked against finite differences of
+        /// `eval3`'s gradient, `check_derivatives3`, for every energy.)
         #[test]
-        fn the_modes_sum_to_the_assembled_hessian(
+        fn projected_modes_are_the_exact_ones_clamped_at_zero(
             entries in proptest::collection::vec(-2.0f64..2.0, 9),
         ) {
             let f = Matrix3::from_column_slice(&entries);
             for e in energies() {
-                for mode in [HessianMode::Exact, HessianMode::Projected] {
-                    let assembled = eval3(e.as_ref(), &f, mode).and_then(|x| x.hess);
-                    let modes = hessian3_eigen(e.as_ref(), &f, mode);
-                    prop_assert_eq!(assembled.is_some(), modes.is_some(), "{:?}", e);
-                    if let (Some(a), Some(m)) = (assembled, modes) {
-                        let scale = a.norm().max(1.0);
-                        let diff = (a - m.matrix()).norm();
-                        prop_assert!(diff <= 1e-12 * scale, "{:?} {:?}: {} of {}", e, mode, diff, scale);
-                    }
+                let exact = hessian3_eigen(e.as_ref(), &f, HessianMode::Exact);
+                let projected = hessian3_eigen(e.as_ref(), &f, HessianMode::Projected);
+                let evaluated = eval3(e.as_ref(), &f, HessianMode::Projected);
+                prop_assert_eq!(exact.is_some(), evaluated.is_some(), "{:?}", e);
+                prop_assert_eq!(projected.is_some(), evaluated.is_some(), "{:?}", e);
+                let (Some(exact), Some(projected), Some(evaluated)) = (exact, projected, evaluated)
+                else {
+                    continue;
+                };
+                let (hx, hp) = (exact.matrix(), projected.matrix());
+                prop_assert_eq!(evaluated.hess, Some(hp));
+                let scale = hx.norm().max(1.0);
+                let lowest = |h: &SMatrix<f64, 9, 9>| {
+                    h.symmetric_eigenvalues().iter().copied().fold(f64::INFINITY, f64::min)
+                };
+                prop_assert!(lowest(&hp) >= -1e-12 * scale, "{:?}: {}", e, lowest(&hp));
+                if lowest(&hx) >= 0.0 {
+                    let diff = (hx - hp).norm();
+                    prop_assert!(diff <= 1e-12 * scale, "{:?}: {} of {}", e, diff, scale);
                 }
             }
         }

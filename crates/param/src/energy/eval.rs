@@ -6,6 +6,7 @@ use std::f64::consts::FRAC_1_SQRT_2;
 
 use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix};
 
+use super::eigen3::eigen3_at;
 use super::svd::{JACOBI_MAX_SWEEPS, norm2, signed_svd2, signed_svd3};
 use super::{DistortionEnergy, PAIRS};
 
@@ -127,87 +128,6 @@ fn sym_eigen3(h: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
         }
     }
     ([a[0][0], a[1][1], a[2][2]], w)
-}
-
-/// `d2psi/dF2` over column-major `vec(F)` (`M = N^2`) from the signed SVD,
-/// the (already projected, if requested) scaling block `hs = d2psi/ds2` and
-/// the pair eigenvalues:
-///
-/// ```text
-/// H = D hs D^T + sum_pairs l_twist t t^T + l_flip f f^T
-/// D = [vec(u_a v_a^T)]_a,  t, f = vec(u_i v_j^T -/+ u_j v_i^T) / sqrt 2
-/// ```
-#[inline]
-#[allow(clippy::needless_range_loop)]
-fn assemble_hessian<const N: usize, const M: usize>(
-    e: &dyn DistortionEnergy,
-    u: &SMatrix<f64, N, N>,
-    s: &[f64; N],
-    v: &SMatrix<f64, N, N>,
-    hs: &[[f64; N]; N],
-    project: bool,
-) -> SMatrix<f64, M, M> {
-    debug_assert_eq!(M, N * N);
-    // Scaling modes D (M x N) and P = D hs.
-    let mut d = [[0.0; N]; M];
-    for c in 0..N {
-        for r in 0..N {
-            for a in 0..N {
-                d[r + N * c][a] = u[(r, a)] * v[(c, a)];
-            }
-        }
-    }
-    let mut p = [[0.0; N]; M];
-    for r in 0..M {
-        for b in 0..N {
-            let mut x = 0.0;
-            for a in 0..N {
-                x += d[r][a] * hs[a][b];
-            }
-            p[r][b] = x;
-        }
-    }
-    // Twist and flip modes, scaled so that H += l w w^T.
-    let npairs = N * (N - 1) / 2;
-    let mut twist = [0.0; 3];
-    let mut flip = [0.0; 3];
-    e.pair_eigenvalues(s, &mut twist[..npairs], &mut flip[..npairs]);
-    let mut modes = [[0.0; M]; 6];
-    let mut lam = [0.0; 6];
-    for (k, &(i, j)) in PAIRS[..npairs].iter().enumerate() {
-        let mut lt = twist[k];
-        let mut lf = flip[k];
-        if project {
-            lt = lt.max(0.0);
-            lf = lf.max(0.0);
-        }
-        lam[2 * k] = lt;
-        lam[2 * k + 1] = lf;
-        for c in 0..N {
-            for r in 0..N {
-                let x = u[(r, i)] * v[(c, j)];
-                let y = u[(r, j)] * v[(c, i)];
-                modes[2 * k][r + N * c] = FRAC_1_SQRT_2 * (x - y);
-                modes[2 * k + 1][r + N * c] = FRAC_1_SQRT_2 * (x + y);
-            }
-        }
-    }
-    let nmodes = 2 * npairs;
-    let mut out = SMatrix::<f64, M, M>::zeros();
-    for col in 0..M {
-        for row in 0..=col {
-            let mut x = 0.0;
-            for b in 0..N {
-                x += p[row][b] * d[col][b];
-            }
-            for k in 0..nmodes {
-                x += lam[k] * modes[k][row] * modes[k][col];
-            }
-            out[(row, col)] = x;
-            out[(col, row)] = x;
-        }
-    }
-    out
 }
 
 /// The Hessian `d2psi/dF2` of a 2D element as its eigensystem:
@@ -459,18 +379,7 @@ pub fn eval3(e: &dyn DistortionEnergy, f: &Matrix3<f64>, mode: HessianMode) -> O
         HessianMode::None => None,
         HessianMode::Exact | HessianMode::Projected => {
             let project = mode == HessianMode::Projected;
-            let mut h = [0.0; 9];
-            e.hessian(&s, &mut h);
-            let mut hs = [[0.0; 3]; 3];
-            for (i, row) in hs.iter_mut().enumerate() {
-                for (j, x) in row.iter_mut().enumerate() {
-                    *x = 0.5 * (h[i * 3 + j] + h[j * 3 + i]);
-                }
-            }
-            if project {
-                hs = project_sym3(hs);
-            }
-            Some(assemble_hessian::<3, 9>(e, &u, &s, &v, &hs, project))
+            Some(eigen3_at(e, &u, &s, &v, project).matrix())
         }
     };
     Some(Eval3 { value, grad, hess })
