@@ -20,8 +20,10 @@
 //! ```
 //!
 //! so the regularized determinant of the worst element shrinks by the
-//! stage's relative progress. When `eps` falls below [`RESTART_EPS`] with
-//! elements still inverted (the schedule ran ahead of the map), it starts
+//! stage's relative progress. When `eps` falls below [`RESTART_EPS`], or
+//! below [`RESTART_RATIO`] `|D_min|`, with elements still inverted (the
+//! schedule ran ahead of the map: the barrier `chi(D_min, eps) ~ eps^2 /
+//! (4 |D_min|)` now holds the inverted elements where they are), it starts
 //! again from `eps = max(|D_min| / 5, 1e-3)`, at most [`MAX_RESTARTS`]
 //! times; once they are spent, `eps` falling below [`RESTART_EPS`] ends
 //! the run, reported not untangled (a smaller `eps` only steepens the
@@ -56,6 +58,13 @@ use step::{Direction, ScheduledUntangling, Stepper};
 /// Below this `eps` with elements still inverted, the schedule restarts
 /// from `eps = max(D_min / 5, 1e-3)` (the start's rule).
 pub const RESTART_EPS: f64 = 1e-6;
+/// Below this fraction of `|D_min|` (with elements still inverted) the
+/// schedule restarts as below [`RESTART_EPS`], while restarts are left. On
+/// the untangling bench's planar 30k case with sparse handles, the
+/// inverted count stayed at 110-150 and `D_min` near -3 while `eps` fell
+/// from 1e-2 to 1e-6, 150 stages before each restart (DESIGN-NOTES,
+/// "Untangling: restarting when the barrier holds").
+pub const RESTART_RATIO: f64 = 1e-3;
 /// Restarts of the `eps` schedule at most.
 pub const MAX_RESTARTS: usize = 3;
 
@@ -284,22 +293,13 @@ impl Untangler {
             if d_min * cd >= MIN_DET_J {
                 break;
             }
-            let sigma = (1.0 - e / e_prev).max(0.1);
-            let mu = (1.0 - sigma) * chi(d_min, eps);
-            if d_min < mu {
-                eps = 2.0 * (mu * (mu - d_min)).sqrt();
-            }
-            if eps < RESTART_EPS {
-                if report.restarts == MAX_RESTARTS {
-                    // Every restart spent: smaller eps only steepens the
-                    // barrier that holds the remaining inversions.
-                    break;
+            match next_eps(eps, d_min, e / e_prev, report.restarts) {
+                NextEps::Continue(next) => eps = next,
+                NextEps::Restart(next) => {
+                    report.restarts += 1;
+                    eps = next;
                 }
-                // Stuck: eps has vanished with elements still inverted,
-                // the energy's barrier now holds them. Start the schedule
-                // again from the remaining inversion.
-                report.restarts += 1;
-                eps = (0.2 * d_min.abs()).max(1e-3);
+                NextEps::End => break,
             }
         }
         report.factorizations = stepper.factorizations;
@@ -312,6 +312,49 @@ impl Untangler {
         report.seconds = t0.elapsed().as_secs_f64();
         Ok(report)
     }
+}
+
+/// What the `eps` schedule does after a stage that left elements inverted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum NextEps {
+    /// The next stage's `eps`.
+    Continue(f64),
+    /// Start the schedule again from this `eps`.
+    Restart(f64),
+    /// Every restart spent and `eps` below [`RESTART_EPS`]: stop.
+    End,
+}
+
+/// The schedule's step (module docs) from the stage's `eps`, the smallest
+/// `det J` after it (`d_min`, below the orientation floor) and its energy
+/// ratio `E / E_prev`, with `restarts` restarts made so far:
+/// `sigma = max(1 - E / E_prev, 1/10)`, `mu = (1 - sigma) chi(D_min, eps)`,
+/// `eps' = 2 sqrt(mu (mu - D_min))` (unchanged when `D_min >= mu`); then a
+/// restart from `max(|D_min| / 5, 1e-3)` when `eps'` is below
+/// [`RESTART_EPS`], or below [`RESTART_RATIO`] `|D_min|` while restarts are
+/// left, and the end when it is below [`RESTART_EPS`] with every restart
+/// spent.
+fn next_eps(eps: f64, d_min: f64, energy_ratio: f64, restarts: usize) -> NextEps {
+    let sigma = (1.0 - energy_ratio).max(0.1);
+    let mu = (1.0 - sigma) * chi(d_min, eps);
+    let next = if d_min < mu {
+        2.0 * (mu * (mu - d_min)).sqrt()
+    } else {
+        eps
+    };
+    let held = next < RESTART_RATIO * d_min.abs();
+    if next < RESTART_EPS || (held && restarts < MAX_RESTARTS) {
+        if restarts == MAX_RESTARTS {
+            // Every restart spent: smaller eps only steepens the barrier
+            // that holds the remaining inversions.
+            return NextEps::End;
+        }
+        // Stuck: eps has vanished (or is vanishing against D_min) with
+        // elements still inverted, the energy's barrier now holds them.
+        // Start the schedule again from the remaining inversion.
+        return NextEps::Restart((0.2 * d_min.abs()).max(1e-3));
+    }
+    NextEps::Continue(next)
 }
 
 /// `(#{det J <= 0}, min det J)`.
@@ -454,6 +497,64 @@ mod tests {
     use crate::{Deform, RestShape};
     use proptest::prelude::*;
     use unfold_mesh::shapes::{Handles, TangledCase, TangledKind, TangledParams, tangled_case};
+
+    /// A stall like the planar 30k bench case's (`D_min` near -3 for 150
+    /// stages, no progress), here with `D_min = -5`.
+    #[test]
+    fn a_barrier_that_holds_the_inversions_restarts_the_schedule_early() {
+        // eps still above 1e-3 |D_min|: the schedule goes on.
+        let NextEps::Continue(next) = next_eps(2e-2, -5.0, 0.999, 0) else {
+            panic!("continue expected");
+        };
+        assert!(next < 2e-2 && next > 5e-3, "{next}");
+        // Below it, far above RESTART_EPS: a restart from |D_min| / 5.
+        assert_eq!(next_eps(5e-3, -5.0, 0.999, 0), NextEps::Restart(1.0));
+        // With every restart spent the ratio alone never ends a run...
+        assert!(matches!(
+            next_eps(5e-3, -5.0, 0.999, MAX_RESTARTS),
+            NextEps::Continue(_)
+        ));
+        // ...only eps below RESTART_EPS does.
+        assert_eq!(next_eps(1e-6, -5.0, 0.999, MAX_RESTARTS), NextEps::End);
+    }
+
+    proptest! {
+        /// The schedule's step: `eps` shrinks so that `chi(D_min, eps)`
+        /// shrinks by the stage's progress (at least 1/10); restarts come
+        /// exactly when `eps` vanishes, absolutely or against `|D_min|`,
+        /// and the run ends only with every restart spent.
+        #[test]
+        fn the_eps_schedule_follows_its_formula(
+            log_eps in -7.0f64..3.0,
+            log_d in -4.0f64..3.0,
+            ratio in 0.0f64..1.5,
+            restarts in 0usize..=MAX_RESTARTS,
+        ) {
+            let (eps, d_min) = (10f64.powf(log_eps), -(10f64.powf(log_d)));
+            let sigma = (1.0 - ratio).max(0.1);
+            let mu = (1.0 - sigma) * chi(d_min, eps);
+            let next = 2.0 * (mu * (mu - d_min)).sqrt();
+            let vanished = next < RESTART_EPS;
+            let held = next < RESTART_RATIO * d_min.abs();
+            match next_eps(eps, d_min, ratio, restarts) {
+                NextEps::Continue(e) => {
+                    prop_assert!(!vanished);
+                    prop_assert!(!held || restarts == MAX_RESTARTS);
+                    prop_assert!(e < eps, "{} !< {}", e, eps);
+                    let target = (1.0 - sigma) * chi(d_min, eps);
+                    prop_assert!((chi(d_min, e) - target).abs() <= 1e-9 * target);
+                }
+                NextEps::Restart(e) => {
+                    prop_assert!(restarts < MAX_RESTARTS);
+                    prop_assert!(vanished || held);
+                    prop_assert_eq!(e, (0.2 * d_min.abs()).max(1e-3));
+                }
+                NextEps::End => {
+                    prop_assert!(vanished && restarts == MAX_RESTARTS);
+                }
+            }
+        }
+    }
 
     /// `case` through [`Deform`] from its tangled start with its handles
     /// fixed; checked independently: every element positive by the exact
