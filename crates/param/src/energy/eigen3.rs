@@ -14,8 +14,9 @@
 //! with `hs = d2psi/ds2` (symmetric 3x3; projected to PSD through its
 //! eigen-decomposition unless already positive definite) and the pair
 //! eigenvalues `l_k` (clamped at 0 when projected), kept as 9 modes;
-//! [`eval3`](super::eval3)'s 9x9 Hessian is their sum ([`Eigen3::matrix`]). With `C` the map from
-//! the 12 vertex coordinates to `vec(F)`,
+//! [`eval3`](super::eval3)'s 9x9 Hessian is their sum
+//! ([`Eigen3::matrix`]). With `C` the map from the 12 vertex coordinates
+//! to `vec(F)`,
 //! `C^T H C = sum_ab hs_ab c_a c_b^T + sum_k l_k w_k w_k^T`
 //! (`c_a = C^T vec(D_a)`, `w_k = C^T vec(m_k)`, 12-vectors): about 1,100
 //! multiply-adds per element instead of the 9x9 product on each side
